@@ -1,0 +1,495 @@
+//! The scene description, `pipeline.toml`: schema, parsing and validation.
+//!
+//! Every table rejects unknown keys. Values carry their SI unit in the key name. Relative paths
+//! resolve against the folder that holds the config file. [`PipelineConfig::load`] returns either
+//! a fully validated config or one [`ConfigError`] that names the file, the key and what would be
+//! valid. The schema is documented for users in `docs/CONFIG.md`.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+/// The largest horizon factor N accepted: bonds per particle grow as N^3 (about 2,100 at N = 8).
+pub const MAX_HORIZON_FACTOR: f64 = 8.0;
+/// The largest per-bond threshold jitter accepted, as a fraction of the mean threshold.
+pub const MAX_THRESHOLD_JITTER: f64 = 0.2;
+
+/// A problem with a `pipeline.toml`: it cannot be read, it is not valid TOML for the schema, or a
+/// value is out of range. The CLI exits with code 2 on any of these.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("{path}: cannot read the config file: {source}")]
+    Read {
+        /// The config file.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The file is not valid TOML, has an unknown key, a missing key or a value of the wrong type.
+    #[error("{path}: key `{key}`: {message}")]
+    Parse {
+        /// The config file.
+        path: PathBuf,
+        /// Dotted path of the offending key (`scene.foo`), or `(top level)`.
+        key: String,
+        /// The parser's message, with line, column and the offending line.
+        message: String,
+    },
+    /// A key has a value outside its allowed range, or keys contradict each other.
+    #[error("{path}: {key} = {value}: {message}")]
+    Invalid {
+        /// The config file.
+        path: PathBuf,
+        /// Dotted path of the offending key.
+        key: String,
+        /// The offending value as written in TOML.
+        value: String,
+        /// What is wrong and what would be valid.
+        message: String,
+    },
+}
+
+/// A whole scene: what to break, how it is sampled, what it is made of.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PipelineConfig {
+    /// `[scene]`: name, output folder, random seed.
+    pub scene: SceneConfig,
+    /// `[geometry]`: the source shape and how it becomes particles.
+    pub geometry: GeometryConfig,
+    /// `[material]`: density, stiffness, strength.
+    pub material: MaterialConfig,
+    /// The config file this was loaded from (empty for configs parsed from a string).
+    #[serde(skip)]
+    pub path: PathBuf,
+}
+
+/// `[scene]`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneConfig {
+    /// Scene name, used in output file names: letters, digits, `_`, `-` and `.`.
+    pub name: String,
+    /// Folder every stage writes into; relative to the config file's folder.
+    pub output_dir: PathBuf,
+    /// Seed for every random choice (threshold jitter, sampling): same seed, same result.
+    pub seed: u64,
+}
+
+/// `[geometry]`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GeometryConfig {
+    /// `"box"` or the path of a closed Wavefront OBJ mesh (relative to the config file's folder).
+    pub source: GeometrySource,
+    /// Box edge lengths in metres; used only when `source = "box"`.
+    #[serde(default)]
+    pub box_size_m: Option<[f64; 3]>,
+    /// How the solid becomes particles.
+    pub sampler: Sampler,
+    /// Target spacing in metres: lambda for `grid`, point spacing for `tet_shell` and `voronoi`.
+    pub spacing_m: f64,
+    /// N in delta = N * lambda: particles closer than delta are bonded.
+    pub horizon_factor: f64,
+    /// `[geometry.transform]`: placement of the source in the world.
+    #[serde(default)]
+    pub transform: TransformConfig,
+    /// `[geometry.mesh_repair]`: what to do with defects of real meshes.
+    #[serde(default)]
+    pub mesh_repair: MeshRepairConfig,
+}
+
+/// Where the solid comes from.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(from = "String", into = "String")]
+pub enum GeometrySource {
+    /// An axis-aligned box of `box_size_m`, centred at the origin before the transform.
+    Box,
+    /// A closed triangle mesh in a Wavefront OBJ file. After [`PipelineConfig::load`] the path is
+    /// absolute or relative to the working directory (resolved against the config's folder).
+    Mesh(PathBuf),
+}
+
+impl From<String> for GeometrySource {
+    fn from(value: String) -> Self {
+        if value == "box" { GeometrySource::Box } else { GeometrySource::Mesh(PathBuf::from(value)) }
+    }
+}
+
+impl From<GeometrySource> for String {
+    fn from(value: GeometrySource) -> Self {
+        value.to_string()
+    }
+}
+
+impl fmt::Display for GeometrySource {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            GeometrySource::Box => f.write_str("box"),
+            GeometrySource::Mesh(path) => write!(f, "{}", path.display()),
+        }
+    }
+}
+
+/// How the solid is turned into particles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Sampler {
+    /// Cubes of side lambda on a regular grid (the paper's glass plate).
+    Grid,
+    /// Tetrahedra of a layered shell under the surface (the paper's vase).
+    TetShell,
+    /// Clipped Voronoi cells of blue-noise points: trimtopes (the paper's dragon).
+    Voronoi,
+}
+
+impl Sampler {
+    /// The name used in `pipeline.toml`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Sampler::Grid => "grid",
+            Sampler::TetShell => "tet_shell",
+            Sampler::Voronoi => "voronoi",
+        }
+    }
+}
+
+/// `[geometry.transform]`: the source is scaled about its own origin (optionally after moving its
+/// bounding-box centre there), sampled in that frame, then rotated and translated into the world.
+/// Rotation is about X, then Y, then Z (world axes).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TransformConfig {
+    /// Uniform scale from source units to metres (0.001 for a mesh in millimetres).
+    pub scale: f64,
+    /// Move the source's bounding-box centre to the origin before scaling and rotating.
+    pub recenter: bool,
+    /// Rotation in degrees about the world X, Y and Z axes, applied in that order.
+    pub rotate_deg: [f64; 3],
+    /// Translation in metres, applied last.
+    pub translate_m: [f64; 3],
+}
+
+impl Default for TransformConfig {
+    fn default() -> Self {
+        TransformConfig { scale: 1.0, recenter: false, rotate_deg: [0.0; 3], translate_m: [0.0; 3] }
+    }
+}
+
+/// `[geometry.mesh_repair]`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MeshRepairConfig {
+    /// Separate bodies of the mesh whose enclosed volume is below this fraction of the largest
+    /// body's are dropped (and reported): stray specks that real scans carry.
+    pub min_body_volume_fraction: f64,
+}
+
+impl Default for MeshRepairConfig {
+    fn default() -> Self {
+        MeshRepairConfig { min_body_volume_fraction: 1e-3 }
+    }
+}
+
+/// `[material]`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialConfig {
+    /// Mass density rho in kg/m^3.
+    pub density_kg_m3: f64,
+    /// Bulk modulus K in Pa.
+    pub bulk_modulus_pa: f64,
+    /// Fracture energy G in J/m^2; the mean critical stretch is sqrt(5 G / (9 K delta)).
+    /// Default 8 J/m^2 (soda-lime glass) unless `critical_stretch` is given.
+    #[serde(default)]
+    pub fracture_energy_j_m2: Option<f64>,
+    /// The mean critical stretch given directly (the paper's tau: 0.01 ... 0.0002); excludes
+    /// `fracture_energy_j_m2`.
+    #[serde(default)]
+    pub critical_stretch: Option<f64>,
+    /// Standard deviation of the per-bond threshold as a fraction of the mean (the paper: 0.02).
+    #[serde(default = "default_threshold_jitter")]
+    pub threshold_jitter: f64,
+}
+
+/// The fracture energy used when a scene gives neither it nor a critical stretch: soda-lime glass.
+pub const DEFAULT_FRACTURE_ENERGY_J_M2: f64 = 8.0;
+
+fn default_threshold_jitter() -> f64 {
+    0.02
+}
+
+impl MaterialConfig {
+    /// The mean critical stretch s0 for horizon `delta_m`: the given `critical_stretch`, else
+    /// Silling and Askari's sqrt(5 G / (9 K delta)). (Levine et al.'s eq. 4 omits the 9.)
+    pub fn mean_critical_stretch(&self, delta_m: f64) -> f64 {
+        match self.critical_stretch {
+            Some(stretch) => stretch,
+            None => {
+                let energy = self.fracture_energy_j_m2.unwrap_or(DEFAULT_FRACTURE_ENERGY_J_M2);
+                (5.0 * energy / (9.0 * self.bulk_modulus_pa * delta_m)).sqrt()
+            }
+        }
+    }
+}
+
+impl PipelineConfig {
+    /// Reads, parses and validates a config file; relative paths in it are resolved against the
+    /// file's folder.
+    pub fn load(path: &Path) -> Result<PipelineConfig, ConfigError> {
+        let text =
+            std::fs::read_to_string(path).map_err(|source| ConfigError::Read { path: path.to_path_buf(), source })?;
+        PipelineConfig::from_toml_str(&text, path)
+    }
+
+    /// Parses and validates config text as if it were read from `path` (which sets the folder that
+    /// relative paths resolve against; the file itself is not read).
+    pub fn from_toml_str(text: &str, path: &Path) -> Result<PipelineConfig, ConfigError> {
+        let parse_error = |key: String, message: String| ConfigError::Parse {
+            path: path.to_path_buf(),
+            key: if key.is_empty() || key == "." { "(top level)".to_string() } else { key },
+            message,
+        };
+        let deserializer = toml::de::Deserializer::parse(text)
+            .map_err(|error| parse_error(String::new(), error.to_string().trim_end().to_string()))?;
+        let mut config: PipelineConfig = serde_path_to_error::deserialize(deserializer)
+            .map_err(|error| parse_error(error.path().to_string(), error.inner().to_string().trim_end().to_string()))?;
+        config.path = path.to_path_buf();
+        config.resolve_paths();
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// The folder relative paths resolve against.
+    pub fn base_dir(&self) -> &Path {
+        match self.path.parent() {
+            Some(parent) if !parent.as_os_str().is_empty() => parent,
+            _ => Path::new("."),
+        }
+    }
+
+    /// The scene's output folder.
+    pub fn output_dir(&self) -> &Path {
+        &self.scene.output_dir
+    }
+
+    /// The horizon delta = N * spacing in metres.
+    pub fn horizon_m(&self) -> f64 {
+        self.geometry.horizon_factor * self.geometry.spacing_m
+    }
+
+    /// Keys that are set but have no effect with the other settings (warn, don't fail).
+    pub fn unused_keys(&self) -> Vec<String> {
+        let mut unused = Vec::new();
+        let transform = &self.geometry.transform;
+        if self.geometry.source == GeometrySource::Box {
+            if transform.scale != 1.0 {
+                unused.push("geometry.transform.scale (box_size_m is already in metres)".to_string());
+            }
+            if transform.recenter {
+                unused.push("geometry.transform.recenter (a box is centred already)".to_string());
+            }
+        } else if self.geometry.box_size_m.is_some() {
+            unused.push("geometry.box_size_m (used only with source = \"box\")".to_string());
+        }
+        unused
+    }
+
+    fn resolve_paths(&mut self) {
+        let base = self.base_dir().to_path_buf();
+        if self.scene.output_dir.is_relative() {
+            self.scene.output_dir = base.join(&self.scene.output_dir);
+        }
+        if let GeometrySource::Mesh(mesh) = &mut self.geometry.source {
+            if mesh.is_relative() {
+                *mesh = base.join(&*mesh);
+            }
+        }
+    }
+
+    fn validate(&self) -> Result<(), ConfigError> {
+        let check = Checker { path: &self.path };
+        let scene = &self.scene;
+        let name_ok = !scene.name.is_empty()
+            && scene.name.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'));
+        check.that(name_ok, "scene.name", &format!("{:?}", scene.name), || {
+            "must be non-empty and use only letters, digits, '_', '-' and '.' (it names output files)".to_string()
+        })?;
+        check.that(!scene.output_dir.as_os_str().is_empty(), "scene.output_dir", "\"\"", || {
+            "must name a folder".to_string()
+        })?;
+
+        let geometry = &self.geometry;
+        match &geometry.source {
+            GeometrySource::Box => {
+                let Some(size) = geometry.box_size_m else {
+                    return Err(check.invalid(
+                        "geometry.box_size_m",
+                        "(missing)",
+                        "source = \"box\" needs box_size_m = [x, y, z] in metres",
+                    ));
+                };
+                check.positive_array("geometry.box_size_m", &size)?;
+            }
+            GeometrySource::Mesh(mesh) => {
+                let shown = format!("{:?}", mesh.display().to_string());
+                let is_obj =
+                    mesh.extension().and_then(|ext| ext.to_str()).is_some_and(|ext| ext.eq_ignore_ascii_case("obj"));
+                check.that(is_obj, "geometry.source", &shown, || {
+                    "must be \"box\" or the path of a Wavefront .obj mesh".to_string()
+                })?;
+                check.that(mesh.is_file(), "geometry.source", &shown, || {
+                    "mesh file not found (relative paths start at the config file's folder)".to_string()
+                })?;
+            }
+        }
+        if let (GeometrySource::Mesh(_), Some(size)) = (&geometry.source, geometry.box_size_m) {
+            check.positive_array("geometry.box_size_m", &size)?;
+        }
+        check.positive("geometry.spacing_m", geometry.spacing_m, "metres")?;
+        let horizon = geometry.horizon_factor;
+        check.that(
+            horizon.is_finite() && (1.0..=MAX_HORIZON_FACTOR).contains(&horizon),
+            "geometry.horizon_factor",
+            &horizon.to_string(),
+            || format!("must be between 1 and {MAX_HORIZON_FACTOR} (the paper uses 2 to 6)"),
+        )?;
+
+        let transform = &geometry.transform;
+        check.positive("geometry.transform.scale", transform.scale, "source units to metres")?;
+        check.finite_array("geometry.transform.rotate_deg", &transform.rotate_deg)?;
+        check.finite_array("geometry.transform.translate_m", &transform.translate_m)?;
+        let fraction = geometry.mesh_repair.min_body_volume_fraction;
+        check.that(
+            (0.0..1.0).contains(&fraction),
+            "geometry.mesh_repair.min_body_volume_fraction",
+            &fraction.to_string(),
+            || "must be at least 0 and below 1".to_string(),
+        )?;
+
+        let material = &self.material;
+        check.positive("material.density_kg_m3", material.density_kg_m3, "kg/m^3")?;
+        check.positive("material.bulk_modulus_pa", material.bulk_modulus_pa, "Pa")?;
+        match (material.fracture_energy_j_m2, material.critical_stretch) {
+            (Some(_), Some(_)) => {
+                return Err(check.invalid(
+                    "material.critical_stretch",
+                    &format!("{}", material.critical_stretch.unwrap_or_default()),
+                    "give either fracture_energy_j_m2 or critical_stretch, not both",
+                ));
+            }
+            (Some(energy), None) => check.positive("material.fracture_energy_j_m2", energy, "J/m^2")?,
+            (None, Some(stretch)) => check.that(
+                stretch.is_finite() && stretch > 0.0 && stretch < 1.0,
+                "material.critical_stretch",
+                &stretch.to_string(),
+                || "must be greater than 0 and below 1 (the paper uses 0.0002 to 0.01)".to_string(),
+            )?,
+            (None, None) => {}
+        }
+        let jitter = material.threshold_jitter;
+        check.that(
+            jitter.is_finite() && (0.0..=MAX_THRESHOLD_JITTER).contains(&jitter),
+            "material.threshold_jitter",
+            &jitter.to_string(),
+            || format!("must be between 0 and {MAX_THRESHOLD_JITTER} (a fraction of the mean threshold)"),
+        )?;
+        Ok(())
+    }
+}
+
+/// Builds [`ConfigError::Invalid`] errors for one config file.
+struct Checker<'a> {
+    path: &'a Path,
+}
+
+impl Checker<'_> {
+    fn invalid(&self, key: &str, value: &str, message: &str) -> ConfigError {
+        ConfigError::Invalid {
+            path: self.path.to_path_buf(),
+            key: key.to_string(),
+            value: value.to_string(),
+            message: message.to_string(),
+        }
+    }
+
+    fn that(&self, ok: bool, key: &str, value: &str, message: impl FnOnce() -> String) -> Result<(), ConfigError> {
+        if ok { Ok(()) } else { Err(self.invalid(key, value, &message())) }
+    }
+
+    fn positive(&self, key: &str, value: f64, unit: &str) -> Result<(), ConfigError> {
+        self.that(value.is_finite() && value > 0.0, key, &value.to_string(), || {
+            format!("must be a finite number greater than 0 ({unit})")
+        })
+    }
+
+    fn positive_array(&self, key: &str, values: &[f64; 3]) -> Result<(), ConfigError> {
+        let ok = values.iter().all(|v| v.is_finite() && *v > 0.0);
+        self.that(ok, key, &format!("{values:?}"), || {
+            "every entry must be a finite number greater than 0 (metres)".to_string()
+        })
+    }
+
+    fn finite_array(&self, key: &str, values: &[f64; 3]) -> Result<(), ConfigError> {
+        let ok = values.iter().all(|v| v.is_finite());
+        self.that(ok, key, &format!("{values:?}"), || "every entry must be a finite number".to_string())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GLASS: &str = r#"
+[scene]
+name = "glass_plate"
+output_dir = "out/glass_plate"
+seed = 1
+[geometry]
+source = "box"
+box_size_m = [0.1, 0.1, 0.005]
+sampler = "grid"
+spacing_m = 0.001
+horizon_factor = 3.0
+[material]
+density_kg_m3 = 2200.0
+bulk_modulus_pa = 14.9e9
+"#;
+
+    #[test]
+    fn the_documented_example_parses_with_defaults() {
+        let config = PipelineConfig::from_toml_str(GLASS, Path::new("/scenes/pipeline.toml"))
+            .expect("the example config is valid");
+        assert_eq!(config.scene.output_dir, Path::new("/scenes/out/glass_plate"));
+        assert_eq!(config.geometry.source, GeometrySource::Box);
+        assert_eq!(config.geometry.sampler, Sampler::Grid);
+        assert_eq!(config.geometry.transform.scale, 1.0);
+        assert_eq!(config.material.threshold_jitter, 0.02);
+        assert!((config.horizon_m() - 0.003).abs() < 1e-15);
+    }
+
+    #[test]
+    fn mean_critical_stretch_follows_silling_and_askari() {
+        let config = PipelineConfig::from_toml_str(GLASS, Path::new("pipeline.toml")).expect("valid");
+        let delta = 0.003;
+        let expected = (5.0 * DEFAULT_FRACTURE_ENERGY_J_M2 / (9.0 * 14.9e9 * delta)).sqrt();
+        assert!((config.material.mean_critical_stretch(delta) - expected).abs() < 1e-15);
+        let direct = GLASS.replace("bulk_modulus_pa = 14.9e9", "bulk_modulus_pa = 14.9e9\ncritical_stretch = 0.001");
+        let config = PipelineConfig::from_toml_str(&direct, Path::new("pipeline.toml")).expect("valid");
+        assert_eq!(config.material.mean_critical_stretch(delta), 0.001);
+    }
+
+    #[test]
+    fn nan_and_infinite_values_are_rejected() {
+        let text = GLASS.replace("spacing_m = 0.001", "spacing_m = nan");
+        let error = PipelineConfig::from_toml_str(&text, Path::new("p.toml")).expect_err("nan");
+        assert!(error.to_string().contains("geometry.spacing_m = NaN"), "{error}");
+        let text = GLASS
+            .replace("rotate", "x")
+            .replace("[material]", "[geometry.transform]\nrotate_deg = [0, inf, 0]\n[material]");
+        let error = PipelineConfig::from_toml_str(&text, Path::new("p.toml")).expect_err("inf");
+        assert!(error.to_string().contains("geometry.transform.rotate_deg"), "{error}");
+    }
+}

@@ -1,0 +1,18 @@
+//! Shared types of the shatter pipeline.
+//!
+//! - [`config`]: the `pipeline.toml` schema, parsing and validation.
+//! - [`stage_file`]: the versioned, checksummed, atomically written binary container that every
+//!   stage file uses.
+//! - [`particles`]: the particle file written by `shatter preprocess` (rest state, element
+//!   geometry, bonds, element adjacency).
+//! - [`progress`]: how library code reports progress to the CLI.
+
+pub mod config;
+pub mod particles;
+pub mod progress;
+pub mod stage_file;
+
+pub use config::{ConfigError, PipelineConfig};
+pub use particles::ParticleSet;
+pub use progress::{NoProgress, Progress};
+pub use stage_file::StageFileError;

@@ -1,0 +1,558 @@
+//! The particle file (`particles.shp`): what `shatter preprocess` makes and every later stage reads.
+//!
+//! Particles carry rest positions, volumes and masses, the geometry of the element each one
+//! stands for (cube, tetrahedron or trimtope, in the rest frame), their bonds in CSR form and the
+//! element adjacency graph. [`ParticleSet::read`] checks the file whole and then every structural
+//! rule ([`ParticleSet::validate`]), so later stages may index without further checks.
+
+use std::path::Path;
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::stage_file::{StageFileError, StageKind, StageReader, StageWriter};
+
+/// Scalars describing how a particle set was made.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParticleMeta {
+    /// `scene.name` of the config that made it.
+    pub scene_name: String,
+    /// `geometry.source` as given ("box" or a mesh path).
+    pub source: String,
+    /// The sampler's name ("grid", "tet_shell", "voronoi").
+    pub sampler: String,
+    /// lambda: the minimum distance between particles, in metres.
+    pub lambda_m: f64,
+    /// N in delta = N * lambda.
+    pub horizon_factor: f64,
+    /// delta: the bond horizon, in metres.
+    pub delta_m: f64,
+    /// Density used for the masses, kg/m^3.
+    pub density_kg_m3: f64,
+    /// Bulk modulus the thresholds were derived with, Pa.
+    pub bulk_modulus_pa: f64,
+    /// The mean critical stretch s0 before jitter.
+    pub mean_critical_stretch: f64,
+    /// The jitter's standard deviation as a fraction of s0.
+    pub threshold_jitter: f64,
+    /// `scene.seed`.
+    pub seed: u64,
+}
+
+/// The geometric element each particle stands for, in the rest frame (world coordinates).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Elements {
+    /// Cubes centred on the particles, all with the same orientation.
+    Cubes {
+        /// Half the edge length of each cube, metres.
+        half_size_m: Vec<f32>,
+        /// Rotation from the cube's axes to the world, as a unit quaternion [x, y, z, w].
+        orientation: [f32; 4],
+    },
+    /// Tetrahedra whose barycentres are the particles; vertices in positive orientation.
+    Tets {
+        /// The four vertices of each tetrahedron, metres.
+        vertices_m: Vec<[[f32; 3]; 4]>,
+    },
+    /// Clipped Voronoi cells with the surface triangles they contain.
+    Trimtopes {
+        /// CSR offsets into `planes`, one more than there are particles.
+        plane_offsets: Vec<u64>,
+        /// Cell planes [nx, ny, nz, d] with unit outward normal n: inside where n . x <= d.
+        planes: Vec<[f32; 4]>,
+        /// CSR offsets into `triangles_m`, one more than there are particles.
+        triangle_offsets: Vec<u64>,
+        /// The mesh triangles clipped to each cell, metres, outward winding.
+        triangles_m: Vec<[[f32; 3]; 3]>,
+    },
+}
+
+/// The element types, as named in files and summaries.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ElementType {
+    /// [`Elements::Cubes`].
+    Cube,
+    /// [`Elements::Tets`].
+    Tet,
+    /// [`Elements::Trimtopes`].
+    Trimtope,
+}
+
+impl ElementType {
+    /// The name used in files and summaries: "cube", "tet" or "trimtope".
+    pub fn name(self) -> &'static str {
+        match self {
+            ElementType::Cube => "cube",
+            ElementType::Tet => "tet",
+            ElementType::Trimtope => "trimtope",
+        }
+    }
+}
+
+impl Elements {
+    /// Which kind of element these are.
+    pub fn element_type(&self) -> ElementType {
+        match self {
+            Elements::Cubes { .. } => ElementType::Cube,
+            Elements::Tets { .. } => ElementType::Tet,
+            Elements::Trimtopes { .. } => ElementType::Trimtope,
+        }
+    }
+}
+
+/// Bonds in CSR form, both directions stored: row i lists i's neighbours in increasing order.
+/// The entry of bond {i, j} in row min(i, j) is its canonical index (its id in break logs).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Bonds {
+    /// Row offsets, one more than there are particles.
+    pub offsets: Vec<u64>,
+    /// Neighbour particle of each entry.
+    pub neighbor: Vec<u32>,
+    /// Rest length of each entry: the f32 length of X_j - X_i from the stored f32 positions.
+    pub rest_length_m: Vec<f32>,
+    /// Critical stretch of each entry (equal in both directions), jitter included.
+    pub threshold: Vec<f32>,
+}
+
+impl Bonds {
+    /// Number of particles (rows).
+    pub fn rows(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+
+    /// The entry range of row `i`.
+    pub fn row(&self, i: usize) -> std::ops::Range<usize> {
+        self.offsets[i] as usize..self.offsets[i + 1] as usize
+    }
+
+    /// Number of unique bonds (half the entries).
+    pub fn unique_count(&self) -> usize {
+        self.neighbor.len() / 2
+    }
+
+    /// The entry index of bond (i, j) in row i, if i and j are bonded.
+    pub fn find(&self, i: usize, j: u32) -> Option<usize> {
+        let range = self.row(i);
+        self.neighbor[range.clone()].binary_search(&j).ok().map(|k| range.start + k)
+    }
+}
+
+/// Everything `shatter preprocess` produces.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParticleSet {
+    /// How it was made.
+    pub meta: ParticleMeta,
+    /// Rest positions X_i, metres.
+    pub rest_position_m: Vec<[f32; 3]>,
+    /// Volumes V_i, m^3.
+    pub volume_m3: Vec<f32>,
+    /// Masses m_i = rho V_i, kg.
+    pub mass_kg: Vec<f32>,
+    /// The element each particle stands for.
+    pub elements: Elements,
+    /// The bond network.
+    pub bonds: Bonds,
+    /// Pairs (a, b), a < b, sorted, of elements that share a face; every pair is also a bond.
+    pub adjacency: Vec<[u32; 2]>,
+}
+
+/// The figures `shatter inspect` shows for a particle file.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ParticleSummary {
+    /// Always "particles".
+    pub kind: &'static str,
+    /// Format version of the file.
+    pub format_version: u32,
+    /// Number of particles.
+    pub particles: usize,
+    /// Number of unique bonds.
+    pub bonds: usize,
+    /// Bonds per particle.
+    pub bonds_per_particle: CountStats,
+    /// lambda, metres.
+    pub lambda_m: f64,
+    /// delta, metres.
+    pub delta_m: f64,
+    /// N in delta = N * lambda.
+    pub horizon_factor: f64,
+    /// Sum of particle volumes, m^3.
+    pub total_volume_m3: f64,
+    /// Sum of particle masses, kg.
+    pub total_mass_kg: f64,
+    /// "cube", "tet" or "trimtope".
+    pub element_type: ElementType,
+    /// Number of adjacent element pairs.
+    pub adjacency_edges: usize,
+    /// Bounding box of the rest positions, metres.
+    pub bounds_m: [[f32; 3]; 2],
+    /// Critical stretch over all bonds.
+    pub threshold: ValueStats,
+    /// How the set was made.
+    pub meta: ParticleMeta,
+}
+
+/// Minimum, maximum and mean of a count.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CountStats {
+    /// Smallest.
+    pub min: u64,
+    /// Largest.
+    pub max: u64,
+    /// Mean.
+    pub mean: f64,
+}
+
+/// Minimum, maximum and mean of a value.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ValueStats {
+    /// Smallest.
+    pub min: f64,
+    /// Largest.
+    pub max: f64,
+    /// Mean.
+    pub mean: f64,
+}
+
+impl ParticleSet {
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.rest_position_m.len()
+    }
+
+    /// True when there are no particles.
+    pub fn is_empty(&self) -> bool {
+        self.rest_position_m.is_empty()
+    }
+
+    /// Writes the set to `path` atomically.
+    pub fn write(&self, path: &Path) -> Result<(), StageFileError> {
+        let mut out = StageWriter::create(path, StageKind::Particles)?;
+        out.write_json("meta", &self.meta)?;
+        out.write_json("element_type", &self.elements.element_type())?;
+        out.write_rows("rest_position", &self.rest_position_m)?;
+        out.write_rows("volume", &self.volume_m3)?;
+        out.write_rows("mass", &self.mass_kg)?;
+        match &self.elements {
+            Elements::Cubes { half_size_m, orientation } => {
+                out.write_rows("cube_half_size", half_size_m)?;
+                out.write_rows("cube_orientation", std::slice::from_ref(orientation))?;
+            }
+            Elements::Tets { vertices_m } => out.write_rows("tet_vertices", vertices_m)?,
+            Elements::Trimtopes { plane_offsets, planes, triangle_offsets, triangles_m } => {
+                out.write_rows("plane_offsets", plane_offsets)?;
+                out.write_rows("planes", planes)?;
+                out.write_rows("triangle_offsets", triangle_offsets)?;
+                out.write_rows("triangles", triangles_m)?;
+            }
+        }
+        out.write_rows("bond_offsets", &self.bonds.offsets)?;
+        out.write_rows("bond_neighbor", &self.bonds.neighbor)?;
+        out.write_rows("bond_rest_length", &self.bonds.rest_length_m)?;
+        out.write_rows("bond_threshold", &self.bonds.threshold)?;
+        out.write_rows("adjacency", &self.adjacency)?;
+        out.finish()
+    }
+
+    /// Reads and fully validates a particle file.
+    pub fn read(path: &Path) -> Result<ParticleSet, StageFileError> {
+        let mut input = StageReader::open(path, StageKind::Particles)?;
+        let meta = input.read_json("meta")?;
+        let element_type: ElementType = input.read_json("element_type")?;
+        let rest_position_m = input.read_rows("rest_position")?;
+        let volume_m3 = input.read_rows("volume")?;
+        let mass_kg = input.read_rows("mass")?;
+        let elements = match element_type {
+            ElementType::Cube => {
+                let half_size_m = input.read_rows("cube_half_size")?;
+                let orientation: Vec<[f32; 4]> = input.read_rows("cube_orientation")?;
+                let [orientation] = orientation[..] else {
+                    return Err(input.malformed("cube_orientation must hold exactly one quaternion".into()));
+                };
+                Elements::Cubes { half_size_m, orientation }
+            }
+            ElementType::Tet => Elements::Tets { vertices_m: input.read_rows("tet_vertices")? },
+            ElementType::Trimtope => Elements::Trimtopes {
+                plane_offsets: input.read_rows("plane_offsets")?,
+                planes: input.read_rows("planes")?,
+                triangle_offsets: input.read_rows("triangle_offsets")?,
+                triangles_m: input.read_rows("triangles")?,
+            },
+        };
+        let bonds = Bonds {
+            offsets: input.read_rows("bond_offsets")?,
+            neighbor: input.read_rows("bond_neighbor")?,
+            rest_length_m: input.read_rows("bond_rest_length")?,
+            threshold: input.read_rows("bond_threshold")?,
+        };
+        let adjacency = input.read_rows("adjacency")?;
+        let set = ParticleSet { meta, rest_position_m, volume_m3, mass_kg, elements, bonds, adjacency };
+        set.validate().map_err(|what| input.malformed(what))?;
+        input.finish()?;
+        Ok(set)
+    }
+
+    /// Checks every structural rule of the format; returns what is broken.
+    pub fn validate(&self) -> Result<(), String> {
+        let n = self.len();
+        if u32::try_from(n).is_err() {
+            return Err(format!("{n} particles: at most {} are supported", u32::MAX));
+        }
+        if self.volume_m3.len() != n || self.mass_kg.len() != n {
+            return Err(format!(
+                "{n} positions but {} volumes and {} masses",
+                self.volume_m3.len(),
+                self.mass_kg.len()
+            ));
+        }
+        if let Some(i) = self.rest_position_m.iter().position(|p| p.iter().any(|c| !c.is_finite())) {
+            return Err(format!("particle {i} has a non-finite rest position"));
+        }
+        let positive = |v: &f32| v.is_finite() && *v > 0.0;
+        if let Some(i) = self.volume_m3.iter().position(|v| !positive(v)) {
+            return Err(format!("particle {i} has volume {}, not a positive number", self.volume_m3[i]));
+        }
+        if let Some(i) = self.mass_kg.iter().position(|m| !positive(m)) {
+            return Err(format!("particle {i} has mass {}, not a positive number", self.mass_kg[i]));
+        }
+        let meta = &self.meta;
+        let scalars_ok = [meta.lambda_m, meta.delta_m, meta.horizon_factor, meta.mean_critical_stretch]
+            .iter()
+            .all(|v| v.is_finite() && *v > 0.0);
+        if !scalars_ok {
+            return Err("lambda_m, delta_m, horizon_factor and mean_critical_stretch must be positive".into());
+        }
+        self.validate_elements()?;
+        self.validate_bonds()?;
+        self.validate_adjacency()
+    }
+
+    fn validate_elements(&self) -> Result<(), String> {
+        let n = self.len();
+        match &self.elements {
+            Elements::Cubes { half_size_m, orientation } => {
+                if half_size_m.len() != n {
+                    return Err(format!("{} cube sizes for {n} particles", half_size_m.len()));
+                }
+                if half_size_m.iter().any(|h| !(h.is_finite() && *h > 0.0)) {
+                    return Err("a cube half size is not a positive number".into());
+                }
+                let norm_sq: f32 = orientation.iter().map(|c| c * c).sum();
+                if !norm_sq.is_finite() || (norm_sq - 1.0).abs() > 1e-4 {
+                    return Err(format!("cube orientation {orientation:?} is not a unit quaternion"));
+                }
+            }
+            Elements::Tets { vertices_m } => {
+                if vertices_m.len() != n {
+                    return Err(format!("{} tetrahedra for {n} particles", vertices_m.len()));
+                }
+                if vertices_m.iter().flatten().flatten().any(|c| !c.is_finite()) {
+                    return Err("a tetrahedron vertex is not finite".into());
+                }
+            }
+            Elements::Trimtopes { plane_offsets, planes, triangle_offsets, triangles_m } => {
+                validate_offsets("plane_offsets", plane_offsets, n, planes.len())?;
+                validate_offsets("triangle_offsets", triangle_offsets, n, triangles_m.len())?;
+                if planes.iter().flatten().any(|c| !c.is_finite()) {
+                    return Err("a trimtope plane is not finite".into());
+                }
+                if triangles_m.iter().flatten().flatten().any(|c| !c.is_finite()) {
+                    return Err("a trimtope triangle vertex is not finite".into());
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn validate_bonds(&self) -> Result<(), String> {
+        let bonds = &self.bonds;
+        let n = self.len();
+        validate_offsets("bond_offsets", &bonds.offsets, n, bonds.neighbor.len())?;
+        let entries = bonds.neighbor.len();
+        if bonds.rest_length_m.len() != entries || bonds.threshold.len() != entries {
+            return Err(format!(
+                "{entries} bond neighbours but {} rest lengths and {} thresholds",
+                bonds.rest_length_m.len(),
+                bonds.threshold.len()
+            ));
+        }
+        (0..n).into_par_iter().try_for_each(|i| {
+            let row = bonds.row(i);
+            let neighbors = &bonds.neighbor[row.clone()];
+            if neighbors.windows(2).any(|pair| pair[0] >= pair[1]) {
+                return Err(format!("bond row {i} is not strictly increasing"));
+            }
+            for (k, &j) in row.clone().zip(neighbors) {
+                if j as usize >= n || j as usize == i {
+                    return Err(format!("particle {i} is bonded to invalid particle {j}"));
+                }
+                let length = bonds.rest_length_m[k];
+                let threshold = bonds.threshold[k];
+                if !(length.is_finite() && length > 0.0 && threshold.is_finite() && threshold > 0.0) {
+                    return Err(format!("bond ({i}, {j}) has rest length {length} and threshold {threshold}"));
+                }
+                let Some(twin) = bonds.find(j as usize, i as u32) else {
+                    return Err(format!("bond ({i}, {j}) has no twin entry ({j}, {i})"));
+                };
+                if bonds.threshold[twin] != threshold || bonds.rest_length_m[twin] != length {
+                    return Err(format!("bond ({i}, {j}) differs from its twin ({j}, {i})"));
+                }
+            }
+            Ok(())
+        })
+    }
+
+    fn validate_adjacency(&self) -> Result<(), String> {
+        if let Some(pair) = self.adjacency.windows(2).find(|pair| pair[0] >= pair[1]) {
+            return Err(format!("adjacency is not sorted and unique at {:?}", pair[1]));
+        }
+        for &[a, b] in &self.adjacency {
+            if a >= b || b as usize >= self.len() {
+                return Err(format!("adjacency pair ({a}, {b}) is not a < b < particles"));
+            }
+            if self.bonds.find(a as usize, b).is_none() {
+                return Err(format!("adjacent elements {a} and {b} are not bonded"));
+            }
+        }
+        Ok(())
+    }
+
+    /// The figures `shatter inspect` shows.
+    pub fn summary(&self) -> ParticleSummary {
+        let n = self.len();
+        let counts = (0..n).map(|i| self.bonds.offsets[i + 1] - self.bonds.offsets[i]);
+        let (min, max) = counts.fold((u64::MAX, 0), |(lo, hi), c| (lo.min(c), hi.max(c)));
+        let mut bounds = [[f32::INFINITY; 3], [f32::NEG_INFINITY; 3]];
+        for p in &self.rest_position_m {
+            for axis in 0..3 {
+                bounds[0][axis] = bounds[0][axis].min(p[axis]);
+                bounds[1][axis] = bounds[1][axis].max(p[axis]);
+            }
+        }
+        let thresholds = &self.bonds.threshold;
+        let threshold = ValueStats {
+            min: thresholds.iter().copied().fold(f32::INFINITY, f32::min) as f64,
+            max: thresholds.iter().copied().fold(f32::NEG_INFINITY, f32::max) as f64,
+            mean: thresholds.iter().map(|t| *t as f64).sum::<f64>() / thresholds.len().max(1) as f64,
+        };
+        ParticleSummary {
+            kind: "particles",
+            format_version: StageKind::Particles.version(),
+            particles: n,
+            bonds: self.bonds.unique_count(),
+            bonds_per_particle: CountStats {
+                min: if n == 0 { 0 } else { min },
+                max,
+                mean: self.bonds.neighbor.len() as f64 / n.max(1) as f64,
+            },
+            lambda_m: self.meta.lambda_m,
+            delta_m: self.meta.delta_m,
+            horizon_factor: self.meta.horizon_factor,
+            total_volume_m3: self.volume_m3.iter().map(|v| *v as f64).sum(),
+            total_mass_kg: self.mass_kg.iter().map(|m| *m as f64).sum(),
+            element_type: self.elements.element_type(),
+            adjacency_edges: self.adjacency.len(),
+            bounds_m: bounds,
+            threshold,
+            meta: self.meta.clone(),
+        }
+    }
+}
+
+fn validate_offsets(name: &str, offsets: &[u64], rows: usize, entries: usize) -> Result<(), String> {
+    if offsets.len() != rows + 1 {
+        return Err(format!("{name} has {} entries for {rows} particles", offsets.len()));
+    }
+    if offsets[0] != 0 || offsets[rows] != entries as u64 {
+        return Err(format!("{name} must run from 0 to {entries}"));
+    }
+    if offsets.windows(2).any(|pair| pair[0] > pair[1]) {
+        return Err(format!("{name} decreases"));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Three particles in a row, bonded 0-1 and 1-2, adjacent 0-1.
+    fn sample(elements: Elements) -> ParticleSet {
+        ParticleSet {
+            meta: ParticleMeta {
+                scene_name: "t".into(),
+                source: "box".into(),
+                sampler: "grid".into(),
+                lambda_m: 1.0,
+                horizon_factor: 1.0,
+                delta_m: 1.0,
+                density_kg_m3: 2.0,
+                bulk_modulus_pa: 3.0,
+                mean_critical_stretch: 0.01,
+                threshold_jitter: 0.0,
+                seed: 5,
+            },
+            rest_position_m: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]],
+            volume_m3: vec![1.0; 3],
+            mass_kg: vec![2.0; 3],
+            elements,
+            bonds: Bonds {
+                offsets: vec![0, 1, 3, 4],
+                neighbor: vec![1, 0, 2, 1],
+                rest_length_m: vec![1.0; 4],
+                threshold: vec![0.01, 0.01, 0.02, 0.02],
+            },
+            adjacency: vec![[0, 1]],
+        }
+    }
+
+    fn all_element_kinds() -> Vec<Elements> {
+        let tet = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        vec![
+            Elements::Cubes { half_size_m: vec![0.5; 3], orientation: [0.0, 0.0, 0.0, 1.0] },
+            Elements::Tets { vertices_m: vec![tet; 3] },
+            Elements::Trimtopes {
+                plane_offsets: vec![0, 1, 1, 2],
+                planes: vec![[1.0, 0.0, 0.0, 0.5], [0.0, 1.0, 0.0, 0.5]],
+                triangle_offsets: vec![0, 0, 1, 1],
+                triangles_m: vec![[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]],
+            },
+        ]
+    }
+
+    #[test]
+    fn every_element_kind_round_trips() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        for elements in all_element_kinds() {
+            let set = sample(elements);
+            set.validate().expect("sample is valid");
+            let path = dir.path().join("p.shp");
+            set.write(&path).expect("write");
+            assert_eq!(ParticleSet::read(&path).expect("read"), set);
+        }
+    }
+
+    #[test]
+    fn structural_defects_are_named() {
+        let mut asymmetric = sample(all_element_kinds().remove(0));
+        asymmetric.bonds.threshold[0] = 0.5;
+        assert!(asymmetric.validate().expect_err("twin").contains("differs from its twin"));
+        let mut out_of_range = sample(all_element_kinds().remove(0));
+        out_of_range.bonds.neighbor[3] = 7;
+        assert!(out_of_range.validate().is_err());
+        let mut unbonded = sample(all_element_kinds().remove(0));
+        unbonded.adjacency = vec![[0, 2]];
+        assert!(unbonded.validate().expect_err("adjacency").contains("not bonded"));
+    }
+
+    #[test]
+    fn summary_counts_unique_bonds() {
+        let summary = sample(all_element_kinds().remove(0)).summary();
+        assert_eq!(summary.bonds, 2);
+        assert_eq!(summary.bonds_per_particle.min, 1);
+        assert_eq!(summary.bonds_per_particle.max, 2);
+        assert!((summary.bonds_per_particle.mean - 4.0 / 3.0).abs() < 1e-12);
+        assert_eq!(summary.total_mass_kg, 6.0);
+    }
+}

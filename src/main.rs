@@ -1,0 +1,144 @@
+//! `shatter`: mesh in, EXR frames of it shattering out. The command line: arguments, progress
+//! bars and stage dispatch; the work happens in the library crates.
+
+mod inspect;
+mod preprocess;
+mod progress;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use shatter_core::{ConfigError, PipelineConfig};
+use shatter_preprocess::PreprocessError;
+
+/// Exit code for bad input: a config, mesh or setting the user must fix (clap uses it for bad
+/// arguments too).
+const EXIT_BAD_INPUT: u8 = 2;
+/// Exit code for a stage that is not built yet.
+const EXIT_NOT_IMPLEMENTED: u8 = 3;
+
+#[derive(Debug, Parser)]
+#[command(name = "shatter", version, about = "Peridynamic fracture, from a mesh to EXR frames of it breaking apart")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, clap::Args)]
+struct ConfigArg {
+    /// The scene's pipeline.toml; relative paths in it start at its folder.
+    #[arg(long, value_name = "PATH", default_value = "pipeline.toml")]
+    config: PathBuf,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Sample the scene's geometry into particles, bonds and elements (writes particles.shp).
+    Preprocess(ConfigArg),
+    /// Simulate fracture (writes frames and the bond-break log).
+    Sim(ConfigArg),
+    /// Find fragments and their rigid motion per frame.
+    Post(ConfigArg),
+    /// Ray trace the fragments to EXR frames.
+    Render(ConfigArg),
+    /// Run every stage in order.
+    Run(ConfigArg),
+    /// Summarise any stage file.
+    Inspect {
+        /// The stage file.
+        path: PathBuf,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+/// A failure with the exit code it deserves.
+#[derive(Debug)]
+struct Failure {
+    code: u8,
+    error: anyhow::Error,
+}
+
+impl<E: Into<anyhow::Error>> From<E> for Failure {
+    fn from(error: E) -> Self {
+        let error = error.into();
+        let preprocess_error = error.chain().find_map(|cause| cause.downcast_ref::<PreprocessError>());
+        let code = match preprocess_error {
+            Some(preprocess_error) if !preprocess_error.is_bad_input() => EXIT_NOT_IMPLEMENTED,
+            Some(_) => EXIT_BAD_INPUT,
+            None if error.chain().any(|cause| cause.is::<ConfigError>()) => EXIT_BAD_INPUT,
+            None => 1,
+        };
+        Failure { code, error }
+    }
+}
+
+/// The stage cannot run yet: says which issue delivers it.
+fn not_implemented(stage: &str, issue: u32) -> Failure {
+    Failure {
+        code: EXIT_NOT_IMPLEMENTED,
+        error: anyhow::anyhow!(
+            "`shatter {stage}` is not available yet: it arrives with issue #{issue}; nothing was written"
+        ),
+    }
+}
+
+fn load_config(arg: &ConfigArg) -> Result<PipelineConfig, Failure> {
+    let config = PipelineConfig::load(&arg.config)?;
+    for key in config.unused_keys() {
+        eprintln!("warning: {}: {key} is set but has no effect", arg.config.display());
+    }
+    Ok(config)
+}
+
+fn run(cli: Cli) -> Result<(), Failure> {
+    match cli.command {
+        Command::Preprocess(arg) => preprocess::run(&load_config(&arg)?),
+        Command::Sim(arg) => {
+            load_config(&arg)?;
+            Err(not_implemented("sim", 3))
+        }
+        Command::Post(arg) => {
+            load_config(&arg)?;
+            Err(not_implemented("post", 7))
+        }
+        Command::Render(arg) => {
+            load_config(&arg)?;
+            Err(not_implemented("render", 8))
+        }
+        Command::Run(arg) => {
+            let config = load_config(&arg)?;
+            preprocess::run(&config)?;
+            Err(not_implemented("sim", 3))
+        }
+        Command::Inspect { path, json } => inspect::run(&path, json),
+    }
+}
+
+/// The error and its causes, each cause once: library errors already quote their source.
+fn describe(error: &anyhow::Error) -> String {
+    let mut message = String::new();
+    for cause in error.chain() {
+        let text = cause.to_string();
+        if !message.contains(&text) {
+            if !message.is_empty() {
+                message.push_str(": ");
+            }
+            message.push_str(&text);
+        }
+    }
+    message
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(Failure { code, error }) => {
+            eprintln!("error: {}", describe(&error));
+            ExitCode::from(code)
+        }
+    }
+}

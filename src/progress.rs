@@ -1,0 +1,64 @@
+//! Progress bars (indicatif) for the library's progress reports.
+
+use std::sync::Mutex;
+use std::time::Duration;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use shatter_core::Progress;
+
+/// Draws one bar per phase on stderr (nothing when stderr is not a terminal).
+#[derive(Debug, Default)]
+pub struct Bars {
+    current: Mutex<Option<ProgressBar>>,
+}
+
+impl Bars {
+    fn with_current(&self, f: impl FnOnce(&mut Option<ProgressBar>)) {
+        // A panic elsewhere must not silence progress: take the bar even from a poisoned lock.
+        let mut current = self.current.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        f(&mut current);
+    }
+}
+
+impl Progress for Bars {
+    fn start(&self, phase: &str, total: u64) {
+        let bar = if total > 0 {
+            ProgressBar::new(total).with_style(
+                ProgressStyle::with_template(
+                    "{prefix:>12} [{bar:40}] {human_pos}/{human_len} ({percent}%) {per_sec}, ETA {eta}",
+                )
+                .unwrap_or_else(|_| ProgressStyle::default_bar())
+                .progress_chars("=> "),
+            )
+        } else {
+            let bar = ProgressBar::new_spinner().with_style(
+                ProgressStyle::with_template("{prefix:>12} {spinner} {elapsed}")
+                    .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+            );
+            bar.enable_steady_tick(Duration::from_millis(120));
+            bar
+        };
+        bar.set_prefix(phase.to_string());
+        self.with_current(|current| {
+            if let Some(old) = current.replace(bar) {
+                old.finish_and_clear();
+            }
+        });
+    }
+
+    fn advance(&self, units: u64) {
+        self.with_current(|current| {
+            if let Some(bar) = current {
+                bar.inc(units);
+            }
+        });
+    }
+
+    fn finish(&self) {
+        self.with_current(|current| {
+            if let Some(bar) = current.take() {
+                bar.finish_and_clear();
+            }
+        });
+    }
+}

@@ -1,0 +1,229 @@
+//! The `shatter` command line as users meet it: exit codes, messages, files written and kept.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const GOOD: &str = r#"
+[scene]
+name = "glass_plate"
+output_dir = "out"
+seed = 1
+[geometry]
+source = "box"
+box_size_m = [0.01, 0.01, 0.004]
+sampler = "grid"
+spacing_m = 0.001
+horizon_factor = 3.0
+[material]
+density_kg_m3 = 2200.0
+bulk_modulus_pa = 14.9e9
+"#;
+
+fn shatter(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_shatter")).args(args).current_dir(dir).output().expect("shatter runs")
+}
+
+fn stderr(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+fn mesh_path(name: &str) -> String {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/meshes").join(name);
+    path.display().to_string()
+}
+
+/// A temporary folder holding `pipeline.toml` with `text`.
+fn scene(text: &str) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let config = dir.path().join("pipeline.toml");
+    std::fs::write(&config, text).expect("write config");
+    (dir, config)
+}
+
+#[test]
+fn bad_configs_name_the_key_and_exit_with_2() {
+    let garbage_dir = tempfile::tempdir().expect("tempdir");
+    let garbage = garbage_dir.path().join("garbage.obj");
+    std::fs::write(&garbage, b"\x00\x9f\x92\x96 this is not a mesh \xff\xfe").expect("write");
+    let not_obj = garbage_dir.path().join("text.obj");
+    std::fs::write(&not_obj, "hello world\nv 1 2\n").expect("write");
+    let with_mesh = |path: &str| GOOD.replace("source = \"box\"", &format!("source = {path:?}"));
+    let cases: Vec<(&str, String, Vec<&str>)> = vec![
+        (
+            "unknown key",
+            GOOD.replace("seed = 1", "seed = 1\ncolour = \"red\""),
+            vec!["scene.colour", "unknown field `colour`"],
+        ),
+        (
+            "negative density",
+            GOOD.replace("2200.0", "-2200.0"),
+            vec!["material.density_kg_m3 = -2200", "greater than 0"],
+        ),
+        (
+            "horizon factor 0",
+            GOOD.replace("horizon_factor = 3.0", "horizon_factor = 0"),
+            vec!["geometry.horizon_factor = 0", "between 1 and 8"],
+        ),
+        (
+            "missing mesh file",
+            with_mesh("no/such/mesh.obj"),
+            vec!["geometry.source", "no/such/mesh.obj", "mesh file not found"],
+        ),
+        (
+            "garbage mesh file",
+            with_mesh(&garbage.display().to_string()),
+            vec!["geometry.source", "garbage.obj", "cannot read the mesh"],
+        ),
+        (
+            "text that is not OBJ",
+            with_mesh(&not_obj.display().to_string()),
+            vec!["geometry.source", "text.obj", "not a valid Wavefront OBJ file"],
+        ),
+        (
+            "wrong type",
+            GOOD.replace("spacing_m = 0.001", "spacing_m = \"fine\""),
+            vec!["geometry.spacing_m", "invalid type: string \"fine\", expected f64"],
+        ),
+        (
+            "unknown sampler",
+            GOOD.replace("\"grid\"", "\"hexagonal\""),
+            vec!["geometry.sampler", "unknown variant `hexagonal`", "`tet_shell`"],
+        ),
+        ("missing key", GOOD.replace("spacing_m = 0.001\n", ""), vec!["geometry", "missing field `spacing_m`"]),
+        ("not TOML", "[scene\nname = ".to_string(), vec!["pipeline.toml", "TOML parse error"]),
+        (
+            "box without size",
+            GOOD.replace("box_size_m = [0.01, 0.01, 0.004]\n", ""),
+            vec!["geometry.box_size_m", "needs box_size_m"],
+        ),
+        (
+            "zero spacing",
+            GOOD.replace("spacing_m = 0.001", "spacing_m = 0.0"),
+            vec!["geometry.spacing_m = 0", "greater than 0"],
+        ),
+        ("negative seed", GOOD.replace("seed = 1", "seed = -1"), vec!["scene.seed", "expected u64"]),
+        ("bad name", GOOD.replace("\"glass_plate\"", "\"a/b\""), vec!["scene.name", "letters, digits"]),
+        (
+            "stretch and energy",
+            GOOD.replace("14.9e9", "14.9e9\ncritical_stretch = 0.001\nfracture_energy_j_m2 = 8.0"),
+            vec!["not both"],
+        ),
+        (
+            "huge jitter",
+            GOOD.replace("14.9e9", "14.9e9\nthreshold_jitter = 0.5"),
+            vec!["material.threshold_jitter = 0.5"],
+        ),
+        ("unknown table", format!("{GOOD}\n[camera]\nfov_deg = 40\n"), vec!["unknown field `camera`"]),
+        (
+            "spacing too fine for the box",
+            GOOD.replace("spacing_m = 0.001", "spacing_m = 1e-7"),
+            vec!["geometry.spacing_m = 0.0000001", "lattice would have"],
+        ),
+    ];
+    for (what, text, expected) in cases {
+        let (dir, _) = scene(&text);
+        let output = shatter(&["preprocess"], dir.path());
+        let message = stderr(&output);
+        assert_eq!(output.status.code(), Some(2), "{what}: exit code; stderr:\n{message}");
+        for fragment in expected {
+            assert!(message.contains(fragment), "{what}: expected {fragment:?} in:\n{message}");
+        }
+        assert!(!message.contains("panicked"), "{what}: {message}");
+        assert!(!dir.path().join("out/particles.shp").exists(), "{what}: nothing written");
+    }
+}
+
+#[test]
+fn a_missing_config_file_is_exit_2() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let output = shatter(&["preprocess", "--config", "nowhere.toml"], dir.path());
+    assert_eq!(output.status.code(), Some(2));
+    assert!(stderr(&output).contains("nowhere.toml: cannot read the config file"), "{}", stderr(&output));
+}
+
+#[test]
+fn preprocess_writes_a_file_inspect_can_read() {
+    let (dir, _) = scene(GOOD);
+    let output = shatter(&["preprocess"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let file = dir.path().join("out/particles.shp");
+    assert!(file.is_file());
+
+    let output = shatter(&["inspect", file.to_str().expect("utf-8 path"), "--json"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let summary: serde_json::Value = serde_json::from_slice(&output.stdout).expect("JSON");
+    assert_eq!(summary["kind"], "particles");
+    assert_eq!(summary["particles"], 10 * 10 * 4);
+    assert_eq!(summary["element_type"], "cube");
+    // four layers: a particle in the second sees offsets dz = -1 ..= 2 of the 122
+    assert_eq!(summary["bonds_per_particle"]["max"], 99);
+    for key in ["bonds", "lambda_m", "delta_m", "total_volume_m3", "total_mass_kg", "adjacency_edges"] {
+        assert!(summary[key].is_number(), "{key} missing from {summary}");
+    }
+    for key in ["min", "max", "mean"] {
+        assert!(summary["bonds_per_particle"][key].is_number());
+    }
+    assert!((summary["total_volume_m3"].as_f64().expect("number") - 400e-9).abs() < 1e-12);
+    assert_eq!(summary["adjacency_edges"], 9 * 10 * 4 * 2 + 10 * 10 * 3);
+
+    let text = shatter(&["inspect", file.to_str().expect("utf-8 path")], dir.path());
+    assert!(String::from_utf8_lossy(&text.stdout).contains("particles        400 (cube elements)"));
+}
+
+#[test]
+fn a_failed_run_keeps_the_good_output_and_corruption_is_reported() {
+    let (dir, config) = scene(GOOD);
+    assert!(shatter(&["preprocess"], dir.path()).status.success());
+    let file = dir.path().join("out/particles.shp");
+    let good = std::fs::read(&file).expect("read");
+
+    std::fs::write(&config, GOOD.replace("source = \"box\"", &format!("source = {:?}", mesh_path("../PROVENANCE.md"))))
+        .expect("write");
+    let output = shatter(&["preprocess"], dir.path());
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    assert_eq!(std::fs::read(&file).expect("read"), good, "the good file is untouched");
+
+    let mut corrupted = good.clone();
+    let middle = corrupted.len() / 2;
+    corrupted[middle] ^= 0x10;
+    let bad = dir.path().join("bad.shp");
+    std::fs::write(&bad, &corrupted).expect("write");
+    let output = shatter(&["inspect", "bad.shp"], dir.path());
+    assert_eq!(output.status.code(), Some(1));
+    assert!(stderr(&output).contains("bad.shp: corrupted: checksum mismatch"), "{}", stderr(&output));
+    std::fs::write(&bad, &good[..good.len() - 100]).expect("write");
+    let output = shatter(&["inspect", "bad.shp"], dir.path());
+    assert!(stderr(&output).contains("truncated"), "{}", stderr(&output));
+}
+
+#[test]
+fn stages_not_built_yet_say_so_and_write_nothing() {
+    let (dir, _) = scene(GOOD);
+    for stage in ["sim", "post", "render"] {
+        let output = shatter(&[stage], dir.path());
+        assert_eq!(output.status.code(), Some(3), "{stage}");
+        assert!(stderr(&output).contains("is not available yet"), "{stage}: {}", stderr(&output));
+    }
+    let (dir, _) = scene(&GOOD.replace("\"grid\"", "\"voronoi\""));
+    let output = shatter(&["preprocess"], dir.path());
+    assert_eq!(output.status.code(), Some(3));
+    assert!(stderr(&output).contains("not available yet: it arrives with issue #5"), "{}", stderr(&output));
+    assert!(!dir.path().join("out/particles.shp").exists());
+}
+
+#[test]
+fn relative_mesh_paths_start_at_the_config_folder() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().expect("tempdir");
+    let text = GOOD
+        .replace("source = \"box\"", "source = \"../assets/meshes/spot_triangulated.obj\"")
+        .replace("box_size_m = [0.01, 0.01, 0.004]\n", "")
+        .replace("spacing_m = 0.001", "spacing_m = 0.05")
+        .replace("output_dir = \"out\"", &format!("output_dir = {:?}", dir.path().join("out").display().to_string()));
+    let config = root.join("target/spot-test-pipeline.toml");
+    std::fs::write(&config, text).expect("write config");
+    let output = shatter(&["preprocess", "--config", config.to_str().expect("utf-8")], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(String::from_utf8_lossy(&output.stdout).contains("mesh: 5856 triangles"));
+    assert!(dir.path().join("out/particles.shp").is_file());
+}
