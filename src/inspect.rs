@@ -1,52 +1,98 @@
-//! `shatter inspect`: summarise any stage file.
+//! `shatter inspect`: summarise any stage file (particles, checkpoint, point cache, break log).
 
+use std::io::Read;
 use std::path::Path;
 
+use serde_json::json;
 use shatter_core::particles::ParticleSet;
 use shatter_core::stage_file::{StageKind, read_header};
+use shatter_sim::frames::{BreakLog, PointFrame};
+use shatter_sim::run::checkpoint_summary;
 
 use crate::Failure;
 
-/// Prints a summary of the stage file at `path`, as text or JSON.
+/// Prints a summary of the file at `path`, as text or JSON.
 pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
-    let header = read_header(path)?;
-    match header.kind {
-        StageKind::Particles => {
-            let summary = ParticleSet::read(path)?.summary();
-            if json {
-                println!("{}", serde_json::to_string_pretty(&summary)?);
-            } else {
-                let [lo, hi] = summary.bounds_m;
-                println!("{}: particles file, format version {}", path.display(), summary.format_version);
-                println!(
-                    "  scene            {} (source {}, sampler {})",
-                    summary.meta.scene_name, summary.meta.source, summary.meta.sampler
-                );
-                println!("  particles        {} ({} elements)", summary.particles, summary.element_type.name());
-                println!(
-                    "  bonds            {} unique; per particle min {}, max {}, mean {:.2}",
-                    summary.bonds,
-                    summary.bonds_per_particle.min,
-                    summary.bonds_per_particle.max,
-                    summary.bonds_per_particle.mean
-                );
-                println!("  adjacency edges  {}", summary.adjacency_edges);
-                println!(
-                    "  lambda, delta    {:.6e} m, {:.6e} m (N = {})",
-                    summary.lambda_m, summary.delta_m, summary.horizon_factor
-                );
-                println!("  volume, mass     {:.6e} m^3, {:.6e} kg", summary.total_volume_m3, summary.total_mass_kg);
-                println!(
-                    "  critical stretch mean {:.4e} (min {:.4e}, max {:.4e}; s0 {:.4e}, jitter {})",
-                    summary.threshold.mean,
-                    summary.threshold.min,
-                    summary.threshold.max,
-                    summary.meta.mean_critical_stretch,
-                    summary.meta.threshold_jitter
-                );
-                println!("  bounds           {lo:?} .. {hi:?} m");
+    let mut magic = [0u8; 8];
+    let read = std::fs::File::open(path)
+        .and_then(|mut file| file.read(&mut magic))
+        .map_err(|error| anyhow::anyhow!("{}: cannot read: {error}", path.display()))?;
+    let summary = if magic[..read.min(4)] == *b"ply\n" {
+        point_frame(path)?
+    } else if &magic == b"SHBREAKS" {
+        break_log(path)?
+    } else {
+        // stage files; anything else gets the stage reader's "not a shatter stage file"
+        match read_header(path)?.kind {
+            StageKind::Particles => serde_json::to_value(ParticleSet::read(path)?.summary())?,
+            StageKind::Checkpoint => {
+                let (meta, particles) = checkpoint_summary(path)?;
+                json!({"kind": "checkpoint", "particles": particles, "frame": meta.frame, "step": meta.step,
+                       "broken_bonds": meta.broken_bonds, "external_work_j": meta.external_work_j,
+                       "initial_energy_j": meta.initial_energy_j})
+            }
+        }
+    };
+    if json {
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    } else {
+        println!("{}", path.display());
+        print_text(&summary, 1);
+    }
+    Ok(())
+}
+
+fn point_frame(path: &Path) -> Result<serde_json::Value, Failure> {
+    let frame = PointFrame::read(path)?;
+    let n = frame.damage.len();
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for axis in 0..3 {
+        for value in &frame.position[axis] {
+            lo[axis] = lo[axis].min(*value);
+            hi[axis] = hi[axis].max(*value);
+        }
+    }
+    let speed = (0..n).map(|i| (0..3).map(|a| frame.velocity[a][i].powi(2)).sum::<f32>().sqrt()).fold(0.0f32, f32::max);
+    let damaged = frame.damage.iter().filter(|d| **d > 0.0).count();
+    Ok(json!({
+        "kind": "point_cache",
+        "frame": frame.frame,
+        "step": frame.step,
+        "time_s": frame.time_s,
+        "particles": n,
+        "bounds_m": [lo, hi],
+        "max_speed_m_s": speed,
+        "mean_damage": frame.damage.iter().map(|d| f64::from(*d)).sum::<f64>() / n.max(1) as f64,
+        "damaged_particles": damaged,
+    }))
+}
+
+fn break_log(path: &Path) -> Result<serde_json::Value, Failure> {
+    let blocks = BreakLog::read(path)?;
+    let breaks: usize = blocks.iter().map(|b| b.events.len()).sum();
+    let steps = blocks.iter().flat_map(|b| b.events.iter().map(|e| e.step));
+    Ok(json!({
+        "kind": "break_log",
+        "blocks": blocks.len(),
+        "frames": [blocks.first().map(|b| b.frame), blocks.last().map(|b| b.frame)],
+        "broken_bonds": breaks,
+        "first_step": steps.clone().min(),
+        "last_step": steps.max(),
+    }))
+}
+
+fn print_text(value: &serde_json::Value, depth: usize) {
+    let indent = "  ".repeat(depth);
+    if let serde_json::Value::Object(map) = value {
+        for (key, value) in map {
+            match value {
+                serde_json::Value::Object(_) => {
+                    println!("{indent}{key}:");
+                    print_text(value, depth + 1);
+                }
+                other => println!("{indent}{key:<20} {other}"),
             }
         }
     }
-    Ok(())
 }

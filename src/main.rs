@@ -4,6 +4,7 @@
 mod inspect;
 mod preprocess;
 mod progress;
+mod sim;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -11,6 +12,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use shatter_core::{ConfigError, PipelineConfig};
 use shatter_preprocess::PreprocessError;
+use shatter_sim::run::RunError;
 
 /// Exit code for bad input: a config, mesh or setting the user must fix (clap uses it for bad
 /// arguments too).
@@ -32,18 +34,40 @@ struct ConfigArg {
     config: PathBuf,
 }
 
+/// The stages, in order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, clap::ValueEnum)]
+enum Stage {
+    Preprocess,
+    Sim,
+    Post,
+    Render,
+}
+
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Sample the scene's geometry into particles, bonds and elements (writes particles.shp).
     Preprocess(ConfigArg),
-    /// Simulate fracture (writes frames and the bond-break log).
-    Sim(ConfigArg),
+    /// Simulate fracture (writes frames, the bond-break log and checkpoints).
+    Sim {
+        #[command(flatten)]
+        config: ConfigArg,
+        #[command(flatten)]
+        options: sim::SimArgs,
+    },
     /// Find fragments and their rigid motion per frame.
     Post(ConfigArg),
     /// Ray trace the fragments to EXR frames.
     Render(ConfigArg),
     /// Run every stage in order.
-    Run(ConfigArg),
+    Run {
+        #[command(flatten)]
+        config: ConfigArg,
+        #[command(flatten)]
+        options: sim::SimArgs,
+        /// Stop after this stage.
+        #[arg(long, value_enum, default_value = "render")]
+        until: Stage,
+    },
     /// Summarise any stage file.
     Inspect {
         /// The stage file.
@@ -64,12 +88,17 @@ struct Failure {
 impl<E: Into<anyhow::Error>> From<E> for Failure {
     fn from(error: E) -> Self {
         let error = error.into();
-        let preprocess_error = error.chain().find_map(|cause| cause.downcast_ref::<PreprocessError>());
-        let code = match preprocess_error {
-            Some(preprocess_error) if !preprocess_error.is_bad_input() => EXIT_NOT_IMPLEMENTED,
-            Some(_) => EXIT_BAD_INPUT,
-            None if error.chain().any(|cause| cause.is::<ConfigError>()) => EXIT_BAD_INPUT,
-            None => 1,
+        let find = |test: &dyn Fn(&(dyn std::error::Error + 'static)) -> bool| error.chain().any(test);
+        let code = if find(&|cause| cause.downcast_ref::<PreprocessError>().is_some_and(|e| !e.is_bad_input())) {
+            EXIT_NOT_IMPLEMENTED
+        } else if find(&|cause| {
+            cause.is::<ConfigError>()
+                || cause.is::<PreprocessError>()
+                || cause.downcast_ref::<RunError>().is_some_and(RunError::is_bad_input)
+        }) {
+            EXIT_BAD_INPUT
+        } else {
+            1
         };
         Failure { code, error }
     }
@@ -96,10 +125,7 @@ fn load_config(arg: &ConfigArg) -> Result<PipelineConfig, Failure> {
 fn run(cli: Cli) -> Result<(), Failure> {
     match cli.command {
         Command::Preprocess(arg) => preprocess::run(&load_config(&arg)?),
-        Command::Sim(arg) => {
-            load_config(&arg)?;
-            Err(not_implemented("sim", 3))
-        }
+        Command::Sim { config, options } => sim::run(&load_config(&config)?, &options),
         Command::Post(arg) => {
             load_config(&arg)?;
             Err(not_implemented("post", 7))
@@ -108,10 +134,16 @@ fn run(cli: Cli) -> Result<(), Failure> {
             load_config(&arg)?;
             Err(not_implemented("render", 8))
         }
-        Command::Run(arg) => {
-            let config = load_config(&arg)?;
+        Command::Run { config, options, until } => {
+            let config = load_config(&config)?;
             preprocess::run(&config)?;
-            Err(not_implemented("sim", 3))
+            if until >= Stage::Sim {
+                sim::run(&config, &options)?;
+            }
+            if until >= Stage::Post {
+                return Err(not_implemented("post", 7));
+            }
+            Ok(())
         }
         Command::Inspect { path, json } => inspect::run(&path, json),
     }

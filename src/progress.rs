@@ -25,7 +25,7 @@ impl Progress for Bars {
         let bar = if total > 0 {
             ProgressBar::new(total).with_style(
                 ProgressStyle::with_template(
-                    "{prefix:>12} [{bar:40}] {human_pos}/{human_len} ({percent}%) {per_sec}, ETA {eta}",
+                    "{prefix:>12} [{bar:40}] {human_pos}/{human_len} ({percent}%) {per_sec}, ETA {eta} {msg}",
                 )
                 .unwrap_or_else(|_| ProgressStyle::default_bar())
                 .progress_chars("=> "),
@@ -50,6 +50,14 @@ impl Progress for Bars {
         self.with_current(|current| {
             if let Some(bar) = current {
                 bar.inc(units);
+            }
+        });
+    }
+
+    fn message(&self, text: &str) {
+        self.with_current(|current| {
+            if let Some(bar) = current {
+                bar.set_message(text.to_string());
             }
         });
     }

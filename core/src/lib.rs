@@ -6,10 +6,12 @@
 //! - [`particles`]: the particle file written by `shatter preprocess` (rest state, element
 //!   geometry, bonds, element adjacency).
 //! - [`progress`]: how library code reports progress to the CLI.
+//! - [`random`]: seeded, order-independent randomness.
 
 pub mod config;
 pub mod particles;
 pub mod progress;
+pub mod random;
 pub mod stage_file;
 
 pub use config::{ConfigError, PipelineConfig};

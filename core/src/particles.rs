@@ -257,7 +257,14 @@ impl ParticleSet {
 
     /// Reads and fully validates a particle file.
     pub fn read(path: &Path) -> Result<ParticleSet, StageFileError> {
+        Ok(ParticleSet::read_with_checksum(path)?.0)
+    }
+
+    /// Reads and fully validates a particle file; also returns its payload checksum, which
+    /// identifies its content (later stages record it to notice a changed input).
+    pub fn read_with_checksum(path: &Path) -> Result<(ParticleSet, u32), StageFileError> {
         let mut input = StageReader::open(path, StageKind::Particles)?;
+        let checksum = input.checksum();
         let meta = input.read_json("meta")?;
         let element_type: ElementType = input.read_json("element_type")?;
         let rest_position_m = input.read_rows("rest_position")?;
@@ -290,7 +297,7 @@ impl ParticleSet {
         let set = ParticleSet { meta, rest_position_m, volume_m3, mass_kg, elements, bonds, adjacency };
         set.validate().map_err(|what| input.malformed(what))?;
         input.finish()?;
-        Ok(set)
+        Ok((set, checksum))
     }
 
     /// Checks every structural rule of the format; returns what is broken.

@@ -9,6 +9,8 @@ pub trait Progress: Sync {
     fn advance(&self, units: u64);
     /// The current phase is done.
     fn finish(&self);
+    /// Live figures to show beside the bar (steps per second, broken bonds, energy).
+    fn message(&self, _text: &str) {}
 }
 
 /// Ignores all progress.

@@ -39,23 +39,26 @@ const TAG_LEN: usize = 16;
 pub enum StageKind {
     /// `particles.shp`, written by `shatter preprocess`.
     Particles,
+    /// `sim.checkpoint.shp`: the full simulation state, written by `shatter sim` for `--resume`.
+    Checkpoint,
 }
 
 impl StageKind {
     /// Every kind this build knows.
-    pub const ALL: [StageKind; 1] = [StageKind::Particles];
+    pub const ALL: [StageKind; 2] = [StageKind::Particles, StageKind::Checkpoint];
 
     /// The four-byte tag in the header.
     pub fn tag(self) -> [u8; 4] {
         match self {
             StageKind::Particles => *b"PART",
+            StageKind::Checkpoint => *b"CHKP",
         }
     }
 
     /// The format version this build writes and reads.
     pub fn version(self) -> u32 {
         match self {
-            StageKind::Particles => 1,
+            StageKind::Particles | StageKind::Checkpoint => 1,
         }
     }
 
@@ -63,6 +66,7 @@ impl StageKind {
     pub fn name(self) -> &'static str {
         match self {
             StageKind::Particles => "particles",
+            StageKind::Checkpoint => "checkpoint",
         }
     }
 
@@ -104,7 +108,7 @@ pub enum StageFileError {
         actual: u64,
     },
     /// The kind tag is not one this build knows.
-    #[error("{path}: unknown stage file kind {tag:?} (known: particles)")]
+    #[error("{path}: unknown stage file kind {tag:?} (known: {})", StageKind::ALL.map(StageKind::name).join(", "))]
     UnknownKind {
         /// The file.
         path: PathBuf,
@@ -404,6 +408,7 @@ pub struct StageReader {
     path: PathBuf,
     input: BufReader<File>,
     remaining: u64,
+    checksum: u32,
 }
 
 impl StageReader {
@@ -446,7 +451,12 @@ impl StageReader {
             });
         }
         input.seek(SeekFrom::Start(HEADER_LEN)).map_err(io_error)?;
-        Ok(StageReader { path: path.to_path_buf(), input, remaining: header.payload_len })
+        Ok(StageReader { path: path.to_path_buf(), input, remaining: header.payload_len, checksum: computed })
+    }
+
+    /// The payload's CRC-32: identifies the file's content.
+    pub fn checksum(&self) -> u32 {
+        self.checksum
     }
 
     /// The file being read.

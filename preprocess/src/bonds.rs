@@ -5,6 +5,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use shatter_core::Progress;
 use shatter_core::particles::Bonds;
+use shatter_core::random::{splitmix64, unit_interval};
 
 use crate::kdtree::KdTree;
 
@@ -106,7 +107,7 @@ fn jitter_factor(params: &BondParams, i: u32, j: u32) -> f64 {
     }
     let key = (u64::from(i.min(j)) << 32) | u64::from(i.max(j));
     let bits = splitmix64(params.seed ^ splitmix64(key));
-    let p = ((bits >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
+    let p = unit_interval(bits) + 0.5 / (1u64 << 53) as f64;
     1.0 + params.jitter * standard_normal_quantile(p).clamp(-JITTER_CLAMP_SIGMAS, JITTER_CLAMP_SIGMAS)
 }
 
@@ -147,14 +148,6 @@ fn standard_normal_quantile(p: f64) -> f64 {
         let r = x * x;
         polynomial(&A, r) * x / (polynomial(&B, r) * r + 1.0)
     }
-}
-
-/// Sebastiano Vigna's SplitMix64 finaliser: a cheap, well-mixed 64-bit hash.
-fn splitmix64(x: u64) -> u64 {
-    let mut z = x.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
 }
 
 #[cfg(test)]

@@ -6,6 +6,7 @@
 //! and translated into the world.
 
 pub mod bonds;
+pub mod delaunay;
 pub mod grid;
 pub mod inside;
 pub mod kdtree;

@@ -1,4 +1,36 @@
 //! The simulation stage of shatter: bond-based peridynamics (PMB) after Levine et al. and Silling
-//! and Askari, on the CPU (the reference and fallback) and on the GPU (wgpu/WGSL).
+//! and Askari, on the CPU (this crate's production path and the reference for the GPU backend).
 //!
-//! Not built yet: the CPU backend arrives with issue #3, the GPU backend with issue #6.
+//! - [`model`]: constants and start checks derived from the config and the particle file.
+//! - [`bond_table`]: the chunked bond layout.
+//! - [`kernels`]: the step's kernels (springs, collisions, body forces, Verlet halves).
+//! - [`simulation`]: the state and the step.
+//! - [`art`]: art direction of the cracks (weakened paths, seams, shards).
+//! - [`frames`]: the PLY point caches and the bond-break log.
+//! - [`run`]: the `shatter sim` driver: frames, checkpoints, resume, stability checks.
+
+pub mod art;
+pub mod bond_table;
+pub mod contact;
+pub mod frames;
+pub mod kernels;
+pub mod model;
+pub mod run;
+pub mod simulation;
+
+pub use model::Model;
+pub use simulation::{Dynamics, Energy, Simulation};
+
+/// Why a simulation cannot start or had to stop.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    /// The particle file does not match the config's geometry.
+    #[error("{0}")]
+    StaleParticles(String),
+    /// Something would start inside the body or below the floor.
+    #[error("{0}")]
+    BadStart(String),
+    /// An input of the run (a seam mesh, a setting) is unusable.
+    #[error("{0}")]
+    BadInput(String),
+}

@@ -10,6 +10,10 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+pub mod sim;
+
+pub use sim::SimConfig;
+
 /// The largest horizon factor N accepted: bonds per particle grow as N^3 (about 2,100 at N = 8).
 pub const MAX_HORIZON_FACTOR: f64 = 8.0;
 /// The largest per-bond threshold jitter accepted, as a fraction of the mean threshold.
@@ -61,6 +65,9 @@ pub struct PipelineConfig {
     pub geometry: GeometryConfig,
     /// `[material]`: density, stiffness, strength.
     pub material: MaterialConfig,
+    /// `[sim]`: time stepping, forces, art direction (every key has a default).
+    #[serde(default)]
+    pub sim: SimConfig,
     /// The config file this was loaded from (empty for configs parsed from a string).
     #[serde(skip)]
     pub path: PathBuf,
@@ -212,6 +219,13 @@ pub struct MaterialConfig {
     /// Standard deviation of the per-bond threshold as a fraction of the mean (the paper: 0.02).
     #[serde(default = "default_threshold_jitter")]
     pub threshold_jitter: f64,
+    /// alpha in tau' = tau - alpha min(0, s_min): compression strengthening (the paper: 0.25).
+    #[serde(default = "default_compression_alpha")]
+    pub compression_alpha: f64,
+}
+
+fn default_compression_alpha() -> f64 {
+    0.25
 }
 
 /// The fracture energy used when a scene gives neither it nor a critical stretch: soda-lime glass.
@@ -307,6 +321,7 @@ impl PipelineConfig {
                 *mesh = base.join(&*mesh);
             }
         }
+        self.sim.resolve_paths(&base);
     }
 
     fn validate(&self) -> Result<(), ConfigError> {
@@ -396,7 +411,8 @@ impl PipelineConfig {
             &jitter.to_string(),
             || format!("must be between 0 and {MAX_THRESHOLD_JITTER} (a fraction of the mean threshold)"),
         )?;
-        Ok(())
+        check.non_negative("material.compression_alpha", material.compression_alpha, "dimensionless")?;
+        self.sim.validate(&check)
     }
 }
 
@@ -423,6 +439,21 @@ impl Checker<'_> {
         self.that(value.is_finite() && value > 0.0, key, &value.to_string(), || {
             format!("must be a finite number greater than 0 ({unit})")
         })
+    }
+
+    fn non_negative(&self, key: &str, value: f64, unit: &str) -> Result<(), ConfigError> {
+        self.that(value.is_finite() && value >= 0.0, key, &value.to_string(), || {
+            format!("must be a finite number, 0 or more ({unit})")
+        })
+    }
+
+    fn finite(&self, key: &str, value: f64) -> Result<(), ConfigError> {
+        self.that(value.is_finite(), key, &value.to_string(), || "must be a finite number".to_string())
+    }
+
+    fn direction(&self, key: &str, values: &[f64; 3]) -> Result<(), ConfigError> {
+        let ok = values.iter().all(|v| v.is_finite()) && values.iter().any(|v| *v != 0.0);
+        self.that(ok, key, &format!("{values:?}"), || "must be a finite, non-zero vector".to_string())
     }
 
     fn positive_array(&self, key: &str, values: &[f64; 3]) -> Result<(), ConfigError> {

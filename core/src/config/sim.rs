@@ -1,0 +1,350 @@
+//! `[sim]`: how the simulation runs, what acts on the body, and art direction of the cracks.
+
+use std::path::PathBuf;
+
+use serde::{Deserialize, Serialize};
+
+use super::{Checker, ConfigError};
+
+/// The paper's time step, 2^-23 s (the power of two nearest Silling and Askari's 1e-7 s).
+pub const DEFAULT_DT_S: f64 = 1.0 / 8_388_608.0;
+
+/// `[sim]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SimConfig {
+    /// Which backend runs the simulation.
+    pub backend: Backend,
+    /// Time step, seconds.
+    pub dt_s: f64,
+    /// Steps between written frames.
+    pub steps_per_frame: u32,
+    /// Frames written; frame 1 is the rest state, frame k the state after (k - 1) frames of steps.
+    pub frames: u32,
+    /// Which particle's threshold decides a bond: the larger (the paper) or the smaller.
+    pub break_rule: BreakRule,
+    /// How bond stiffness is corrected for the discrete neighbourhood.
+    pub stiffness_correction: StiffnessCorrection,
+    /// A checkpoint (full state, for `--resume`) is written every this many frames and at the end.
+    pub checkpoint_every_frames: u32,
+    /// The run stops as unstable when kinetic plus bond energy exceeds this factor times the
+    /// initial energy plus the work done by external forces.
+    pub runaway_energy_factor: f64,
+    /// Gravitational acceleration, m/s^2 (Y is up).
+    pub gravity_m_s2: [f64; 3],
+    /// `[sim.contact]`: repulsion between particles that are not bonded.
+    pub contact: ContactConfig,
+    /// `[sim.floor]`: a floor plane y = height; absent, there is no floor.
+    pub floor: Option<FloorConfig>,
+    /// `[[sim.projectile]]`: spheres on a straight path pushing with the paper's eq. 7.
+    pub projectile: Vec<ProjectileConfig>,
+    /// `[[sim.indenter]]`: spheres on a straight path pushing with F = K (R - r)^2.
+    pub indenter: Vec<IndenterConfig>,
+    /// `[[sim.weakened_path]]`: random-walk crack paths with weaker bonds.
+    pub weakened_path: Vec<WeakenedPathConfig>,
+    /// `[[sim.seam]]`: pre-scored surfaces (a plane or a mesh) with weaker bonds across them.
+    pub seam: Vec<SeamConfig>,
+    /// `[sim.shards]`: a Voronoi shard pattern, strong inside shards and weak across.
+    pub shards: Option<ShardsConfig>,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        SimConfig {
+            backend: Backend::Auto,
+            dt_s: DEFAULT_DT_S,
+            steps_per_frame: 500,
+            frames: 48,
+            break_rule: BreakRule::Max,
+            stiffness_correction: StiffnessCorrection::Energy,
+            checkpoint_every_frames: 1,
+            runaway_energy_factor: 2.0,
+            gravity_m_s2: [0.0, -9.81, 0.0],
+            contact: ContactConfig::default(),
+            floor: None,
+            projectile: Vec::new(),
+            indenter: Vec::new(),
+            weakened_path: Vec::new(),
+            seam: Vec::new(),
+            shards: None,
+        }
+    }
+}
+
+/// Where the simulation runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Backend {
+    /// A hardware GPU when one is found, else the CPU.
+    Auto,
+    /// The CPU (rayon).
+    Cpu,
+    /// The GPU (wgpu); fails when there is none.
+    Gpu,
+}
+
+/// Which particle's effective threshold decides whether a bond breaks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BreakRule {
+    /// Breaks when the stretch exceeds the larger of the two (the paper's rule).
+    Max,
+    /// Breaks when the stretch exceeds the smaller of the two.
+    Min,
+}
+
+/// How the bond constant is corrected for the discrete neighbourhood.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum StiffnessCorrection {
+    /// Each particle's bonds are scaled so that a uniform dilation stores the continuum energy
+    /// density 4.5 K s^2 (interior and surface alike); a bond takes the mean of its two factors.
+    Energy,
+    /// The bare c = 18 K / (pi delta^4) of the paper.
+    None,
+}
+
+/// `[sim.contact]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ContactConfig {
+    /// K_c in f = K_c (d_c - |x_i - x_j|)^2 (the paper's eq. 6), Pa; 0 turns contact off.
+    pub stiffness_pa: f64,
+    /// d_c, the distance below which unbonded particles repel, metres; default lambda / 2.
+    pub distance_m: Option<f64>,
+}
+
+impl Default for ContactConfig {
+    fn default() -> Self {
+        ContactConfig { stiffness_pa: 1e8, distance_m: None }
+    }
+}
+
+/// `[sim.floor]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FloorConfig {
+    /// Height of the floor plane, metres.
+    pub height_m: f64,
+    /// Fraction of the normal velocity kept when a particle bounces (the paper: 0.99).
+    pub restitution: f64,
+}
+
+impl Default for FloorConfig {
+    fn default() -> Self {
+        FloorConfig { height_m: 0.0, restitution: 0.99 }
+    }
+}
+
+/// `[[sim.projectile]]`: the paper's eq. 7. A particle at distance d in [3r/4, 3r/2] from the
+/// centre feels f = K_S (16 (d - 3r/4) (d - 3r/2)^2)^(2/3), peaking at K_S r^2 at d = r, directed
+/// halfway between the projectile's direction of travel and the push away from its centre.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProjectileConfig {
+    /// Centre at t = 0, metres.
+    pub center_m: [f64; 3],
+    /// Constant velocity, m/s.
+    pub velocity_m_s: [f64; 3],
+    /// Radius r, metres.
+    pub radius_m: f64,
+    /// K_S, Pa.
+    pub stiffness_pa: f64,
+}
+
+/// `[[sim.indenter]]`: a sphere pushing particles inside it out with F = K (R - r)^2.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IndenterConfig {
+    /// Centre at t = 0, metres.
+    pub center_m: [f64; 3],
+    /// Constant velocity, m/s.
+    pub velocity_m_s: [f64; 3],
+    /// Radius R, metres.
+    pub radius_m: f64,
+    /// K, N/m^2.
+    pub stiffness_n_m2: f64,
+}
+
+/// `[[sim.weakened_path]]`: a persistent random walk; bonds whose midpoint lies within `radius_m`
+/// of the walk get their thresholds multiplied by `threshold_factor` (the paper's glass plate).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WeakenedPathConfig {
+    /// Where the walk starts, metres.
+    pub start_m: [f64; 3],
+    /// Initial direction (any length).
+    pub direction: [f64; 3],
+    /// If given, the walk stays in the plane through `start_m` with this normal.
+    #[serde(default)]
+    pub plane_normal: Option<[f64; 3]>,
+    /// Number of steps.
+    pub steps: u32,
+    /// Length of each step, metres.
+    pub step_length_m: f64,
+    /// Largest random turn per step, degrees.
+    #[serde(default = "default_max_turn_deg")]
+    pub max_turn_deg: f64,
+    /// Half-width of the weakened band, metres.
+    pub radius_m: f64,
+    /// Threshold multiplier inside the band (0.5 halves the strength).
+    pub threshold_factor: f64,
+}
+
+fn default_max_turn_deg() -> f64 {
+    30.0
+}
+
+/// `[[sim.seam]]`: bonds crossing a surface get their thresholds multiplied by
+/// `threshold_factor`. The surface is a plane (`point_m`, `normal`, optionally limited to a disc
+/// of `radius_m`) or a triangle mesh (`mesh`, in world coordinates, metres).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SeamConfig {
+    /// A point on the plane, metres.
+    #[serde(default)]
+    pub point_m: Option<[f64; 3]>,
+    /// The plane's normal (any length).
+    #[serde(default)]
+    pub normal: Option<[f64; 3]>,
+    /// Limit the plane to a disc of this radius around `point_m`, metres.
+    #[serde(default)]
+    pub radius_m: Option<f64>,
+    /// A Wavefront OBJ surface instead of a plane (relative to the config file's folder).
+    #[serde(default)]
+    pub mesh: Option<PathBuf>,
+    /// Threshold multiplier for bonds across the seam.
+    pub threshold_factor: f64,
+}
+
+/// `[sim.shards]`: `count` shard centres are picked among the particles (seeded); each particle
+/// belongs to the nearest; thresholds of bonds inside a shard are multiplied by `inside_factor`,
+/// across shards by `across_factor`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ShardsConfig {
+    /// Number of shards.
+    pub count: u32,
+    /// Threshold multiplier for bonds within a shard.
+    #[serde(default = "default_inside_factor")]
+    pub inside_factor: f64,
+    /// Threshold multiplier for bonds between shards.
+    #[serde(default = "default_across_factor")]
+    pub across_factor: f64,
+}
+
+fn default_inside_factor() -> f64 {
+    2.0
+}
+
+fn default_across_factor() -> f64 {
+    0.5
+}
+
+impl SimConfig {
+    /// Resolves relative paths (seam meshes) against the config file's folder.
+    pub(super) fn resolve_paths(&mut self, base: &std::path::Path) {
+        for seam in &mut self.seam {
+            if let Some(mesh) = &mut seam.mesh {
+                if mesh.is_relative() {
+                    *mesh = base.join(&*mesh);
+                }
+            }
+        }
+    }
+
+    pub(super) fn validate(&self, check: &Checker) -> Result<(), ConfigError> {
+        check.positive("sim.dt_s", self.dt_s, "seconds")?;
+        check.that(self.steps_per_frame > 0, "sim.steps_per_frame", "0", || "must be at least 1".into())?;
+        check.that(self.frames > 0, "sim.frames", "0", || "must be at least 1 (frame 1 is the rest state)".into())?;
+        check.that(self.checkpoint_every_frames > 0, "sim.checkpoint_every_frames", "0", || {
+            "must be at least 1".into()
+        })?;
+        let factor = self.runaway_energy_factor;
+        check.that(factor.is_finite() && factor > 1.0, "sim.runaway_energy_factor", &factor.to_string(), || {
+            "must be a finite number greater than 1".into()
+        })?;
+        check.finite_array("sim.gravity_m_s2", &self.gravity_m_s2)?;
+        check.non_negative("sim.contact.stiffness_pa", self.contact.stiffness_pa, "Pa")?;
+        if let Some(distance) = self.contact.distance_m {
+            check.positive("sim.contact.distance_m", distance, "metres")?;
+        }
+        if let Some(floor) = &self.floor {
+            check.finite("sim.floor.height_m", floor.height_m)?;
+            let restitution = floor.restitution;
+            check.that(
+                (0.0..=1.0).contains(&restitution),
+                "sim.floor.restitution",
+                &restitution.to_string(),
+                || "must be between 0 and 1".into(),
+            )?;
+        }
+        for (index, projectile) in self.projectile.iter().enumerate() {
+            let key = |name: &str| format!("sim.projectile[{index}].{name}");
+            check.finite_array(&key("center_m"), &projectile.center_m)?;
+            check.finite_array(&key("velocity_m_s"), &projectile.velocity_m_s)?;
+            check.positive(&key("radius_m"), projectile.radius_m, "metres")?;
+            check.positive(&key("stiffness_pa"), projectile.stiffness_pa, "Pa")?;
+        }
+        for (index, indenter) in self.indenter.iter().enumerate() {
+            let key = |name: &str| format!("sim.indenter[{index}].{name}");
+            check.finite_array(&key("center_m"), &indenter.center_m)?;
+            check.finite_array(&key("velocity_m_s"), &indenter.velocity_m_s)?;
+            check.positive(&key("radius_m"), indenter.radius_m, "metres")?;
+            check.positive(&key("stiffness_n_m2"), indenter.stiffness_n_m2, "N/m^2")?;
+        }
+        for (index, path) in self.weakened_path.iter().enumerate() {
+            let key = |name: &str| format!("sim.weakened_path[{index}].{name}");
+            check.finite_array(&key("start_m"), &path.start_m)?;
+            check.direction(&key("direction"), &path.direction)?;
+            if let Some(normal) = &path.plane_normal {
+                check.direction(&key("plane_normal"), normal)?;
+            }
+            check.positive(&key("step_length_m"), path.step_length_m, "metres")?;
+            check.that(path.steps > 0, &key("steps"), "0", || "must be at least 1".into())?;
+            let turn = path.max_turn_deg;
+            check.that((0.0..=180.0).contains(&turn), &key("max_turn_deg"), &turn.to_string(), || {
+                "must be between 0 and 180 degrees".into()
+            })?;
+            check.positive(&key("radius_m"), path.radius_m, "metres")?;
+            check.positive(&key("threshold_factor"), path.threshold_factor, "a multiplier")?;
+        }
+        for (index, seam) in self.seam.iter().enumerate() {
+            let key = |name: &str| format!("sim.seam[{index}].{name}");
+            match (&seam.point_m, &seam.normal, &seam.mesh) {
+                (Some(point), Some(normal), None) => {
+                    check.finite_array(&key("point_m"), point)?;
+                    check.direction(&key("normal"), normal)?;
+                    if let Some(radius) = seam.radius_m {
+                        check.positive(&key("radius_m"), radius, "metres")?;
+                    }
+                }
+                (None, None, Some(mesh)) => {
+                    let shown = format!("{:?}", mesh.display().to_string());
+                    check.that(mesh.is_file(), &key("mesh"), &shown, || {
+                        "mesh file not found (relative paths start at the config file's folder)".into()
+                    })?;
+                    check.that(seam.radius_m.is_none(), &key("radius_m"), "(set)", || {
+                        "applies to plane seams only".into()
+                    })?;
+                }
+                _ => {
+                    return Err(check.invalid(
+                        &format!("sim.seam[{index}]"),
+                        "(table)",
+                        "give either point_m and normal (a plane) or mesh (a surface), not both",
+                    ));
+                }
+            }
+            check.positive(&key("threshold_factor"), seam.threshold_factor, "a multiplier")?;
+        }
+        if let Some(shards) = &self.shards {
+            check.that(shards.count >= 2, "sim.shards.count", &shards.count.to_string(), || {
+                "must be at least 2".into()
+            })?;
+            check.positive("sim.shards.inside_factor", shards.inside_factor, "a multiplier")?;
+            check.positive("sim.shards.across_factor", shards.across_factor, "a multiplier")?;
+        }
+        Ok(())
+    }
+}

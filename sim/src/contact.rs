@@ -1,0 +1,141 @@
+//! Contact between particles that are not bonded: a spatial hash rebuilt every step by a
+//! counting sort (stable, so the same positions always give the same order), and the paper's
+//! quadratic repulsion (eq. 6).
+
+use rayon::prelude::*;
+
+/// A spatial hash of particle positions with cells twice the contact distance, so that the
+/// particles within the contact distance of a point lie in at most 2 x 2 x 2 cells.
+#[derive(Debug, Clone, Default)]
+pub struct SpatialHash {
+    cell_size: f32,
+    mask: usize,
+    cell: Vec<[i32; 3]>,
+    bucket: Vec<u32>,
+    bucket_start: Vec<u32>,
+    sorted: Vec<u32>,
+}
+
+fn bucket_of(cell: [i32; 3], mask: usize) -> usize {
+    let h = (cell[0] as u32).wrapping_mul(73_856_093)
+        ^ (cell[1] as u32).wrapping_mul(19_349_663)
+        ^ (cell[2] as u32).wrapping_mul(83_492_791);
+    h as usize & mask
+}
+
+fn cell_coordinate(x: f32, cell_size: f32) -> i32 {
+    // Saturating: particles flung absurdly far share the outermost cells, they do not overflow.
+    (x / cell_size).floor().clamp(i32::MIN as f32, i32::MAX as f32) as i32
+}
+
+impl SpatialHash {
+    /// A hash for `n` particles and contact distance `distance`.
+    pub fn new(n: usize, distance: f32) -> SpatialHash {
+        let table = (2 * n).next_power_of_two().max(16);
+        SpatialHash {
+            cell_size: 2.0 * distance,
+            mask: table - 1,
+            cell: vec![[0; 3]; n],
+            bucket: vec![0; n],
+            bucket_start: vec![0; table + 1],
+            sorted: vec![0; n],
+        }
+    }
+
+    /// Re-bins the particles at positions `x`.
+    pub fn rebuild(&mut self, x: [&[f32]; 3]) {
+        let (cell_size, mask) = (self.cell_size, self.mask);
+        (&mut self.cell, &mut self.bucket).into_par_iter().enumerate().for_each(|(i, (cell, bucket))| {
+            *cell = [0, 1, 2].map(|axis| cell_coordinate(x[axis][i], cell_size));
+            *bucket = bucket_of(*cell, mask) as u32;
+        });
+        self.bucket_start.fill(0);
+        for &bucket in &self.bucket {
+            self.bucket_start[bucket as usize + 1] += 1;
+        }
+        for b in 0..self.mask + 1 {
+            self.bucket_start[b + 1] += self.bucket_start[b];
+        }
+        // Scatter in particle order: buckets list their particles in increasing index.
+        for (i, &bucket) in self.bucket.iter().enumerate() {
+            let slot = &mut self.bucket_start[bucket as usize];
+            self.sorted[*slot as usize] = i as u32;
+            *slot += 1;
+        }
+        // The scatter advanced each start to the next bucket's start: shift back.
+        for b in (1..=self.mask + 1).rev() {
+            self.bucket_start[b] = self.bucket_start[b - 1];
+        }
+        self.bucket_start[0] = 0;
+    }
+
+    /// Calls `visit(j)` for every particle j that may be within `distance` of point `p` (a
+    /// superset; the caller checks the distance), in a fixed order.
+    pub fn for_each_candidate(&self, p: [f32; 3], distance: f32, mut visit: impl FnMut(usize)) {
+        let lo = [0, 1, 2].map(|axis| cell_coordinate(p[axis] - distance, self.cell_size));
+        let hi = [0, 1, 2].map(|axis| cell_coordinate(p[axis] + distance, self.cell_size));
+        for cz in lo[2]..=hi[2] {
+            for cy in lo[1]..=hi[1] {
+                for cx in lo[0]..=hi[0] {
+                    let cell = [cx, cy, cz];
+                    let bucket = bucket_of(cell, self.mask);
+                    let range = self.bucket_start[bucket] as usize..self.bucket_start[bucket + 1] as usize;
+                    for &j in &self.sorted[range] {
+                        if self.cell[j as usize] == cell {
+                            visit(j as usize);
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The paper's eq. 6: the force on i from j at offset `d = x_i - x_j` of length `r`, pushing
+/// them apart when r < distance: K_c (distance - r)^2 d / r.
+pub fn repulsion(stiffness: f32, distance: f32, d: [f32; 3], r: f32) -> [f32; 3] {
+    let gap = distance - r;
+    let scale = stiffness * gap * gap / r;
+    d.map(|c| c * scale)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn candidates_include_every_close_particle() {
+        let mut state = 11u64;
+        let mut next = || {
+            state = shatter_core::random::splitmix64(state);
+            (state >> 40) as f32 / (1u32 << 24) as f32
+        };
+        let n = 2000;
+        let x: Vec<[f32; 3]> = (0..n).map(|_| [next(), next(), next() * 0.1]).collect();
+        let axes: [Vec<f32>; 3] = [0, 1, 2].map(|a| x.iter().map(|p| p[a]).collect());
+        let distance = 0.03;
+        let mut hash = SpatialHash::new(n, distance);
+        hash.rebuild([&axes[0], &axes[1], &axes[2]]);
+        for i in (0..n).step_by(7) {
+            let mut found = Vec::new();
+            hash.for_each_candidate(x[i], distance, |j| found.push(j));
+            for j in 0..n {
+                let r2: f32 = (0..3).map(|a| (x[i][a] - x[j][a]).powi(2)).sum();
+                if r2 < distance * distance {
+                    assert!(found.contains(&j), "{j} missing near {i}");
+                }
+            }
+            let mut sorted = found.clone();
+            sorted.sort_unstable();
+            sorted.dedup();
+            assert_eq!(sorted.len(), found.len(), "no duplicates");
+        }
+    }
+
+    #[test]
+    fn repulsion_follows_eq_6() {
+        let f = repulsion(1e8, 0.5e-3, [0.3e-3, 0.0, 0.0], 0.3e-3);
+        assert!((f[0] - 1e8 * 0.2e-3 * 0.2e-3).abs() < 1e-3);
+        assert_eq!(f[1], 0.0);
+    }
+}

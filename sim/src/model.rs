@@ -1,0 +1,188 @@
+//! The physical model of a run: constants derived from the config and the particle file, and the
+//! checks that refuse a run that cannot be right.
+
+use glam::DVec3;
+use shatter_core::PipelineConfig;
+use shatter_core::config::sim::BreakRule;
+use shatter_core::particles::ParticleSet;
+
+use crate::SimError;
+
+/// A sphere on a straight path at constant velocity.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MovingSphere {
+    /// Centre at t = 0, metres.
+    pub center_m: DVec3,
+    /// Velocity, m/s.
+    pub velocity_m_s: DVec3,
+    /// Radius, metres.
+    pub radius_m: f64,
+    /// Force constant: K_S (Pa) for a projectile, K (N/m^2) for an indenter.
+    pub stiffness: f64,
+}
+
+impl MovingSphere {
+    /// Centre at time `t` seconds.
+    pub fn center_at(&self, t: f64) -> DVec3 {
+        self.center_m + self.velocity_m_s * t
+    }
+}
+
+/// The floor plane y = height.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Floor {
+    /// Height, metres.
+    pub height_m: f32,
+    /// Fraction of the normal velocity kept on a bounce.
+    pub restitution: f32,
+}
+
+/// Everything the step needs besides the state.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Model {
+    /// Time step, seconds.
+    pub dt_s: f64,
+    /// Bond constant c = 18 K / (pi delta^4), N/m^6.
+    pub bond_constant: f64,
+    /// Compression strengthening alpha.
+    pub alpha: f32,
+    /// Which threshold decides.
+    pub break_rule: BreakRule,
+    /// Gravity, m/s^2.
+    pub gravity_m_s2: [f32; 3],
+    /// K_c, Pa (0: no contact).
+    pub contact_stiffness_pa: f32,
+    /// d_c, metres.
+    pub contact_distance_m: f32,
+    /// The floor, if any.
+    pub floor: Option<Floor>,
+    /// Projectiles (the paper's eq. 7).
+    pub projectiles: Vec<MovingSphere>,
+    /// Spherical indenters, F = K (R - r)^2.
+    pub indenters: Vec<MovingSphere>,
+    /// Multiplier from the file's thresholds to this run's (the material may have changed).
+    pub threshold_scale: f64,
+    /// Density, kg/m^3.
+    pub density_kg_m3: f64,
+}
+
+impl Model {
+    /// The model a config describes for a particle set. Fails when the particle file was made
+    /// from different geometry settings, or a body starts inside the particles or below the floor.
+    pub fn new(config: &PipelineConfig, particles: &ParticleSet) -> Result<Model, SimError> {
+        check_particles_match(config, particles)?;
+        let sim = &config.sim;
+        let material = &config.material;
+        let delta = particles.meta.delta_m;
+        let sphere = |center: [f64; 3], velocity: [f64; 3], radius: f64, stiffness: f64| MovingSphere {
+            center_m: DVec3::from_array(center),
+            velocity_m_s: DVec3::from_array(velocity),
+            radius_m: radius,
+            stiffness,
+        };
+        let model = Model {
+            dt_s: sim.dt_s,
+            bond_constant: 18.0 * material.bulk_modulus_pa / (std::f64::consts::PI * delta.powi(4)),
+            alpha: material.compression_alpha as f32,
+            break_rule: sim.break_rule,
+            gravity_m_s2: sim.gravity_m_s2.map(|g| g as f32),
+            contact_stiffness_pa: sim.contact.stiffness_pa as f32,
+            contact_distance_m: sim.contact.distance_m.unwrap_or(0.5 * particles.meta.lambda_m) as f32,
+            floor: sim
+                .floor
+                .as_ref()
+                .map(|floor| Floor { height_m: floor.height_m as f32, restitution: floor.restitution as f32 }),
+            projectiles: sim
+                .projectile
+                .iter()
+                .map(|p| sphere(p.center_m, p.velocity_m_s, p.radius_m, p.stiffness_pa))
+                .collect(),
+            indenters: sim
+                .indenter
+                .iter()
+                .map(|p| sphere(p.center_m, p.velocity_m_s, p.radius_m, p.stiffness_n_m2))
+                .collect(),
+            threshold_scale: material.mean_critical_stretch(delta) / particles.meta.mean_critical_stretch,
+            density_kg_m3: material.density_kg_m3,
+        };
+        model.check_start(particles)?;
+        Ok(model)
+    }
+
+    /// Refuses bodies that start inside the particles (they would fire them off at once) and
+    /// particles that start below the floor.
+    fn check_start(&self, particles: &ParticleSet) -> Result<(), SimError> {
+        let nearest = |center: DVec3| {
+            particles
+                .rest_position_m
+                .iter()
+                .enumerate()
+                .map(|(i, p)| (i, DVec3::from_array(p.map(f64::from)).distance(center)))
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+        };
+        for (index, projectile) in self.projectiles.iter().enumerate() {
+            let reach = 1.5 * projectile.radius_m;
+            if let Some((particle, distance)) = nearest(projectile.center_m).filter(|(_, d)| *d < reach) {
+                return Err(SimError::BadStart(format!(
+                    "sim.projectile[{index}] starts inside or touching the body: particle {particle} is {distance:.4e} m \
+                     from its centre, and the projectile pushes out to 3r/2 = {reach:.4e} m; start it farther away"
+                )));
+            }
+        }
+        for (index, indenter) in self.indenters.iter().enumerate() {
+            if let Some((particle, distance)) = nearest(indenter.center_m).filter(|(_, d)| *d < indenter.radius_m) {
+                return Err(SimError::BadStart(format!(
+                    "sim.indenter[{index}] starts inside the body: particle {particle} is {distance:.4e} m from its \
+                     centre, within its radius {:.4e} m; start it farther away",
+                    indenter.radius_m
+                )));
+            }
+        }
+        if let Some(floor) = &self.floor {
+            if let Some((i, p)) = particles.rest_position_m.iter().enumerate().find(|(_, p)| p[1] < floor.height_m) {
+                return Err(SimError::BadStart(format!(
+                    "particle {i} starts at y = {} m, below the floor at sim.floor.height_m = {} m; move the body up \
+                     (geometry.transform.translate_m) or the floor down",
+                    p[1], floor.height_m
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The particle file must come from the config's geometry (else `shatter preprocess` is due).
+fn check_particles_match(config: &PipelineConfig, particles: &ParticleSet) -> Result<(), SimError> {
+    let meta = &particles.meta;
+    let geometry = &config.geometry;
+    let relative_mismatch = |a: f64, b: f64| (a - b).abs() > 1e-9 * a.abs().max(b.abs());
+    let stale = |key: &str, file: String, config: String| {
+        Err(SimError::StaleParticles(format!(
+            "the particle file was made with {key} = {file}, the config now says {config}; run `shatter preprocess` \
+             again"
+        )))
+    };
+    if relative_mismatch(meta.lambda_m, geometry.spacing_m) && meta.sampler == "grid" {
+        return stale("geometry.spacing_m", meta.lambda_m.to_string(), geometry.spacing_m.to_string());
+    }
+    if relative_mismatch(meta.horizon_factor, geometry.horizon_factor) {
+        return stale("geometry.horizon_factor", meta.horizon_factor.to_string(), geometry.horizon_factor.to_string());
+    }
+    if meta.sampler != geometry.sampler.name() {
+        return stale("geometry.sampler", meta.sampler.clone(), geometry.sampler.name().to_string());
+    }
+    if meta.source != geometry.source.to_string() {
+        return stale("geometry.source", meta.source.clone(), geometry.source.to_string());
+    }
+    if relative_mismatch(meta.threshold_jitter, config.material.threshold_jitter) {
+        return stale(
+            "material.threshold_jitter",
+            meta.threshold_jitter.to_string(),
+            config.material.threshold_jitter.to_string(),
+        );
+    }
+    if meta.seed != config.scene.seed {
+        return stale("scene.seed", meta.seed.to_string(), config.scene.seed.to_string());
+    }
+    Ok(())
+}

@@ -1,0 +1,351 @@
+//! `shatter sim`: runs a scene's simulation frame by frame, writing point caches, the break log
+//! and checkpoints; resumes from the last checkpoint; stops on instability with the last good
+//! checkpoint intact.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+use shatter_core::particles::ParticleSet;
+use shatter_core::stage_file::{StageFileError, StageKind, StageReader, StageWriter};
+use shatter_core::{PipelineConfig, Progress};
+
+use crate::SimError;
+use crate::frames::{BreakLog, FrameFileError, PointFrame};
+use crate::simulation::{Dynamics, Simulation};
+
+/// The particle file's name in the output folder.
+pub const PARTICLES_FILE: &str = "particles.shp";
+/// The checkpoint's name in the output folder.
+pub const CHECKPOINT_FILE: &str = "sim.checkpoint.shp";
+/// The folder of frames in the output folder.
+pub const FRAMES_DIR: &str = "frames";
+/// The break log's name in the frames folder.
+pub const BREAK_LOG_FILE: &str = "breaks.log";
+
+/// The point cache of frame `frame` in `frames_dir`.
+pub fn frame_path(frames_dir: &Path, frame: u32) -> PathBuf {
+    frames_dir.join(format!("points.{frame:04}.ply"))
+}
+
+/// How a run starts.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RunOptions {
+    /// Continue from the last checkpoint if there is one.
+    pub resume: bool,
+    /// Run even when `sim.dt_s` exceeds the stable time step (a warning instead of an error).
+    pub allow_unstable_dt: bool,
+}
+
+/// Why a run failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// Bad input: the particle file or config cannot make a sound run (exit code 2).
+    #[error(transparent)]
+    Input(#[from] SimError),
+    /// The time step is above the stable limit (exit code 2).
+    #[error(
+        "sim.dt_s = {dt_s:e} s exceeds the stable time step {stable_s:e} s of this material and particle set; \
+         lower it, or pass --allow-unstable-dt to run anyway"
+    )]
+    UnstableTimeStep {
+        /// The configured step.
+        dt_s: f64,
+        /// The stable limit.
+        stable_s: f64,
+    },
+    /// The checkpoint belongs to another config or particle file (exit code 2).
+    #[error("{path}: {what}; run without --resume to start over")]
+    CheckpointMismatch {
+        /// The checkpoint.
+        path: PathBuf,
+        /// What differs.
+        what: String,
+    },
+    /// The state blew up; the last good checkpoint is kept.
+    #[error(
+        "the simulation became unstable at frame {frame} (step {step}): {what}; frames up to {last_good} and the last checkpoint are intact"
+    )]
+    Unstable {
+        /// The frame being simulated.
+        frame: u32,
+        /// The step reached.
+        step: u64,
+        /// What was seen.
+        what: String,
+        /// The last frame written.
+        last_good: u32,
+    },
+    /// A stage file could not be read or written.
+    #[error(transparent)]
+    StageFile(#[from] StageFileError),
+    /// A frame file or the break log could not be read or written.
+    #[error(transparent)]
+    FrameFile(#[from] FrameFileError),
+}
+
+impl RunError {
+    /// True when the user must change the input (config, particle file, flags).
+    pub fn is_bad_input(&self) -> bool {
+        matches!(self, RunError::Input(_) | RunError::UnstableTimeStep { .. } | RunError::CheckpointMismatch { .. })
+    }
+}
+
+/// What a finished run did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunReport {
+    /// Particles simulated.
+    pub particles: usize,
+    /// The frame the run started from (1 for a fresh run).
+    pub started_at_frame: u32,
+    /// The last frame written.
+    pub frames: u32,
+    /// Steps simulated in this invocation.
+    pub steps: u64,
+    /// Bonds broken in all.
+    pub broken_bonds: u64,
+    /// The stable time step, seconds.
+    pub stable_dt_s: f64,
+    /// Wall time, seconds.
+    pub wall_s: f64,
+    /// Things the user should know.
+    pub warnings: Vec<String>,
+    /// Where the frames are.
+    pub frames_dir: PathBuf,
+}
+
+/// Scalars of a checkpoint.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CheckpointMeta {
+    /// The last frame written before the checkpoint.
+    pub frame: u32,
+    /// Steps simulated.
+    pub step: u64,
+    /// Length of the break log at the checkpoint, bytes.
+    pub break_log_bytes: u64,
+    /// Bonds broken so far.
+    pub broken_bonds: u64,
+    /// Hash of the [sim] and [material] settings.
+    pub settings_hash: u32,
+    /// Checksum of the particle file simulated.
+    pub particles_checksum: u32,
+    /// Work done by external forces, joules.
+    pub external_work_j: f64,
+    /// Kinetic plus bond energy at the start, joules.
+    pub initial_energy_j: f64,
+}
+
+/// Reads a checkpoint's scalars and particle count (for `shatter inspect`).
+pub fn checkpoint_summary(path: &Path) -> Result<(CheckpointMeta, usize), StageFileError> {
+    let mut input = StageReader::open(path, StageKind::Checkpoint)?;
+    let meta: CheckpointMeta = input.read_json("meta")?;
+    let particles = input.read_rows::<f32>("disp_x")?.len();
+    Ok((meta, particles))
+}
+
+/// A hash of everything that shapes the simulation besides the particle file.
+fn settings_hash(config: &PipelineConfig) -> u32 {
+    let settings = serde_json::json!({ "sim": config.sim, "material": config.material });
+    crc32fast::hash(settings.to_string().as_bytes())
+}
+
+fn write_checkpoint(path: &Path, meta: &CheckpointMeta, dynamics: &Dynamics) -> Result<(), StageFileError> {
+    let mut out = StageWriter::create(path, StageKind::Checkpoint)?;
+    out.write_json("meta", meta)?;
+    for (name, values) in [("disp", &dynamics.disp), ("vel", &dynamics.vel), ("force", &dynamics.force)] {
+        for (axis, values) in ["x", "y", "z"].iter().zip(values) {
+            out.write_rows(&format!("{name}_{axis}"), values)?;
+        }
+    }
+    out.write_rows("boost", &dynamics.boost)?;
+    out.finish()
+}
+
+fn read_checkpoint(path: &Path, n: usize) -> Result<(CheckpointMeta, Dynamics), StageFileError> {
+    let mut input = StageReader::open(path, StageKind::Checkpoint)?;
+    let meta: CheckpointMeta = input.read_json("meta")?;
+    let mut read_xyz = |name: &str| -> Result<[Vec<f32>; 3], StageFileError> {
+        let mut axes = [Vec::new(), Vec::new(), Vec::new()];
+        for (axis, values) in ["x", "y", "z"].iter().zip(axes.iter_mut()) {
+            *values = input.read_rows(&format!("{name}_{axis}"))?;
+        }
+        Ok(axes)
+    };
+    let disp = read_xyz("disp")?;
+    let vel = read_xyz("vel")?;
+    let force = read_xyz("force")?;
+    let boost: Vec<f32> = input.read_rows("boost")?;
+    let lengths_ok = disp.iter().chain(&vel).chain(&force).all(|a| a.len() == n) && boost.len() == n;
+    if !lengths_ok {
+        return Err(input.malformed(format!("the checkpoint does not hold {n} particles")));
+    }
+    input.finish()?;
+    let dynamics = Dynamics { step: meta.step, disp, vel, force, boost, external_work_j: meta.external_work_j };
+    Ok((meta, dynamics))
+}
+
+/// The state is finite: every displacement and velocity.
+fn non_finite(dynamics: &Dynamics) -> Option<String> {
+    for (name, arrays) in [("displacement", &dynamics.disp), ("velocity", &dynamics.vel)] {
+        for values in arrays {
+            if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+                return Some(format!("particle {i} has a non-finite {name}"));
+            }
+        }
+    }
+    None
+}
+
+/// Runs the simulation of `config` on the particle file in its output folder.
+pub fn run(config: &PipelineConfig, options: RunOptions, progress: &dyn Progress) -> Result<RunReport, RunError> {
+    let started = Instant::now();
+    let output = config.output_dir();
+    let particles_path = output.join(PARTICLES_FILE);
+    let (particles, particles_checksum) = ParticleSet::read_with_checksum(&particles_path)?;
+    let mut simulation = Simulation::from_config(config, &particles)?;
+
+    let mut warnings = Vec::new();
+    let stable_dt_s = simulation.stable_dt_s();
+    if config.sim.dt_s > stable_dt_s {
+        if !options.allow_unstable_dt {
+            return Err(RunError::UnstableTimeStep { dt_s: config.sim.dt_s, stable_s: stable_dt_s });
+        }
+        warnings.push(format!("sim.dt_s = {:e} s exceeds the stable time step {stable_dt_s:e} s", config.sim.dt_s));
+    }
+
+    let frames_dir = output.join(FRAMES_DIR);
+    std::fs::create_dir_all(&frames_dir).map_err(|source| FrameFileError::Io {
+        path: frames_dir.clone(),
+        action: "create the folder",
+        source,
+    })?;
+    let checkpoint_path = output.join(CHECKPOINT_FILE);
+    let log_path = frames_dir.join(BREAK_LOG_FILE);
+    let hash = settings_hash(config);
+    let total_frames = config.sim.frames;
+
+    let resumable = options.resume && checkpoint_path.exists();
+    if options.resume && !resumable {
+        warnings.push("no checkpoint to resume from: starting from the beginning".to_string());
+    }
+    let (mut log, start_frame, mut broken_bonds, initial_energy_j) = if resumable {
+        let (meta, dynamics) = read_checkpoint(&checkpoint_path, simulation.len())?;
+        let mismatch = |what: &str| RunError::CheckpointMismatch { path: checkpoint_path.clone(), what: what.into() };
+        if meta.particles_checksum != particles_checksum {
+            return Err(mismatch("the particle file changed since this checkpoint"));
+        }
+        if meta.settings_hash != hash {
+            return Err(mismatch("the [sim] or [material] settings changed since this checkpoint"));
+        }
+        if meta.frame > total_frames {
+            return Err(mismatch("the checkpoint is past sim.frames"));
+        }
+        let log = BreakLog::open_at(&log_path, meta.break_log_bytes)?;
+        let mut broken: Vec<u64> =
+            BreakLog::read(&log_path)?.iter().flat_map(|block| block.events.iter().map(|e| e.bond)).collect();
+        broken.sort_unstable();
+        simulation.restore(dynamics, &broken);
+        (log, meta.frame, meta.broken_bonds, meta.initial_energy_j)
+    } else {
+        remove_old_frames(&frames_dir)?;
+        let _ = std::fs::remove_file(&checkpoint_path);
+        let log = BreakLog::create(&log_path)?;
+        write_frame(&simulation, &frames_dir, 1)?;
+        (log, 1, 0, simulation.energy().total_j())
+    };
+
+    let steps_per_frame = u64::from(config.sim.steps_per_frame);
+    let remaining_frames = total_frames.saturating_sub(start_frame);
+    progress.start("sim", u64::from(remaining_frames) * steps_per_frame);
+    let mut steps = 0u64;
+    for frame in start_frame + 1..=total_frames {
+        for batch in 0..steps_per_frame.div_ceil(50) {
+            let count = (steps_per_frame - batch * 50).min(50);
+            for _ in 0..count {
+                simulation.step();
+            }
+            steps += count;
+            progress.advance(count);
+        }
+        let events = simulation.take_breaks();
+        broken_bonds += events.len() as u64;
+        let energy = simulation.energy();
+        let dynamics = simulation.dynamics();
+        let budget = config.sim.runaway_energy_factor * (initial_energy_j + dynamics.external_work_j).max(0.0) + 1e-9;
+        let trouble = non_finite(dynamics).or_else(|| {
+            (!energy.total_j().is_finite() || energy.total_j() > budget).then(|| {
+                format!(
+                    "kinetic plus bond energy {:.4e} J exceeds {} x (initial energy + external work) = {budget:.4e} J",
+                    energy.total_j(),
+                    config.sim.runaway_energy_factor
+                )
+            })
+        });
+        if let Some(what) = trouble {
+            progress.finish();
+            return Err(RunError::Unstable { frame, step: dynamics.step, what, last_good: frame - 1 });
+        }
+        write_frame(&simulation, &frames_dir, frame)?;
+        log.append(frame, &events)?;
+        if frame % config.sim.checkpoint_every_frames == 0 || frame == total_frames {
+            let meta = CheckpointMeta {
+                frame,
+                step: dynamics.step,
+                break_log_bytes: log.len(),
+                broken_bonds,
+                settings_hash: hash,
+                particles_checksum,
+                external_work_j: dynamics.external_work_j,
+                initial_energy_j,
+            };
+            write_checkpoint(&checkpoint_path, &meta, dynamics)?;
+        }
+        progress.message(&format!(
+            "frame {frame}/{total_frames}, {broken_bonds} broken bonds, kinetic energy {:.3e} J",
+            energy.kinetic_j
+        ));
+    }
+    progress.finish();
+    Ok(RunReport {
+        particles: simulation.len(),
+        started_at_frame: start_frame,
+        frames: total_frames,
+        steps,
+        broken_bonds,
+        stable_dt_s,
+        wall_s: started.elapsed().as_secs_f64(),
+        warnings,
+        frames_dir,
+    })
+}
+
+fn write_frame(simulation: &Simulation, frames_dir: &Path, frame: u32) -> Result<(), FrameFileError> {
+    let dynamics = simulation.dynamics();
+    PointFrame {
+        frame,
+        step: dynamics.step,
+        time_s: simulation.time_s(),
+        position: simulation.positions(),
+        velocity: dynamics.vel.clone(),
+        damage: simulation.damage(),
+    }
+    .write(&frame_path(frames_dir, frame))
+}
+
+/// Removes the point caches of an earlier run (a fresh run may write fewer frames).
+fn remove_old_frames(frames_dir: &Path) -> Result<(), FrameFileError> {
+    let entries = std::fs::read_dir(frames_dir).map_err(|source| FrameFileError::Io {
+        path: frames_dir.to_path_buf(),
+        action: "list",
+        source,
+    })?;
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if name.starts_with("points.") && name.ends_with(".ply") {
+            let path = entry.path();
+            std::fs::remove_file(&path).map_err(|source| FrameFileError::Io { path, action: "remove", source })?;
+        }
+    }
+    Ok(())
+}

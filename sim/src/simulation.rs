@@ -1,0 +1,521 @@
+//! The CPU simulation: state in structure-of-arrays form, advanced by velocity Verlet.
+
+use glam::DVec3;
+use rayon::prelude::*;
+use shatter_core::PipelineConfig;
+use shatter_core::config::sim::StiffnessCorrection;
+use shatter_core::particles::{Bonds, ParticleSet};
+
+use crate::bond_table::BondTable;
+use crate::contact::SpatialHash;
+use crate::kernels::{self, BodyForces, BondLookup, ChunkForces, ReadState, SphereNow};
+use crate::model::{Model, MovingSphere};
+use crate::{SimError, art};
+
+/// The mutable state of a run, everything a checkpoint must hold.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dynamics {
+    /// Steps taken.
+    pub step: u64,
+    /// Displacements u, metres (x, y, z arrays).
+    pub disp: [Vec<f32>; 3],
+    /// Velocities, m/s.
+    pub vel: [Vec<f32>; 3],
+    /// Forces at the current step, newtons.
+    pub force: [Vec<f32>; 3],
+    /// Compression boost of each particle's thresholds for the next step.
+    pub boost: Vec<f32>,
+    /// Work done on the body by external forces so far, joules.
+    pub external_work_j: f64,
+}
+
+/// Energies of the current state, joules.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Energy {
+    /// 1/2 sum m v^2.
+    pub kinetic_j: f64,
+    /// sum over intact bonds of 1/2 k s^2 L.
+    pub bond_j: f64,
+}
+
+impl Energy {
+    /// Kinetic plus bond energy.
+    pub fn total_j(&self) -> f64 {
+        self.kinetic_j + self.bond_j
+    }
+}
+
+/// Bond lookups for contact: "are i and j bonded and intact?", from the particle file's CSR and
+/// a bitset of broken bond ids.
+#[derive(Debug, Clone)]
+struct BondIndex {
+    offsets: Vec<u64>,
+    neighbor: Vec<u32>,
+    broken: Vec<u64>,
+}
+
+impl BondIndex {
+    fn new(bonds: &Bonds) -> BondIndex {
+        BondIndex {
+            offsets: bonds.offsets.clone(),
+            neighbor: bonds.neighbor.clone(),
+            broken: vec![0; bonds.neighbor.len().div_ceil(64)],
+        }
+    }
+
+    fn mark(&mut self, id: u64) {
+        self.broken[(id / 64) as usize] |= 1 << (id % 64);
+    }
+}
+
+impl BondLookup for BondIndex {
+    fn intact(&self, i: usize, j: usize) -> bool {
+        let (lo, hi) = (i.min(j), i.max(j) as u32);
+        let row = self.offsets[lo] as usize..self.offsets[lo + 1] as usize;
+        match self.neighbor[row.clone()].binary_search(&hi) {
+            Ok(k) => {
+                let id = (row.start + k) as u64;
+                self.broken[(id / 64) as usize] & (1 << (id % 64)) == 0
+            }
+            Err(_) => false,
+        }
+    }
+}
+
+/// A bond that broke: the step it broke in and its id.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BreakEvent {
+    /// The step (1-based: the first step is step 1).
+    pub step: u64,
+    /// The bond id (entry index in the particle file's CSR, lower particle's row).
+    pub bond: u64,
+}
+
+/// A running simulation on the CPU.
+#[derive(Debug, Clone)]
+pub struct Simulation {
+    model: Model,
+    rest: [Vec<f32>; 3],
+    mass: Vec<f32>,
+    inverse_mass: Vec<f32>,
+    /// Bonds per particle in the particle file (for damage).
+    bond_count: Vec<u32>,
+    table: BondTable,
+    index: BondIndex,
+    hash: Option<SpatialHash>,
+    dynamics: Dynamics,
+    next_boost: Vec<f32>,
+    broken: Vec<u32>,
+    events: Vec<BreakEvent>,
+    position_scratch: [Vec<f32>; 3],
+    chunk_power: Vec<f64>,
+}
+
+impl Simulation {
+    /// A body at rest in its reference shape. `factors` are art-direction multipliers of the
+    /// thresholds, one per particle-file bond entry.
+    pub fn new(
+        particles: &ParticleSet,
+        model: Model,
+        factors: Option<&[f32]>,
+        correction: StiffnessCorrection,
+    ) -> Simulation {
+        let n = particles.len();
+        let table = BondTable::new(particles, model.bond_constant, model.threshold_scale, factors, correction);
+        let rest = [0, 1, 2].map(|axis| particles.rest_position_m.iter().map(|p| p[axis]).collect::<Vec<f32>>());
+        let mass: Vec<f32> = particles.volume_m3.iter().map(|v| (f64::from(*v) * model.density_kg_m3) as f32).collect();
+        let inverse_mass = mass.iter().map(|m| 1.0 / m).collect();
+        let bond_count = (0..n).map(|i| particles.bonds.row(i).len() as u32).collect();
+        let hash = (model.contact_stiffness_pa > 0.0).then(|| SpatialHash::new(n, model.contact_distance_m));
+        let zeros = || [vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]];
+        let mut simulation = Simulation {
+            model,
+            rest,
+            mass,
+            inverse_mass,
+            bond_count,
+            table,
+            index: BondIndex::new(&particles.bonds),
+            hash,
+            dynamics: Dynamics {
+                step: 0,
+                disp: zeros(),
+                vel: zeros(),
+                force: zeros(),
+                boost: vec![0.0; n],
+                external_work_j: 0.0,
+            },
+            next_boost: vec![0.0; n],
+            broken: vec![0; n],
+            events: Vec::new(),
+            position_scratch: zeros(),
+            chunk_power: Vec::new(),
+        };
+        simulation.chunk_power = vec![0.0; simulation.table.chunks.len()];
+        simulation.compute_forces();
+        simulation
+    }
+
+    /// The simulation a config describes for a particle set: its model, art direction and
+    /// stiffness correction.
+    pub fn from_config(config: &PipelineConfig, particles: &ParticleSet) -> Result<Simulation, SimError> {
+        let model = Model::new(config, particles)?;
+        let factors = art::threshold_factors(&config.sim, particles, config.scene.seed)?;
+        Ok(Simulation::new(particles, model, factors.as_deref(), config.sim.stiffness_correction))
+    }
+
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.mass.len()
+    }
+
+    /// True for a simulation without particles.
+    pub fn is_empty(&self) -> bool {
+        self.mass.is_empty()
+    }
+
+    /// The model.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// The mutable state.
+    pub fn dynamics(&self) -> &Dynamics {
+        &self.dynamics
+    }
+
+    /// Simulated time, seconds.
+    pub fn time_s(&self) -> f64 {
+        self.dynamics.step as f64 * self.model.dt_s
+    }
+
+    /// Particle masses, kg.
+    pub fn mass(&self) -> &[f32] {
+        &self.mass
+    }
+
+    /// Rest positions X, metres.
+    pub fn rest(&self) -> [&[f32]; 3] {
+        [&self.rest[0], &self.rest[1], &self.rest[2]]
+    }
+
+    /// Sets velocities (initial conditions; tests).
+    pub fn set_velocity(&mut self, velocity: impl Fn(usize, [f32; 3]) -> [f32; 3]) {
+        for i in 0..self.len() {
+            let x = [0, 1, 2].map(|a| self.rest[a][i]);
+            let v = velocity(i, x);
+            for (axis, value) in v.into_iter().enumerate() {
+                self.dynamics.vel[axis][i] = value;
+            }
+        }
+    }
+
+    /// Sets displacements (initial conditions; tests) and recomputes forces without breaking
+    /// bonds' history: a deformed start.
+    pub fn set_displacement(&mut self, displacement: impl Fn(usize, [f32; 3]) -> [f32; 3]) {
+        for i in 0..self.len() {
+            let x = [0, 1, 2].map(|a| self.rest[a][i]);
+            let u = displacement(i, x);
+            for (axis, value) in u.into_iter().enumerate() {
+                self.dynamics.disp[axis][i] = value;
+            }
+        }
+        self.compute_forces();
+    }
+
+    /// Replaces the state with a checkpoint's; `broken_bonds` (sorted ids) are marked broken.
+    pub fn restore(&mut self, dynamics: Dynamics, broken_bonds: &[u64]) {
+        self.table.mark_broken(broken_bonds);
+        for &id in broken_bonds {
+            self.index.mark(id);
+        }
+        self.broken.fill(0);
+        for &id in broken_bonds {
+            let (i, j) = self.endpoints(id);
+            self.broken[i] += 1;
+            self.broken[j] += 1;
+        }
+        self.dynamics = dynamics;
+    }
+
+    /// The two particles of bond `id`.
+    fn endpoints(&self, id: u64) -> (usize, usize) {
+        let i = self.index.offsets.partition_point(|offset| *offset <= id) - 1;
+        (i, self.index.neighbor[id as usize] as usize)
+    }
+
+    /// Takes the bonds broken since the last call, in the order they broke.
+    pub fn take_breaks(&mut self) -> Vec<BreakEvent> {
+        std::mem::take(&mut self.events)
+    }
+
+    /// Fraction of each particle's bonds that are broken.
+    pub fn damage(&self) -> Vec<f32> {
+        self.broken
+            .iter()
+            .zip(&self.bond_count)
+            .map(|(broken, count)| if *count == 0 { 0.0 } else { *broken as f32 / *count as f32 })
+            .collect()
+    }
+
+    /// Current positions x = X + u, metres.
+    pub fn positions(&self) -> [Vec<f32>; 3] {
+        [0, 1, 2].map(|a| self.rest[a].iter().zip(&self.dynamics.disp[a]).map(|(x, u)| x + u).collect())
+    }
+
+    /// Kinetic and bond energy, summed per chunk in particle order (deterministic).
+    pub fn energy(&self) -> Energy {
+        let size = self.table.chunk_size;
+        let vel = &self.dynamics.vel;
+        let kinetic_j = self
+            .mass
+            .par_chunks(size)
+            .enumerate()
+            .map(|(c, masses)| {
+                let first = c * size;
+                masses
+                    .iter()
+                    .enumerate()
+                    .map(|(local, m)| {
+                        let i = first + local;
+                        let v2: f64 = (0..3).map(|a| f64::from(vel[a][i]).powi(2)).sum();
+                        0.5 * f64::from(*m) * v2
+                    })
+                    .sum::<f64>()
+            })
+            .collect::<Vec<f64>>()
+            .iter()
+            .sum();
+        let bond_j = self.bond_energy_per_particle().iter().sum();
+        Energy { kinetic_j, bond_j }
+    }
+
+    /// Each particle's share of the bond energy 1/2 k s^2 L (half of each of its intact bonds),
+    /// joules.
+    pub fn bond_energy_per_particle(&self) -> Vec<f64> {
+        let read = self.read_state();
+        let size = self.table.chunk_size;
+        let mut energy = vec![0.0f64; self.len()];
+        (self.table.chunks.par_iter(), energy.par_chunks_mut(size)).into_par_iter().for_each(|(chunk, energy)| {
+            for local in 0..chunk.len {
+                let i = chunk.first + local;
+                let internal_end = chunk.internal_end[local] as usize;
+                for k in chunk.row_start[local] as usize..chunk.row_start[local + 1] as usize {
+                    if chunk.stiffness[k] == 0.0 {
+                        continue;
+                    }
+                    let j = chunk.neighbor[k] as usize;
+                    let xi = [0, 1, 2].map(|a| read.rest[a][j] - read.rest[a][i]);
+                    let eta = [0, 1, 2].map(|a| read.disp[a][j] - read.disp[a][i]);
+                    let (s, _, _) = kernels::stretch(xi, eta, chunk.rest_length_m[k]);
+                    let half =
+                        0.25 * f64::from(chunk.stiffness[k]) * f64::from(s).powi(2) * f64::from(chunk.rest_length_m[k]);
+                    energy[local] += half;
+                    if k < internal_end {
+                        // stored once: the partner's half too (same chunk)
+                        energy[j - chunk.first] += half;
+                    }
+                }
+            }
+        });
+        energy
+    }
+
+    /// Linear momentum (kg m/s) and angular momentum about the origin (kg m^2/s).
+    pub fn momentum(&self) -> (DVec3, DVec3) {
+        let mut linear = DVec3::ZERO;
+        let mut angular = DVec3::ZERO;
+        for i in 0..self.len() {
+            let m = f64::from(self.mass[i]);
+            let v = DVec3::from_array([0, 1, 2].map(|a| f64::from(self.dynamics.vel[a][i])));
+            let x =
+                DVec3::from_array([0, 1, 2].map(|a| f64::from(self.rest[a][i]) + f64::from(self.dynamics.disp[a][i])));
+            linear += m * v;
+            angular += m * x.cross(v);
+        }
+        (linear, angular)
+    }
+
+    /// The largest stable time step of the linearised PMB model (Silling and Askari 2005):
+    /// min over particles of sqrt(2 m_i / sum_j k_ij / L_ij), seconds.
+    pub fn stable_dt_s(&self) -> f64 {
+        let mut stiffness = vec![0.0f64; self.len()];
+        for chunk in &self.table.chunks {
+            for local in 0..chunk.len {
+                let i = chunk.first + local;
+                let internal_end = chunk.internal_end[local] as usize;
+                for k in chunk.row_start[local] as usize..chunk.row_start[local + 1] as usize {
+                    let spring = f64::from(chunk.stiffness[k]) / f64::from(chunk.rest_length_m[k]);
+                    stiffness[i] += spring;
+                    if k < internal_end {
+                        stiffness[chunk.neighbor[k] as usize] += spring;
+                    }
+                }
+            }
+        }
+        stiffness
+            .iter()
+            .zip(&self.mass)
+            .filter(|(k, _)| **k > 0.0)
+            .map(|(k, m)| (2.0 * f64::from(*m) / k).sqrt())
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    fn read_state(&self) -> ReadState<'_> {
+        let disp = &self.dynamics.disp;
+        ReadState {
+            rest: [&self.rest[0], &self.rest[1], &self.rest[2]],
+            disp: [&disp[0], &disp[1], &disp[2]],
+            boost: &self.dynamics.boost,
+        }
+    }
+
+    /// Advances one step of velocity Verlet.
+    pub fn step(&mut self) {
+        let dt = self.model.dt_s as f32;
+        let size = self.table.chunk_size;
+        let inverse_mass = &self.inverse_mass;
+        let Dynamics { disp, vel, force, .. } = &mut self.dynamics;
+        let [vx, vy, vz] = vel;
+        let [ux, uy, uz] = disp;
+        let [fx, fy, fz] = &*force;
+        (
+            inverse_mass.par_chunks(size),
+            fx.par_chunks(size),
+            fy.par_chunks(size),
+            fz.par_chunks(size),
+            vx.par_chunks_mut(size),
+            vy.par_chunks_mut(size),
+            vz.par_chunks_mut(size),
+            ux.par_chunks_mut(size),
+            uy.par_chunks_mut(size),
+            uz.par_chunks_mut(size),
+        )
+            .into_par_iter()
+            .for_each(|(m, fx, fy, fz, vx, vy, vz, ux, uy, uz)| {
+                kernels::kick_drift(dt, m, [fx, fy, fz], [vx, vy, vz], [ux, uy, uz]);
+            });
+        self.dynamics.step += 1;
+        let power = self.compute_forces();
+        self.dynamics.external_work_j += power * self.model.dt_s;
+        let floor = self.model.floor;
+        let inverse_mass = &self.inverse_mass;
+        let rest_y = &self.rest[1];
+        let Dynamics { disp, vel, force, .. } = &mut self.dynamics;
+        let [vx, vy, vz] = vel;
+        let [fx, fy, fz] = &*force;
+        (
+            inverse_mass.par_chunks(size),
+            fx.par_chunks(size),
+            fy.par_chunks(size),
+            fz.par_chunks(size),
+            rest_y.par_chunks(size),
+            disp[1].par_chunks(size),
+            vx.par_chunks_mut(size),
+            vy.par_chunks_mut(size),
+            vz.par_chunks_mut(size),
+        )
+            .into_par_iter()
+            .for_each(|(m, fx, fy, fz, rest_y, uy, vx, vy, vz)| {
+                kernels::kick_floor(dt, m, [fx, fy, fz], (rest_y, uy), floor, [vx, vy, vz]);
+            });
+    }
+
+    /// Forces at the current displacements: springs (breaking bonds), collisions, body forces.
+    /// Also sets the next step's compression boosts and records breaks. Returns the power the
+    /// external forces deliver at the current velocities, watts.
+    fn compute_forces(&mut self) -> f64 {
+        let Simulation {
+            model,
+            rest,
+            mass,
+            table,
+            index,
+            hash,
+            dynamics,
+            next_boost,
+            broken,
+            events,
+            position_scratch,
+            chunk_power,
+            ..
+        } = self;
+        let size = table.chunk_size;
+        let t = dynamics.step as f64 * model.dt_s;
+        let sphere_now = |sphere: &MovingSphere| {
+            let speed = sphere.velocity_m_s.length();
+            let heading = if speed > 0.0 { sphere.velocity_m_s / speed } else { DVec3::ZERO };
+            SphereNow {
+                center: sphere.center_at(t).as_vec3().to_array(),
+                heading: heading.as_vec3().to_array(),
+                radius: sphere.radius_m as f32,
+                stiffness: sphere.stiffness as f32,
+            }
+        };
+        let projectiles: Vec<SphereNow> = model.projectiles.iter().map(sphere_now).collect();
+        let indenters: Vec<SphereNow> = model.indenters.iter().map(sphere_now).collect();
+        let body = BodyForces { gravity: model.gravity_m_s2, projectiles: &projectiles, indenters: &indenters };
+
+        let Dynamics { disp, vel, force, boost, step, .. } = dynamics;
+        // Current positions, for collisions and body forces.
+        {
+            let [px, py, pz] = position_scratch;
+            (px.par_iter_mut(), py.par_iter_mut(), pz.par_iter_mut()).into_par_iter().enumerate().for_each(
+                |(i, (x, y, z))| {
+                    *x = rest[0][i] + disp[0][i];
+                    *y = rest[1][i] + disp[1][i];
+                    *z = rest[2][i] + disp[2][i];
+                },
+            );
+        }
+        let position = [&position_scratch[0][..], &position_scratch[1][..], &position_scratch[2][..]];
+        if let Some(hash) = hash.as_mut() {
+            hash.rebuild(position);
+        }
+        let read = ReadState { rest: [&rest[0], &rest[1], &rest[2]], disp: [&disp[0], &disp[1], &disp[2]], boost };
+        let velocity = [&vel[0][..], &vel[1][..], &vel[2][..]];
+        let (rule, alpha) = (model.break_rule, model.alpha);
+        let (contact_stiffness, contact_distance) = (model.contact_stiffness_pa, model.contact_distance_m);
+        let hash = hash.as_ref();
+        let lookup = &*index;
+        let [fx, fy, fz] = force;
+        (
+            table.chunks.par_iter_mut(),
+            chunk_power.par_iter_mut(),
+            fx.par_chunks_mut(size),
+            fy.par_chunks_mut(size),
+            fz.par_chunks_mut(size),
+            next_boost.par_chunks_mut(size),
+            broken.par_chunks_mut(size),
+        )
+            .into_par_iter()
+            .for_each(|(chunk, power, fx, fy, fz, min_stretch, broken)| {
+                let first = chunk.first;
+                let mut out = ChunkForces { force: [fx, fy, fz], min_stretch, broken };
+                kernels::spring_forces(chunk, &read, rule, &mut out);
+                for value in out.min_stretch.iter_mut() {
+                    *value *= -alpha;
+                }
+                if let Some(hash) = hash {
+                    kernels::collisions(
+                        first,
+                        position,
+                        hash,
+                        lookup,
+                        contact_stiffness,
+                        contact_distance,
+                        &mut out.force,
+                    );
+                }
+                *power = kernels::body_forces(first, position, velocity, mass, &body, &mut out.force);
+            });
+        std::mem::swap(boost, next_boost);
+        for chunk in &table.chunks {
+            for &bond in &chunk.breaks {
+                index.mark(bond);
+                events.push(BreakEvent { step: *step, bond });
+            }
+        }
+        chunk_power.iter().sum()
+    }
+}

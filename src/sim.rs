@@ -1,0 +1,72 @@
+//! `shatter sim`: particles to frames and the bond-break log.
+
+use shatter_core::PipelineConfig;
+use shatter_core::config::sim::Backend;
+use shatter_sim::run::{RunOptions, run as run_simulation};
+
+use crate::progress::Bars;
+use crate::{Failure, not_implemented};
+
+/// Command-line choices of `shatter sim`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SimArgs {
+    /// Where to run: a hardware GPU when found, else the CPU (auto); or force one.
+    #[arg(long, value_enum)]
+    pub backend: Option<BackendArg>,
+    /// Continue from the last checkpoint instead of starting over.
+    #[arg(long)]
+    pub resume: bool,
+    /// Worker threads (default: one per core). Results do not depend on it.
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// Run even when sim.dt_s exceeds the stable time step.
+    #[arg(long)]
+    pub allow_unstable_dt: bool,
+}
+
+/// `--backend` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum BackendArg {
+    /// A hardware GPU when one is found, else the CPU.
+    Auto,
+    /// The CPU.
+    Cpu,
+    /// The GPU.
+    Gpu,
+}
+
+/// Runs the simulation stage.
+pub fn run(config: &PipelineConfig, args: &SimArgs) -> Result<(), Failure> {
+    let backend = match args.backend {
+        Some(BackendArg::Auto) => Backend::Auto,
+        Some(BackendArg::Cpu) => Backend::Cpu,
+        Some(BackendArg::Gpu) => Backend::Gpu,
+        None => config.sim.backend,
+    };
+    if backend == Backend::Gpu {
+        return Err(not_implemented("sim --backend gpu", 6));
+    }
+    let mut pool = rayon::ThreadPoolBuilder::new();
+    if let Some(threads) = args.threads {
+        pool = pool.num_threads(threads);
+    }
+    let pool = pool.build().map_err(|error| anyhow::anyhow!("cannot start worker threads: {error}"))?;
+    let options = RunOptions { resume: args.resume, allow_unstable_dt: args.allow_unstable_dt };
+    let report = pool.install(|| run_simulation(config, options, &Bars::default()))?;
+    for warning in &report.warnings {
+        eprintln!("warning: {warning}");
+    }
+    let steps_per_second = report.steps as f64 / report.wall_s.max(1e-9);
+    println!(
+        "sim: {} particles, frames {}..{} ({} steps, {:.0} steps/s), {} bonds broken, stable dt {:.3e} s",
+        report.particles,
+        report.started_at_frame,
+        report.frames,
+        report.steps,
+        steps_per_second,
+        report.broken_bonds,
+        report.stable_dt_s
+    );
+    println!("wrote {} in {:.1} s", report.frames_dir.display(), report.wall_s);
+    Ok(())
+}

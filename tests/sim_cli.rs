@@ -1,0 +1,158 @@
+//! `shatter sim` as users meet it: outputs, resume after a kill, refusals of bad input.
+
+use std::path::Path;
+use std::process::{Command, Output};
+use std::time::{Duration, Instant};
+
+fn shatter(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_shatter")).args(args).current_dir(dir).output().expect("shatter runs")
+}
+
+fn stderr(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+/// A plate struck by a projectile, `frames` frames of `steps` steps.
+fn scene(side: usize, frames: u32, steps: u32, extra_sim: &str) -> String {
+    let size = side as f64 * 0.001;
+    format!(
+        r#"
+[scene]
+name = "struck"
+output_dir = "out"
+seed = 2
+[geometry]
+source = "box"
+box_size_m = [{size}, {size}, 0.004]
+sampler = "grid"
+spacing_m = 0.001
+horizon_factor = 3.0
+[material]
+density_kg_m3 = 2200.0
+bulk_modulus_pa = 14.9e9
+[sim]
+frames = {frames}
+steps_per_frame = {steps}
+gravity_m_s2 = [0.0, 0.0, 0.0]
+{extra_sim}
+[[sim.projectile]]
+center_m = [0.0, 0.0, 0.0067]
+velocity_m_s = [0.0, 0.0, -150.0]
+radius_m = 0.003
+stiffness_pa = 3e7
+"#
+    )
+}
+
+fn folder_with(config: &str) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().expect("tempdir");
+    std::fs::write(dir.path().join("pipeline.toml"), config).expect("write config");
+    dir
+}
+
+fn frame_files(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir.join("out/frames"))
+        .expect("frames folder")
+        .map(|entry| {
+            let entry = entry.expect("entry");
+            (entry.file_name().to_string_lossy().into_owned(), std::fs::read(entry.path()).expect("read"))
+        })
+        .collect();
+    files.sort();
+    files
+}
+
+#[test]
+fn a_killed_run_resumes_to_bit_identical_frames() {
+    let config = scene(30, 40, 60, "");
+    let reference = folder_with(&config);
+    let output = shatter(&["run", "--until", "sim"], reference.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let expected = frame_files(reference.path());
+    assert_eq!(expected.iter().filter(|(name, _)| name.ends_with(".ply")).count(), 40);
+    let log = &expected.iter().find(|(name, _)| name == "breaks.log").expect("log").1;
+    assert!(log.len() > 16 + 39 * 16, "bonds broke: the log has records");
+
+    let killed = folder_with(&config);
+    assert!(shatter(&["preprocess"], killed.path()).status.success());
+    let mut child = Command::new(env!("CARGO_BIN_EXE_shatter"))
+        .arg("sim")
+        .current_dir(killed.path())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("start sim");
+    let started = Instant::now();
+    while !killed.path().join("out/frames/points.0006.ply").exists() {
+        assert!(started.elapsed() < Duration::from_secs(120), "sim too slow to reach frame 6");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    child.kill().expect("SIGKILL");
+    let status = child.wait().expect("reap");
+    assert!(!status.success(), "the run was killed before it finished");
+    let written = frame_files(killed.path()).iter().filter(|(name, _)| name.ends_with(".ply")).count();
+    assert!(written < 40, "killed mid-run ({written} frames written)");
+
+    let output = shatter(&["sim", "--resume"], killed.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(String::from_utf8_lossy(&output.stdout).contains("frames "), "{}", String::from_utf8_lossy(&output.stdout));
+    let resumed = frame_files(killed.path());
+    assert_eq!(resumed.len(), expected.len());
+    for ((name, bytes), (expected_name, expected_bytes)) in resumed.iter().zip(&expected) {
+        assert_eq!(name, expected_name);
+        assert!(bytes == expected_bytes, "{name} differs after resume");
+    }
+}
+
+#[test]
+fn bad_simulation_input_is_refused_clearly() {
+    // a truncated particle file
+    let dir = folder_with(&scene(10, 2, 10, ""));
+    assert!(shatter(&["preprocess"], dir.path()).status.success());
+    let particles = dir.path().join("out/particles.shp");
+    let bytes = std::fs::read(&particles).expect("read");
+    std::fs::write(&particles, &bytes[..bytes.len() / 2]).expect("truncate");
+    let output = shatter(&["sim"], dir.path());
+    assert_eq!(output.status.code(), Some(1));
+    assert!(stderr(&output).contains("particles.shp") && stderr(&output).contains("truncated"), "{}", stderr(&output));
+
+    // a time step above the stable one
+    let dir = folder_with(&scene(10, 2, 10, "dt_s = 1e-6"));
+    let output = shatter(&["run", "--until", "sim"], dir.path());
+    assert_eq!(output.status.code(), Some(2));
+    assert!(stderr(&output).contains("sim.dt_s = 1e-6 s exceeds the stable time step"), "{}", stderr(&output));
+    // ... which --allow-unstable-dt runs, until the energy runs away: the frames before stay
+    let output = shatter(&["sim", "--allow-unstable-dt"], dir.path());
+    assert_eq!(output.status.code(), Some(1), "{}", stderr(&output));
+    assert!(stderr(&output).contains("became unstable"), "{}", stderr(&output));
+    assert!(dir.path().join("out/frames/points.0001.ply").exists());
+
+    // a projectile starting inside the body
+    let inside = scene(10, 2, 10, "").replace("center_m = [0.0, 0.0, 0.0067]", "center_m = [0.0, 0.0, 0.001]");
+    let dir = folder_with(&inside);
+    let output = shatter(&["run", "--until", "sim"], dir.path());
+    assert_eq!(output.status.code(), Some(2));
+    assert!(stderr(&output).contains("sim.projectile[0] starts inside or touching the body"), "{}", stderr(&output));
+
+    // particles made with other geometry settings
+    let dir = folder_with(&scene(10, 2, 10, ""));
+    assert!(shatter(&["preprocess"], dir.path()).status.success());
+    let config = std::fs::read_to_string(dir.path().join("pipeline.toml")).expect("read");
+    std::fs::write(dir.path().join("pipeline.toml"), config.replace("horizon_factor = 3.0", "horizon_factor = 2.0"))
+        .expect("write");
+    let output = shatter(&["sim"], dir.path());
+    assert_eq!(output.status.code(), Some(2));
+    assert!(stderr(&output).contains("run `shatter preprocess` again"), "{}", stderr(&output));
+}
+
+#[test]
+fn resuming_with_changed_settings_is_refused() {
+    let dir = folder_with(&scene(10, 3, 10, ""));
+    assert!(shatter(&["run", "--until", "sim"], dir.path()).status.success());
+    let config = std::fs::read_to_string(dir.path().join("pipeline.toml")).expect("read");
+    std::fs::write(dir.path().join("pipeline.toml"), config.replace("frames = 3", "frames = 5\nbreak_rule = \"min\""))
+        .expect("write");
+    let output = shatter(&["sim", "--resume"], dir.path());
+    assert_eq!(output.status.code(), Some(2));
+    assert!(stderr(&output).contains("settings changed since this checkpoint"), "{}", stderr(&output));
+}
