@@ -30,7 +30,10 @@ pub struct BondChunk {
     pub internal_end: Vec<u32>,
     /// Partner particle (global index).
     pub neighbor: Vec<u32>,
-    /// Rest length, metres.
+    /// Rest vector xi = X_j - X_i, metres (x, y, z arrays), computed in f32 from the file's
+    /// positions: its length is bit for bit the file's rest length.
+    pub rest_vector: [Vec<f32>; 3],
+    /// Rest length |xi|, metres (stored: a square root per bond and step saved).
     pub rest_length_m: Vec<f32>,
     /// Critical stretch; infinite once broken.
     pub threshold: Vec<f32>,
@@ -40,6 +43,8 @@ pub struct BondChunk {
     pub bond_id: Vec<u64>,
     /// Ids of bonds this chunk saw break in the current step (scratch, reused).
     pub breaks: Vec<u64>,
+    /// Per-particle force and smallest-stretch sums of the current step (scratch, reused).
+    pub totals: Vec<[f32; 4]>,
 }
 
 /// All chunks.
@@ -87,6 +92,10 @@ impl BondTable {
                         let j = bonds.neighbor[k] as usize;
                         let factor = factors.map_or(1.0, |f| f64::from(f[k]));
                         chunk.neighbor.push(j as u32);
+                        let (xi, xj) = (particles.rest_position_m[i], particles.rest_position_m[j]);
+                        for axis in 0..3 {
+                            chunk.rest_vector[axis].push(xj[axis] - xi[axis]);
+                        }
                         chunk.rest_length_m.push(bonds.rest_length_m[k]);
                         chunk.threshold.push((f64::from(bonds.threshold[k]) * threshold_scale * factor) as f32);
                         let g = 0.5 * (correction[i] + correction[j]);

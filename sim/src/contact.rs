@@ -1,6 +1,11 @@
-//! Contact between particles that are not bonded: a spatial hash rebuilt every step by a
-//! counting sort (stable, so the same positions always give the same order), and the paper's
-//! quadratic repulsion (eq. 6).
+//! Contact between particles that are not bonded, by the paper's quadratic repulsion (eq. 6).
+//!
+//! Candidate pairs come from a Verlet list: every particle within the contact distance plus a
+//! skin, found with a spatial hash (binned by a stable counting sort) and rebuilt only when some
+//! particle has moved more than half the skin since the last build. Each particle's candidates
+//! are sorted by index, so forces are summed in the same order however often the list was
+//! rebuilt (a resumed run matches an uninterrupted one bit for bit). In intact material the
+//! lists are empty: particles sit a lattice spacing apart, farther than distance plus skin.
 
 use rayon::prelude::*;
 
@@ -88,6 +93,88 @@ impl SpatialHash {
                 }
             }
         }
+    }
+}
+
+/// The skin of the contact list as a fraction of the contact distance.
+pub const SKIN_FRACTION: f32 = 0.5;
+
+/// Candidate contact pairs, valid while no particle has moved half the skin since the build.
+#[derive(Debug, Clone, Default)]
+pub struct ContactList {
+    distance: f32,
+    skin: f32,
+    hash: SpatialHash,
+    built_at: [Vec<f32>; 3],
+    offsets: Vec<u32>,
+    candidates: Vec<u32>,
+    builds: u64,
+}
+
+impl ContactList {
+    /// An empty list for `n` particles and contact distance `distance` (built on first use).
+    pub fn new(n: usize, distance: f32) -> ContactList {
+        let skin = SKIN_FRACTION * distance;
+        ContactList {
+            distance,
+            skin,
+            hash: SpatialHash::new(n, distance + skin),
+            built_at: [vec![f32::INFINITY; n], vec![f32::INFINITY; n], vec![f32::INFINITY; n]],
+            offsets: vec![0; n + 1],
+            candidates: Vec::new(),
+            builds: 0,
+        }
+    }
+
+    /// How many times the list has been built.
+    pub fn builds(&self) -> u64 {
+        self.builds
+    }
+
+    /// Rebuilds the list if some particle at `x` has moved more than half the skin since the
+    /// last build.
+    pub fn update(&mut self, x: [&[f32]; 3]) {
+        let limit = 0.25 * self.skin * self.skin;
+        let built_at = &self.built_at;
+        let stale = (0..x[0].len()).into_par_iter().any(|i| {
+            let d2: f32 = (0..3).map(|a| (x[a][i] - built_at[a][i]).powi(2)).sum();
+            d2 > limit || d2.is_nan()
+        });
+        if !stale {
+            return;
+        }
+        self.hash.rebuild(x);
+        let reach = self.distance + self.skin;
+        let hash = &self.hash;
+        let lists: Vec<Vec<u32>> = (0..x[0].len())
+            .into_par_iter()
+            .map(|i| {
+                let p = [x[0][i], x[1][i], x[2][i]];
+                let mut near = Vec::new();
+                hash.for_each_candidate(p, reach, |j| {
+                    let d2: f32 = (0..3).map(|a| (p[a] - x[a][j]).powi(2)).sum();
+                    if j != i && d2 < reach * reach {
+                        near.push(j as u32);
+                    }
+                });
+                near.sort_unstable();
+                near
+            })
+            .collect();
+        self.candidates.clear();
+        for (i, near) in lists.iter().enumerate() {
+            self.candidates.extend_from_slice(near);
+            self.offsets[i + 1] = self.candidates.len() as u32;
+        }
+        for (axis, built_at) in self.built_at.iter_mut().enumerate() {
+            built_at.copy_from_slice(x[axis]);
+        }
+        self.builds += 1;
+    }
+
+    /// Particle i's candidates, in increasing index.
+    pub fn candidates(&self, i: usize) -> &[u32] {
+        &self.candidates[self.offsets[i] as usize..self.offsets[i + 1] as usize]
     }
 }
 

@@ -8,19 +8,8 @@
 use shatter_core::config::sim::BreakRule;
 
 use crate::bond_table::BondChunk;
-use crate::contact::{SpatialHash, repulsion};
+use crate::contact::{ContactList, repulsion};
 use crate::model::Floor;
-
-/// Positions and boosts every chunk reads during the force pass (structure of arrays).
-#[derive(Debug, Clone, Copy)]
-pub struct ReadState<'a> {
-    /// Rest positions X, metres.
-    pub rest: [&'a [f32]; 3],
-    /// Displacements u, metres.
-    pub disp: [&'a [f32]; 3],
-    /// Compression boost of each particle's thresholds from the previous step.
-    pub boost: &'a [f32],
-}
 
 /// One chunk's outputs of the force pass.
 pub struct ChunkForces<'a> {
@@ -54,69 +43,181 @@ fn effective_threshold(rule: BreakRule, threshold: f32, boost_i: f32, boost_j: f
     }
 }
 
+/// What the spring kernel gathers of a bond partner, packed into 16 bytes so that one load
+/// serves it: displacement and compression boost.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C, align(16))]
+pub struct ParticleRecord {
+    /// Displacement u, metres.
+    pub disp: [f32; 3],
+    /// Compression boost of the particle's thresholds (from the previous step).
+    pub boost: f32,
+}
+
+/// `values` in the first lanes, `fill` in the rest.
+#[inline(always)]
+fn lanes(values: &[f32], fill: f32) -> [f32; LANES] {
+    match <[f32; LANES]>::try_from(values) {
+        Ok(full) => full,
+        Err(_) => {
+            let mut out = [fill; LANES];
+            for (lane, value) in values.iter().enumerate() {
+                out[lane] = *value;
+            }
+            out
+        }
+    }
+}
+
+/// Bonds processed together: the arithmetic runs lane by lane over fixed-size arrays, which the
+/// compiler turns into SIMD instructions; gathers and the rare breaks stay scalar.
+const LANES: usize = 8;
+
+/// One particle's running sums over the lanes.
+#[derive(Debug, Clone, Copy)]
+struct LaneSums {
+    force: [[f32; LANES]; 3],
+    min_stretch: [f32; LANES],
+}
+
 /// Spring forces (the paper's `springforces`): for every intact bond of the chunk, the stretch,
 /// the break test against the effective threshold, and the PMB force k s (xi + eta) / |xi + eta|.
 /// Internal bonds are computed once and applied to both ends; external bonds to this end only.
 /// Bonds that break are recorded in `chunk.breaks` (external ones by their lower particle only).
-pub fn spring_forces(chunk: &mut BondChunk, state: &ReadState, rule: BreakRule, out: &mut ChunkForces) {
-    let first = chunk.first;
+/// Each particle's bonds are summed lane by lane (entry k of its row in lane k mod 8), the lanes
+/// then in order: a fixed order, whatever the thread count.
+pub fn spring_forces(chunk: &mut BondChunk, records: &[ParticleRecord], rule: BreakRule, out: &mut ChunkForces) {
     chunk.breaks.clear();
-    for f in out.force.iter_mut() {
-        f.fill(0.0);
-    }
-    out.min_stretch.fill(0.0);
+    let mut totals = std::mem::take(&mut chunk.totals);
+    totals.clear();
+    totals.resize(chunk.len, [0.0; 4]);
     for local in 0..chunk.len {
-        let i = first + local;
-        let xi_i = [state.rest[0][i], state.rest[1][i], state.rest[2][i]];
-        let u_i = [state.disp[0][i], state.disp[1][i], state.disp[2][i]];
-        let boost_i = state.boost[i];
-        let mut sum = [0.0f32; 3];
-        let mut min_stretch = 0.0f32;
+        let mut sums = LaneSums { force: [[0.0; LANES]; 3], min_stretch: [0.0; LANES] };
         let row = chunk.row_start[local] as usize..chunk.row_start[local + 1] as usize;
         let internal_end = chunk.internal_end[local] as usize;
-        for k in row {
-            let stiffness = chunk.stiffness[k];
-            if stiffness == 0.0 {
-                continue; // broken
-            }
-            let j = chunk.neighbor[k] as usize;
-            let xi = [state.rest[0][j] - xi_i[0], state.rest[1][j] - xi_i[1], state.rest[2][j] - xi_i[2]];
-            let eta = [state.disp[0][j] - u_i[0], state.disp[1][j] - u_i[1], state.disp[2][j] - u_i[2]];
-            let (s, y, length) = stretch(xi, eta, chunk.rest_length_m[k]);
-            let internal = k < internal_end;
-            if s > effective_threshold(rule, chunk.threshold[k], boost_i, state.boost[j]) {
+        let mut start = row.start;
+        while start < internal_end {
+            let end = (start + LANES).min(internal_end);
+            bond_block::<true>(chunk, records, rule, local, start..end, &mut sums, &mut totals, out.broken);
+            start = end;
+        }
+        while start < row.end {
+            let end = (start + LANES).min(row.end);
+            bond_block::<false>(chunk, records, rule, local, start..end, &mut sums, &mut totals, out.broken);
+            start = end;
+        }
+        let total = &mut totals[local];
+        for axis in 0..3 {
+            total[axis] += sums.force[axis].iter().sum::<f32>();
+        }
+        total[3] = sums.min_stretch.iter().fold(total[3], |a, b| a.min(*b));
+    }
+    for (local, total) in totals.iter().enumerate() {
+        for axis in 0..3 {
+            out.force[axis][local] = total[axis];
+        }
+        out.min_stretch[local] = total[3];
+    }
+    chunk.totals = totals;
+}
+
+/// Up to `LANES` consecutive entries of particle `local`'s row, all internal or all external.
+/// `totals` are the chunk's per-particle sums (force x, y, z and smallest stretch) that internal
+/// bonds scatter into.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn bond_block<const INTERNAL: bool>(
+    chunk: &mut BondChunk,
+    records: &[ParticleRecord],
+    rule: BreakRule,
+    local: usize,
+    entries: std::ops::Range<usize>,
+    sums: &mut LaneSums,
+    totals: &mut [[f32; 4]],
+    broken: &mut [u32],
+) {
+    let first = chunk.first;
+    let i = first + local;
+    let me = records[i];
+    let count = entries.len();
+    // Streams and gathers. Unused lanes hold a unit bond of no stiffness: finite and inert.
+    let xi = [
+        lanes(&chunk.rest_vector[0][entries.clone()], 1.0),
+        lanes(&chunk.rest_vector[1][entries.clone()], 0.0),
+        lanes(&chunk.rest_vector[2][entries.clone()], 0.0),
+    ];
+    let stiffness = lanes(&chunk.stiffness[entries.clone()], 0.0);
+    let threshold = lanes(&chunk.threshold[entries.clone()], f32::INFINITY);
+    let rest_length = lanes(&chunk.rest_length_m[entries.clone()], 1.0);
+    let mut eta = [[0.0f32; LANES]; 3];
+    let mut partner = [i; LANES];
+    for (lane, &j) in chunk.neighbor[entries.clone()].iter().enumerate() {
+        let other = records[j as usize];
+        partner[lane] = j as usize;
+        for axis in 0..3 {
+            eta[axis][lane] = other.disp[axis] - me.disp[axis];
+        }
+    }
+    // Stretch and force scale, lane by lane (see `stretch`; one division for both).
+    let mut stretch = [0.0f32; LANES];
+    let mut scale = [0.0f32; LANES];
+    let mut y = [[0.0f32; LANES]; 3];
+    for lane in 0..LANES {
+        for axis in 0..3 {
+            y[axis][lane] = xi[axis][lane] + eta[axis][lane];
+        }
+        let length = (y[0][lane] * y[0][lane] + y[1][lane] * y[1][lane] + y[2][lane] * y[2][lane]).sqrt();
+        let growth = 2.0 * (xi[0][lane] * eta[0][lane] + xi[1][lane] * eta[1][lane] + xi[2][lane] * eta[2][lane])
+            + (eta[0][lane] * eta[0][lane] + eta[1][lane] * eta[1][lane] + eta[2][lane] * eta[2][lane]);
+        let denominator = rest_length[lane] * (length + rest_length[lane]) * length;
+        let inverse = if denominator > 0.0 { 1.0 / denominator } else { 0.0 };
+        // s = growth / (L (|y| + L)); the force k s y / |y| = k growth / (L (|y| + L) |y|) y
+        stretch[lane] = if stiffness[lane] > 0.0 { growth * length * inverse } else { 0.0 };
+        scale[lane] = stiffness[lane] * growth * inverse;
+    }
+    // Break test: the effective threshold is at least the bond's own plus this particle's boost
+    // (max rule) or its own (min rule); only lanes past that bound need the partner's boost.
+    let bound = match rule {
+        BreakRule::Max => me.boost,
+        BreakRule::Min => 0.0,
+    };
+    let mut suspects = false;
+    for lane in 0..LANES {
+        suspects |= stretch[lane] > threshold[lane] + bound;
+    }
+    if suspects {
+        for lane in 0..count {
+            let j = partner[lane];
+            if stretch[lane] > effective_threshold(rule, threshold[lane], me.boost, records[j].boost) {
+                let k = entries.start + lane;
                 chunk.threshold[k] = f32::INFINITY;
                 chunk.stiffness[k] = 0.0;
-                out.broken[local] += 1;
-                if internal {
-                    out.broken[j - first] += 1;
+                broken[local] += 1;
+                if INTERNAL {
+                    broken[j - first] += 1;
                 }
                 if i < j {
                     chunk.breaks.push(chunk.bond_id[k]);
                 }
-                continue;
-            }
-            if length > 0.0 {
-                let scale = stiffness * s / length;
-                let f = [y[0] * scale, y[1] * scale, y[2] * scale];
-                sum = [sum[0] + f[0], sum[1] + f[1], sum[2] + f[2]];
-                if internal {
-                    let other = j - first;
-                    for axis in 0..3 {
-                        out.force[axis][other] -= f[axis];
-                    }
-                }
-            }
-            min_stretch = min_stretch.min(s);
-            if internal {
-                let other = &mut out.min_stretch[j - first];
-                *other = other.min(s);
+                stretch[lane] = 0.0;
+                scale[lane] = 0.0;
             }
         }
+    }
+    for lane in 0..LANES {
         for axis in 0..3 {
-            out.force[axis][local] += sum[axis];
+            sums.force[axis][lane] += y[axis][lane] * scale[lane];
         }
-        out.min_stretch[local] = out.min_stretch[local].min(min_stretch);
+        sums.min_stretch[lane] = sums.min_stretch[lane].min(stretch[lane]);
+    }
+    if INTERNAL {
+        for lane in 0..count {
+            let total = &mut totals[partner[lane] - first];
+            for axis in 0..3 {
+                total[axis] -= y[axis][lane] * scale[lane];
+            }
+            total[3] = total[3].min(stretch[lane]);
+        }
     }
 }
 
@@ -132,7 +233,7 @@ pub trait BondLookup: Sync {
 pub fn collisions(
     first: usize,
     position: [&[f32]; 3],
-    hash: &SpatialHash,
+    contacts: &ContactList,
     bonds: &impl BondLookup,
     stiffness: f32,
     distance: f32,
@@ -141,20 +242,22 @@ pub fn collisions(
     let len = force[0].len();
     for local in 0..len {
         let i = first + local;
+        let candidates = contacts.candidates(i);
+        if candidates.is_empty() {
+            continue;
+        }
         let p = [position[0][i], position[1][i], position[2][i]];
         let mut sum = [0.0f32; 3];
-        hash.for_each_candidate(p, distance, |j| {
-            if j == i {
-                return;
-            }
+        for &j in candidates {
+            let j = j as usize;
             let d = [p[0] - position[0][j], p[1] - position[1][j], p[2] - position[2][j]];
             let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
             if r2 >= distance * distance || r2 == 0.0 || bonds.intact(i, j) {
-                return;
+                continue;
             }
             let f = repulsion(stiffness, distance, d, r2.sqrt());
             sum = [sum[0] + f[0], sum[1] + f[1], sum[2] + f[2]];
-        });
+        }
         for axis in 0..3 {
             force[axis][local] += sum[axis];
         }

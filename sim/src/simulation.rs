@@ -7,8 +7,8 @@ use shatter_core::config::sim::StiffnessCorrection;
 use shatter_core::particles::{Bonds, ParticleSet};
 
 use crate::bond_table::BondTable;
-use crate::contact::SpatialHash;
-use crate::kernels::{self, BodyForces, BondLookup, ChunkForces, ReadState, SphereNow};
+use crate::contact::ContactList;
+use crate::kernels::{self, BodyForces, BondLookup, ChunkForces, ParticleRecord, SphereNow};
 use crate::model::{Model, MovingSphere};
 use crate::{SimError, art};
 
@@ -102,12 +102,13 @@ pub struct Simulation {
     bond_count: Vec<u32>,
     table: BondTable,
     index: BondIndex,
-    hash: Option<SpatialHash>,
+    contacts: Option<ContactList>,
     dynamics: Dynamics,
     next_boost: Vec<f32>,
     broken: Vec<u32>,
     events: Vec<BreakEvent>,
     position_scratch: [Vec<f32>; 3],
+    records: Vec<ParticleRecord>,
     chunk_power: Vec<f64>,
 }
 
@@ -126,7 +127,7 @@ impl Simulation {
         let mass: Vec<f32> = particles.volume_m3.iter().map(|v| (f64::from(*v) * model.density_kg_m3) as f32).collect();
         let inverse_mass = mass.iter().map(|m| 1.0 / m).collect();
         let bond_count = (0..n).map(|i| particles.bonds.row(i).len() as u32).collect();
-        let hash = (model.contact_stiffness_pa > 0.0).then(|| SpatialHash::new(n, model.contact_distance_m));
+        let contacts = (model.contact_stiffness_pa > 0.0).then(|| ContactList::new(n, model.contact_distance_m));
         let zeros = || [vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]];
         let mut simulation = Simulation {
             model,
@@ -136,7 +137,7 @@ impl Simulation {
             bond_count,
             table,
             index: BondIndex::new(&particles.bonds),
-            hash,
+            contacts,
             dynamics: Dynamics {
                 step: 0,
                 disp: zeros(),
@@ -149,6 +150,7 @@ impl Simulation {
             broken: vec![0; n],
             events: Vec::new(),
             position_scratch: zeros(),
+            records: vec![ParticleRecord::default(); n],
             chunk_power: Vec::new(),
         };
         simulation.chunk_power = vec![0.0; simulation.table.chunks.len()];
@@ -172,6 +174,15 @@ impl Simulation {
     /// True for a simulation without particles.
     pub fn is_empty(&self) -> bool {
         self.mass.is_empty()
+    }
+
+    /// Bond entries the force pass computes per step: (internal, stored once and applied to
+    /// both ends; external, stored and computed on both sides).
+    pub fn bond_entries(&self) -> (usize, usize) {
+        self.table.chunks.iter().fold((0, 0), |(internal, external), chunk| {
+            let inside: usize = (0..chunk.len).map(|l| (chunk.internal_end[l] - chunk.row_start[l]) as usize).sum();
+            (internal + inside, external + chunk.neighbor.len() - inside)
+        })
     }
 
     /// The model.
@@ -293,7 +304,7 @@ impl Simulation {
     /// Each particle's share of the bond energy 1/2 k s^2 L (half of each of its intact bonds),
     /// joules.
     pub fn bond_energy_per_particle(&self) -> Vec<f64> {
-        let read = self.read_state();
+        let disp = &self.dynamics.disp;
         let size = self.table.chunk_size;
         let mut energy = vec![0.0f64; self.len()];
         (self.table.chunks.par_iter(), energy.par_chunks_mut(size)).into_par_iter().for_each(|(chunk, energy)| {
@@ -305,11 +316,11 @@ impl Simulation {
                         continue;
                     }
                     let j = chunk.neighbor[k] as usize;
-                    let xi = [0, 1, 2].map(|a| read.rest[a][j] - read.rest[a][i]);
-                    let eta = [0, 1, 2].map(|a| read.disp[a][j] - read.disp[a][i]);
-                    let (s, _, _) = kernels::stretch(xi, eta, chunk.rest_length_m[k]);
-                    let half =
-                        0.25 * f64::from(chunk.stiffness[k]) * f64::from(s).powi(2) * f64::from(chunk.rest_length_m[k]);
+                    let xi = [0, 1, 2].map(|a| chunk.rest_vector[a][k]);
+                    let eta = [0, 1, 2].map(|a| disp[a][j] - disp[a][i]);
+                    let rest_length = chunk.rest_length_m[k];
+                    let (s, _, _) = kernels::stretch(xi, eta, rest_length);
+                    let half = 0.25 * f64::from(chunk.stiffness[k]) * f64::from(s).powi(2) * f64::from(rest_length);
                     energy[local] += half;
                     if k < internal_end {
                         // stored once: the partner's half too (same chunk)
@@ -359,15 +370,6 @@ impl Simulation {
             .filter(|(k, _)| **k > 0.0)
             .map(|(k, m)| (2.0 * f64::from(*m) / k).sqrt())
             .fold(f64::INFINITY, f64::min)
-    }
-
-    fn read_state(&self) -> ReadState<'_> {
-        let disp = &self.dynamics.disp;
-        ReadState {
-            rest: [&self.rest[0], &self.rest[1], &self.rest[2]],
-            disp: [&disp[0], &disp[1], &disp[2]],
-            boost: &self.dynamics.boost,
-        }
     }
 
     /// Advances one step of velocity Verlet.
@@ -431,12 +433,13 @@ impl Simulation {
             mass,
             table,
             index,
-            hash,
+            contacts,
             dynamics,
             next_boost,
             broken,
             events,
             position_scratch,
+            records,
             chunk_power,
             ..
         } = self;
@@ -457,26 +460,28 @@ impl Simulation {
         let body = BodyForces { gravity: model.gravity_m_s2, projectiles: &projectiles, indenters: &indenters };
 
         let Dynamics { disp, vel, force, boost, step, .. } = dynamics;
-        // Current positions, for collisions and body forces.
+        // Current positions, for collisions and body forces; the spring kernel's gather records.
         {
             let [px, py, pz] = position_scratch;
-            (px.par_iter_mut(), py.par_iter_mut(), pz.par_iter_mut()).into_par_iter().enumerate().for_each(
-                |(i, (x, y, z))| {
+            (px.par_iter_mut(), py.par_iter_mut(), pz.par_iter_mut(), records.par_iter_mut())
+                .into_par_iter()
+                .enumerate()
+                .for_each(|(i, (x, y, z, record))| {
                     *x = rest[0][i] + disp[0][i];
                     *y = rest[1][i] + disp[1][i];
                     *z = rest[2][i] + disp[2][i];
-                },
-            );
+                    *record = ParticleRecord { disp: [disp[0][i], disp[1][i], disp[2][i]], boost: boost[i] };
+                });
         }
         let position = [&position_scratch[0][..], &position_scratch[1][..], &position_scratch[2][..]];
-        if let Some(hash) = hash.as_mut() {
-            hash.rebuild(position);
+        if let Some(contacts) = contacts.as_mut() {
+            contacts.update(position);
         }
-        let read = ReadState { rest: [&rest[0], &rest[1], &rest[2]], disp: [&disp[0], &disp[1], &disp[2]], boost };
+        let records = &*records;
         let velocity = [&vel[0][..], &vel[1][..], &vel[2][..]];
         let (rule, alpha) = (model.break_rule, model.alpha);
         let (contact_stiffness, contact_distance) = (model.contact_stiffness_pa, model.contact_distance_m);
-        let hash = hash.as_ref();
+        let contacts = contacts.as_ref();
         let lookup = &*index;
         let [fx, fy, fz] = force;
         (
@@ -492,15 +497,15 @@ impl Simulation {
             .for_each(|(chunk, power, fx, fy, fz, min_stretch, broken)| {
                 let first = chunk.first;
                 let mut out = ChunkForces { force: [fx, fy, fz], min_stretch, broken };
-                kernels::spring_forces(chunk, &read, rule, &mut out);
+                kernels::spring_forces(chunk, records, rule, &mut out);
                 for value in out.min_stretch.iter_mut() {
                     *value *= -alpha;
                 }
-                if let Some(hash) = hash {
+                if let Some(contacts) = contacts {
                     kernels::collisions(
                         first,
                         position,
-                        hash,
+                        contacts,
                         lookup,
                         contact_stiffness,
                         contact_distance,

@@ -1,0 +1,123 @@
+//! Benchmark: bond updates per second per core on a 49^3 block (117,649 particles) at N = 3,
+//! beside LAMMPS's `pair_style peri/pmb` on the same lattice, horizon and step count when `lmp`
+//! is installed (Debian package `lammps`).
+//!
+//! `cargo bench -p shatter-sim --bench bond_updates [-- STEPS [SIDE]]` (defaults 100 and 49). A
+//! bond update is one bond's force (stretch, break test, force) in one step; both codes are
+//! credited with unique bonds x steps, whatever their internal layout.
+
+use std::path::Path;
+use std::process::Command;
+use std::time::Instant;
+
+use shatter_core::NoProgress;
+use shatter_core::config::PipelineConfig;
+use shatter_sim::Simulation;
+
+fn config(side: usize) -> PipelineConfig {
+    let size = side as f64 * 0.001;
+    let text = format!(
+        r#"
+[scene]
+name = "bench"
+output_dir = "out"
+seed = 1
+[geometry]
+source = "box"
+box_size_m = [{size}, {size}, {size}]
+sampler = "grid"
+spacing_m = 0.001
+horizon_factor = 3.0
+[material]
+density_kg_m3 = 2200.0
+bulk_modulus_pa = 14.9e9
+[sim]
+gravity_m_s2 = [0.0, 0.0, 0.0]
+"#
+    );
+    PipelineConfig::from_toml_str(&text, Path::new("/nonexistent/pipeline.toml")).expect("valid config")
+}
+
+/// Seconds for `steps` steps on `threads` threads: the median of batches of 10 steps, scaled,
+/// so that a noisy neighbour on a shared machine moves the figure less.
+fn time_ours(config: &PipelineConfig, particles: &shatter_core::ParticleSet, steps: usize, threads: usize) -> f64 {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("pool");
+    pool.install(|| {
+        let mut sim = Simulation::from_config(config, particles).expect("simulation");
+        sim.set_velocity(|i, _| {
+            let h = shatter_core::random::splitmix64(i as u64);
+            [0, 1, 2].map(|k| ((h >> (16 * k)) & 0xffff) as f32 / 65535.0 * 2e-3 - 1e-3)
+        });
+        let (internal, external) = sim.bond_entries();
+        if threads == 1 {
+            println!("  bond entries per step: {internal} internal + {external} external");
+        }
+        sim.step(); // warm caches
+        let mut batches: Vec<f64> = (0..steps.div_ceil(10))
+            .map(|_| {
+                let started = Instant::now();
+                for _ in 0..10 {
+                    sim.step();
+                }
+                started.elapsed().as_secs_f64()
+            })
+            .collect();
+        batches.sort_by(f64::total_cmp);
+        batches[batches.len() / 2] * steps as f64 / 10.0
+    })
+}
+
+/// LAMMPS's loop time for the same block, if `lmp` runs.
+fn time_lammps(side: usize, steps: usize) -> Option<f64> {
+    let dir = std::env::temp_dir().join(format!("shatter-lammps-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).ok()?;
+    let c = 18.0 * 14.9e9 / (std::f64::consts::PI * 0.003f64.powi(4));
+    let input = format!(
+        "units si\nboundary s s s\natom_style peri\natom_modify map array\nneighbor 0.0005 bin\n\
+         lattice sc 0.001\nregion block block 0 {last} 0 {last} 0 {last}\ncreate_box 1 block\n\
+         create_atoms 1 region block\npair_style peri/pmb\npair_coeff * * {c:e} 0.0030001 0.0003153 0.25\n\
+         set group all density 2200\nset group all volume 1.0e-9\n\
+         velocity all create 1.0e-3 12345 dist gaussian\nfix 1 all nve\ntimestep 1.1920928955078125e-07\n\
+         thermo {steps}\nrun {steps}\n",
+        last = side - 1
+    );
+    std::fs::write(dir.join("in.bench"), input).ok()?;
+    let output = Command::new("lmp").args(["-in", "in.bench", "-log", "none"]).current_dir(&dir).output().ok()?;
+    let _ = std::fs::remove_dir_all(&dir);
+    let text = String::from_utf8_lossy(&output.stdout);
+    let line = text.lines().find(|line| line.starts_with("Loop time of"))?;
+    line.split_whitespace().nth(3)?.parse().ok()
+}
+
+fn main() {
+    let mut args = std::env::args().skip(1).filter_map(|arg| arg.parse::<usize>().ok());
+    let steps = args.next().unwrap_or(100);
+    let side = args.next().unwrap_or(49);
+    let config = config(side);
+    let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
+    let bonds = particles.bonds.unique_count();
+    let updates = (bonds * steps) as f64;
+    let cores = rayon::current_num_threads();
+    println!(
+        "bond updates: {} particles ({side}^3), {bonds} bonds at N = 3, {steps} steps; a bond update = one bond, one step",
+        particles.len()
+    );
+    let one = time_ours(&config, &particles, steps, 1);
+    println!("  shatter CPU, 1 thread:   {one:7.2} s  {:8.1} M bond updates/s per core", updates / one / 1e6);
+    let all = time_ours(&config, &particles, steps, cores);
+    println!(
+        "  shatter CPU, {cores} threads:  {all:7.2} s  {:8.1} M bond updates/s ({:.1} per core)",
+        updates / all / 1e6,
+        updates / all / 1e6 / cores as f64
+    );
+    match time_lammps(side, steps) {
+        Some(lammps) => {
+            println!(
+                "  LAMMPS peri/pmb, 1 core: {lammps:7.2} s  {:8.1} M bond updates/s per core",
+                updates / lammps / 1e6
+            );
+            println!("  per-core ratio, shatter 1 thread / LAMMPS: {:.1}x", lammps / one);
+        }
+        None => println!("  LAMMPS (lmp) not found: install Debian's `lammps` package to compare"),
+    }
+}
