@@ -4,8 +4,10 @@ use std::io::Read;
 use std::path::Path;
 
 use serde_json::json;
+use shatter_core::fragments::FragmentFrame;
 use shatter_core::particles::ParticleSet;
 use shatter_core::stage_file::{StageKind, read_header};
+use shatter_render::post::components::size_histogram;
 use shatter_sim::frames::{BreakLog, PointFrame};
 use shatter_sim::run::checkpoint_summary;
 
@@ -30,6 +32,14 @@ pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
                 json!({"kind": "checkpoint", "particles": particles, "frame": meta.frame, "step": meta.step,
                        "broken_bonds": meta.broken_bonds, "external_work_j": meta.external_work_j,
                        "initial_energy_j": meta.initial_energy_j})
+            }
+            StageKind::Fragments => {
+                let frame = FragmentFrame::read(path)?;
+                let largest = frame.elements.iter().copied().max().unwrap_or(0);
+                json!({"kind": "fragments", "frame": frame.meta.frame, "step": frame.meta.step,
+                       "time_s": frame.meta.time_s, "elements": frame.fragment_of.len(),
+                       "fragments": frame.fragment_count(), "largest_fragment_elements": largest,
+                       "size_histogram": size_histogram(&frame.elements), "smoothed": frame.meta.smoothed})
             }
         }
     };

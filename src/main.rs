@@ -2,6 +2,7 @@
 //! bars and stage dispatch; the work happens in the library crates.
 
 mod inspect;
+mod post;
 mod preprocess;
 mod progress;
 mod sim;
@@ -12,6 +13,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use shatter_core::{ConfigError, PipelineConfig};
 use shatter_preprocess::PreprocessError;
+use shatter_render::post::PostError;
 use shatter_sim::run::RunError;
 
 /// Exit code for bad input: a config, mesh or setting the user must fix (clap uses it for bad
@@ -95,6 +97,7 @@ impl<E: Into<anyhow::Error>> From<E> for Failure {
             cause.is::<ConfigError>()
                 || cause.is::<PreprocessError>()
                 || cause.downcast_ref::<RunError>().is_some_and(RunError::is_bad_input)
+                || cause.downcast_ref::<PostError>().is_some_and(PostError::is_bad_input)
         }) {
             EXIT_BAD_INPUT
         } else {
@@ -126,10 +129,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
     match cli.command {
         Command::Preprocess(arg) => preprocess::run(&load_config(&arg)?),
         Command::Sim { config, options } => sim::run(&load_config(&config)?, &options),
-        Command::Post(arg) => {
-            load_config(&arg)?;
-            Err(not_implemented("post", 7))
-        }
+        Command::Post(arg) => post::run(&load_config(&arg)?),
         Command::Render(arg) => {
             load_config(&arg)?;
             Err(not_implemented("render", 8))
@@ -141,7 +141,10 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 sim::run(&config, &options)?;
             }
             if until >= Stage::Post {
-                return Err(not_implemented("post", 7));
+                post::run(&config)?;
+            }
+            if until >= Stage::Render {
+                return Err(not_implemented("render", 8));
             }
             Ok(())
         }

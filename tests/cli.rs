@@ -200,7 +200,7 @@ fn a_failed_run_keeps_the_good_output_and_corruption_is_reported() {
 #[test]
 fn stages_not_built_yet_say_so_and_write_nothing() {
     let (dir, _) = scene(GOOD);
-    for stage in ["post", "render"] {
+    for stage in ["render"] {
         let output = shatter(&[stage], dir.path());
         assert_eq!(output.status.code(), Some(3), "{stage}");
         assert!(stderr(&output).contains("is not available yet"), "{stage}: {}", stderr(&output));

@@ -3,13 +3,17 @@
 //! - [`config`]: the `pipeline.toml` schema, parsing and validation.
 //! - [`stage_file`]: the versioned, checksummed, atomically written binary container that every
 //!   stage file uses.
+//! - [`fragments`]: the per-frame fragments file written by `shatter post`.
 //! - [`particles`]: the particle file written by `shatter preprocess` (rest state, element
 //!   geometry, bonds, element adjacency).
+//! - [`ply`]: checksummed binary PLY point caches, the public per-frame format.
 //! - [`progress`]: how library code reports progress to the CLI.
 //! - [`random`]: seeded, order-independent randomness.
 
 pub mod config;
+pub mod fragments;
 pub mod particles;
+pub mod ply;
 pub mod progress;
 pub mod random;
 pub mod stage_file;

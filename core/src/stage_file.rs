@@ -41,24 +41,27 @@ pub enum StageKind {
     Particles,
     /// `sim.checkpoint.shp`: the full simulation state, written by `shatter sim` for `--resume`.
     Checkpoint,
+    /// `fragments/fragments.####.shp`: one frame's fragments, written by `shatter post`.
+    Fragments,
 }
 
 impl StageKind {
     /// Every kind this build knows.
-    pub const ALL: [StageKind; 2] = [StageKind::Particles, StageKind::Checkpoint];
+    pub const ALL: [StageKind; 3] = [StageKind::Particles, StageKind::Checkpoint, StageKind::Fragments];
 
     /// The four-byte tag in the header.
     pub fn tag(self) -> [u8; 4] {
         match self {
             StageKind::Particles => *b"PART",
             StageKind::Checkpoint => *b"CHKP",
+            StageKind::Fragments => *b"FRAG",
         }
     }
 
     /// The format version this build writes and reads.
     pub fn version(self) -> u32 {
         match self {
-            StageKind::Particles | StageKind::Checkpoint => 1,
+            StageKind::Particles | StageKind::Checkpoint | StageKind::Fragments => 1,
         }
     }
 
@@ -67,6 +70,7 @@ impl StageKind {
         match self {
             StageKind::Particles => "particles",
             StageKind::Checkpoint => "checkpoint",
+            StageKind::Fragments => "fragments",
         }
     }
 
@@ -230,8 +234,7 @@ pub struct StageWriter {
 impl StageWriter {
     /// Starts writing a `kind` file that will replace `path` when finished.
     pub fn create(path: &Path, kind: StageKind) -> Result<StageWriter, StageFileError> {
-        let file_name = path.file_name().map(|name| name.to_string_lossy().into_owned()).unwrap_or_default();
-        let temp_path = path.with_file_name(format!(".{file_name}.partial-{}", std::process::id()));
+        let temp_path = temporary_path(path);
         let file = File::create(&temp_path).map_err(|source| StageFileError::Io {
             path: temp_path.clone(),
             action: "create",
@@ -300,13 +303,7 @@ impl StageWriter {
         file.write_all(&self.payload_len.to_le_bytes()).map_err(io_error(&self.temp_path, "write"))?;
         file.sync_all().map_err(io_error(&self.temp_path, "sync"))?;
         drop(file);
-        std::fs::rename(&self.temp_path, &self.final_path).map_err(io_error(&self.final_path, "rename into place"))?;
-        if let Some(folder) = self.final_path.parent().filter(|folder| !folder.as_os_str().is_empty()) {
-            // Make the rename itself durable; not every filesystem lets a folder be synced.
-            if let Ok(folder) = File::open(folder) {
-                let _ = folder.sync_all();
-            }
-        }
+        publish(&self.temp_path, &self.final_path).map_err(io_error(&self.final_path, "rename into place"))?;
         self.temp_path.clear();
         Ok(())
     }
@@ -336,6 +333,43 @@ impl Drop for StageWriter {
             let _ = std::fs::remove_file(&self.temp_path);
         }
     }
+}
+
+/// The temporary name a file is written under before it replaces `path`: hidden, in the same
+/// folder (so the rename is atomic), unique to this process.
+fn temporary_path(path: &Path) -> PathBuf {
+    let file_name = path.file_name().map(|name| name.to_string_lossy().into_owned()).unwrap_or_default();
+    path.with_file_name(format!(".{file_name}.partial-{}", std::process::id()))
+}
+
+/// Renames the finished, fsynced `temp` over `path` and makes the rename durable.
+fn publish(temp: &Path, path: &Path) -> io::Result<()> {
+    std::fs::rename(temp, path)?;
+    if let Some(folder) = path.parent().filter(|folder| !folder.as_os_str().is_empty()) {
+        // Not every filesystem lets a folder be synced; the rename itself is already atomic.
+        if let Ok(folder) = File::open(folder) {
+            let _ = folder.sync_all();
+        }
+    }
+    Ok(())
+}
+
+/// Writes `parts` to `path` atomically: to a temporary file in the same folder, fsynced, then
+/// renamed. A crash leaves either the old file or the new one, never a mix.
+pub fn write_atomically(path: &Path, parts: &[&[u8]]) -> io::Result<()> {
+    let temp = temporary_path(path);
+    let result = (|| {
+        let mut file = File::create(&temp)?;
+        for part in parts {
+            file.write_all(part)?;
+        }
+        file.sync_all()?;
+        publish(&temp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&temp);
+    }
+    result
 }
 
 /// The header of a stage file, read without checking the payload.

@@ -1,5 +1,9 @@
-//! The post and render stages of shatter: fragments by BFS over intact element adjacency, rigid
-//! motion by Kabsch per fragment, and a k-d tree ray tracer (short-stack traversal) for cube,
-//! tetrahedron and trimtope CSG unions under spherical-harmonic environment light, to EXR.
+//! The post and render stages of shatter.
 //!
-//! Not built yet: post arrives with issue #7, the renderer with issue #8.
+//! - [`post`]: fragments by breadth-first search over intact element adjacency, stable ids, rigid
+//!   motion by mass-weighted Kabsch per fragment, optional smoothing, point caches and a USD shot.
+//!
+//! The renderer (k-d tree ray tracing of cube, tetrahedron and trimtope CSG unions under
+//! spherical-harmonic light, to EXR) arrives with issue #8.
+
+pub mod post;

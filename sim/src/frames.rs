@@ -1,12 +1,16 @@
 //! What `shatter sim` writes per frame: a binary PLY point cache (position, velocity, damage;
 //! readable by Blender and Houdini) and the append-only bond-break log.
 //!
-//! Both are checksummed: the PLY header carries a CRC-32 of its body in a comment, and each block
-//! of the break log carries one of its records. Formats: docs/FORMATS.md.
+//! Both are checksummed: the PLY header carries a CRC-32 of its body in a comment (see
+//! [`shatter_core::ply`]), and each block of the break log carries one of its records. Formats:
+//! docs/FORMATS.md.
 
 use std::fs::{File, OpenOptions};
-use std::io::{BufRead, BufReader, Read, Seek, SeekFrom, Write};
+use std::io::{Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
+
+use shatter_core::ply::{Column, PlyError, PointCache};
+use shatter_core::stage_file::write_atomically;
 
 use crate::simulation::BreakEvent;
 
@@ -23,6 +27,9 @@ pub enum FrameFileError {
         /// The I/O error.
         source: std::io::Error,
     },
+    /// A point cache could not be read or written.
+    #[error(transparent)]
+    Ply(#[from] PlyError),
     /// The file is not what it should be.
     #[error("{path}: {what}")]
     Invalid {
@@ -58,147 +65,46 @@ pub struct PointFrame {
     pub damage: Vec<f32>,
 }
 
-const PLY_PROPERTIES: [&str; 7] = ["x", "y", "z", "vx", "vy", "vz", "damage"];
+const COORDINATES: [&str; 3] = ["x", "y", "z"];
+const VELOCITIES: [&str; 3] = ["vx", "vy", "vz"];
 
 impl PointFrame {
-    fn body(&self) -> Vec<u8> {
-        let n = self.damage.len();
-        let mut body = Vec::with_capacity(n * PLY_PROPERTIES.len() * 4);
-        for i in 0..n {
-            let values = [
-                self.position[0][i],
-                self.position[1][i],
-                self.position[2][i],
-                self.velocity[0][i],
-                self.velocity[1][i],
-                self.velocity[2][i],
-                self.damage[i],
-            ];
-            for value in values {
-                body.extend_from_slice(&value.to_le_bytes());
-            }
-        }
-        body
-    }
-
-    /// Writes the frame as a binary little-endian PLY, atomically (temporary file, fsync, rename).
+    /// Writes the frame as a checksummed binary PLY (x, y, z, vx, vy, vz, damage), atomically.
     pub fn write(&self, path: &Path) -> Result<(), FrameFileError> {
-        let body = self.body();
-        let mut header = String::from("ply\nformat binary_little_endian 1.0\n");
-        header.push_str("comment written by shatter sim\n");
-        header.push_str(&format!("comment shatter frame {}\n", self.frame));
-        header.push_str(&format!("comment shatter step {}\n", self.step));
-        header.push_str(&format!("comment shatter time_s {:e}\n", self.time_s));
-        header.push_str(&format!("comment shatter body_crc32 {:08x}\n", crc32fast::hash(&body)));
-        header.push_str(&format!("element vertex {}\n", self.damage.len()));
-        for name in PLY_PROPERTIES {
-            header.push_str(&format!("property float {name}\n"));
+        let mut columns = Vec::with_capacity(7);
+        for (name, values) in COORDINATES.iter().zip(&self.position).chain(VELOCITIES.iter().zip(&self.velocity)) {
+            columns.push((name.to_string(), Column::Float(values.clone())));
         }
-        header.push_str("end_header\n");
-        write_atomically(path, &[header.as_bytes(), &body])
+        columns.push(("damage".to_string(), Column::Float(self.damage.clone())));
+        let cache = PointCache {
+            comments: vec![
+                ("frame".into(), self.frame.to_string()),
+                ("step".into(), self.step.to_string()),
+                ("time_s".into(), format!("{:e}", self.time_s)),
+            ],
+            columns,
+        };
+        Ok(cache.write(path)?)
     }
 
     /// Reads a frame written by [`PointFrame::write`], checking its header, size and checksum.
     pub fn read(path: &Path) -> Result<PointFrame, FrameFileError> {
-        let file = File::open(path).map_err(io_error(path, "open"))?;
-        let file_len = file.metadata().map_err(io_error(path, "stat"))?.len();
-        let mut input = BufReader::new(file);
-        let mut header_len = 0u64;
-        let mut lines = Vec::new();
-        loop {
-            let mut line = Vec::new();
-            let read = input.by_ref().take(1024).read_until(b'\n', &mut line).map_err(io_error(path, "read"))?;
-            if read == 0 || !line.ends_with(b"\n") {
-                return Err(invalid(path, "not a shatter PLY point cache: the header does not end"));
-            }
-            header_len += read as u64;
-            let line = String::from_utf8_lossy(&line).trim_end().to_string();
-            if line == "end_header" {
-                break;
-            }
-            lines.push(line);
-            if lines.len() > 64 {
-                return Err(invalid(path, "not a shatter PLY point cache: the header is too long"));
-            }
-        }
-        let field = |prefix: &str| lines.iter().find_map(|line| line.strip_prefix(prefix).map(str::to_owned));
-        let number = |prefix: &str| -> Result<String, FrameFileError> {
-            field(prefix).ok_or_else(|| invalid(path, format!("the PLY header lacks `{}`", prefix.trim())))
-        };
-        if lines.first().map(String::as_str) != Some("ply")
-            || !lines.iter().any(|l| l == "format binary_little_endian 1.0")
-        {
-            return Err(invalid(path, "not a binary little-endian PLY file"));
-        }
-        let properties: Vec<&str> = lines.iter().filter_map(|l| l.strip_prefix("property float ")).collect();
-        if properties != PLY_PROPERTIES {
-            return Err(invalid(
-                path,
-                format!("unexpected PLY properties {properties:?}, expected {PLY_PROPERTIES:?}"),
-            ));
-        }
-        let parse = |text: String, what: &str| {
-            text.trim().parse::<u64>().map_err(|_| invalid(path, format!("bad {what} {text:?} in the PLY header")))
-        };
-        let n = parse(number("element vertex ")?, "vertex count")?;
-        let frame = parse(number("comment shatter frame ")?, "frame")?;
-        let step = parse(number("comment shatter step ")?, "step")?;
-        let time_s = number("comment shatter time_s ")?
-            .trim()
-            .parse::<f64>()
-            .map_err(|_| invalid(path, "bad time in the PLY header"))?;
-        let crc = u32::from_str_radix(number("comment shatter body_crc32 ")?.trim(), 16)
-            .map_err(|_| invalid(path, "bad checksum in the PLY header"))?;
-        let body_len = n.checked_mul(28).ok_or_else(|| invalid(path, "absurd vertex count"))?;
-        if header_len + body_len != file_len {
-            return Err(invalid(
-                path,
-                format!(
-                    "the file is {file_len} bytes but its header promises {} ({})",
-                    header_len + body_len,
-                    if file_len < header_len + body_len { "truncated" } else { "extra bytes at the end" }
-                ),
-            ));
-        }
-        let mut body = vec![0u8; body_len as usize];
-        input.read_exact(&mut body).map_err(io_error(path, "read"))?;
-        let computed = crc32fast::hash(&body);
-        if computed != crc {
-            return Err(invalid(path, format!("corrupted: body checksum {computed:08x}, header says {crc:08x}")));
-        }
-        let n = n as usize;
-        let value = |i: usize, p: usize| {
-            let at = (i * 7 + p) * 4;
-            f32::from_le_bytes([body[at], body[at + 1], body[at + 2], body[at + 3]])
-        };
-        let column = |p: usize| (0..n).map(|i| value(i, p)).collect::<Vec<f32>>();
+        let cache = PointCache::read(path)?;
+        let missing = |what: &str| invalid(path, format!("not a shatter point cache: no {what}"));
+        let number = |key: &str| cache.comment(key).ok_or_else(|| missing(key));
+        let frame = number("frame")?.parse().map_err(|_| missing("valid frame number"))?;
+        let step = number("step")?.parse().map_err(|_| missing("valid step"))?;
+        let time_s = number("time_s")?.parse().map_err(|_| missing("valid time"))?;
+        let column = |name: &str| cache.floats(name).map(<[f32]>::to_vec).ok_or_else(|| missing(name));
         Ok(PointFrame {
-            frame: frame as u32,
+            frame,
             step,
             time_s,
-            position: [column(0), column(1), column(2)],
-            velocity: [column(3), column(4), column(5)],
-            damage: column(6),
+            position: [column("x")?, column("y")?, column("z")?],
+            velocity: [column("vx")?, column("vy")?, column("vz")?],
+            damage: column("damage")?,
         })
     }
-}
-
-/// Writes `parts` to `path` through a temporary file in the same folder, fsynced and renamed.
-pub fn write_atomically(path: &Path, parts: &[&[u8]]) -> Result<(), FrameFileError> {
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let temp = path.with_file_name(format!(".{name}.partial-{}", std::process::id()));
-    let result = (|| {
-        let mut file = File::create(&temp).map_err(io_error(&temp, "create"))?;
-        for part in parts {
-            file.write_all(part).map_err(io_error(&temp, "write"))?;
-        }
-        file.sync_all().map_err(io_error(&temp, "sync"))?;
-        std::fs::rename(&temp, path).map_err(io_error(path, "rename into place"))
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&temp);
-    }
-    result
 }
 
 const LOG_MAGIC: &[u8; 8] = b"SHBREAKS";
@@ -230,7 +136,7 @@ impl BreakLog {
         let mut header = LOG_MAGIC.to_vec();
         header.extend_from_slice(&LOG_VERSION.to_le_bytes());
         header.extend_from_slice(&0u32.to_le_bytes());
-        write_atomically(path, &[&header])?;
+        write_atomically(path, &[&header]).map_err(io_error(path, "create"))?;
         BreakLog::open_at(path, LOG_HEADER_LEN)
     }
 

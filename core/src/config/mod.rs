@@ -10,8 +10,10 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+pub mod post;
 pub mod sim;
 
+pub use post::PostConfig;
 pub use sim::SimConfig;
 
 /// The largest horizon factor N accepted: bonds per particle grow as N^3 (about 2,100 at N = 8).
@@ -68,6 +70,9 @@ pub struct PipelineConfig {
     /// `[sim]`: time stepping, forces, art direction (every key has a default).
     #[serde(default)]
     pub sim: SimConfig,
+    /// `[post]`: fragments and exports (every key has a default).
+    #[serde(default)]
+    pub post: PostConfig,
     /// The config file this was loaded from (empty for configs parsed from a string).
     #[serde(skip)]
     pub path: PathBuf,
@@ -83,6 +88,13 @@ pub struct SceneConfig {
     pub output_dir: PathBuf,
     /// Seed for every random choice (threshold jitter, sampling): same seed, same result.
     pub seed: u64,
+    /// Playback rate of the frames (USD time codes, EXR metadata).
+    #[serde(default = "default_frames_per_second")]
+    pub frames_per_second: f64,
+}
+
+fn default_frames_per_second() -> f64 {
+    24.0
 }
 
 /// `[geometry]`.
@@ -335,6 +347,7 @@ impl PipelineConfig {
         check.that(!scene.output_dir.as_os_str().is_empty(), "scene.output_dir", "\"\"", || {
             "must name a folder".to_string()
         })?;
+        check.positive("scene.frames_per_second", scene.frames_per_second, "frames per second")?;
 
         let geometry = &self.geometry;
         match &geometry.source {
@@ -412,7 +425,8 @@ impl PipelineConfig {
             || format!("must be between 0 and {MAX_THRESHOLD_JITTER} (a fraction of the mean threshold)"),
         )?;
         check.non_negative("material.compression_alpha", material.compression_alpha, "dimensionless")?;
-        self.sim.validate(&check)
+        self.sim.validate(&check)?;
+        self.post.validate(&check)
     }
 }
 

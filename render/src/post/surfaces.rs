@@ -1,0 +1,133 @@
+//! The outer surface of a piece made of elements, in the rest frame: each element's faces except
+//! those it shares with an adjacent element of the same piece.
+
+use glam::{Quat, Vec3};
+use shatter_core::particles::{Elements, ParticleSet};
+
+/// A polygon mesh: `face_sizes[f]` corners of face f are the next entries of `indices`.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SurfaceMesh {
+    /// Vertex positions, metres.
+    pub points: Vec<[f32; 3]>,
+    /// Corners per face.
+    pub face_sizes: Vec<u32>,
+    /// Vertex indices, face after face, counter-clockwise seen from outside.
+    pub indices: Vec<u32>,
+}
+
+impl SurfaceMesh {
+    fn push_face(&mut self, corners: &[Vec3]) {
+        let base = self.points.len() as u32;
+        self.points.extend(corners.iter().map(|c| c.to_array()));
+        self.face_sizes.push(corners.len() as u32);
+        self.indices.extend(base..base + corners.len() as u32);
+    }
+
+    /// Total area of the faces, m^2 (polygons fanned from their first corner).
+    pub fn area(&self) -> f64 {
+        let mut start = 0usize;
+        let mut area = 0.0;
+        for &size in &self.face_sizes {
+            let corner = |k: usize| Vec3::from_array(self.points[self.indices[start + k] as usize]).as_dvec3();
+            for k in 1..size as usize - 1 {
+                area += 0.5 * (corner(k) - corner(0)).cross(corner(k + 1) - corner(0)).length();
+            }
+            start += size as usize;
+        }
+        area
+    }
+}
+
+/// The cube face (axis, positive side?) of a cube centred at `from` facing a cube at `to`.
+fn facing(orientation: Quat, from: Vec3, to: Vec3) -> (usize, bool) {
+    let d = orientation.inverse() * (to - from);
+    let axis = d.abs().max_position();
+    (axis, d[axis] > 0.0)
+}
+
+/// One surface mesh per piece: `piece_of[element]` in 0..pieces.
+pub fn piece_surfaces(particles: &ParticleSet, piece_of: &[u32], pieces: usize) -> Vec<SurfaceMesh> {
+    let n = particles.len();
+    // Faces hidden because an adjacent element of the same piece covers them, as bit masks.
+    let mut hidden = vec![0u8; n];
+    let position = |i: usize| Vec3::from_array(particles.rest_position_m[i]);
+    for &[a, b] in &particles.adjacency {
+        let (a, b) = (a as usize, b as usize);
+        if piece_of[a] != piece_of[b] {
+            continue;
+        }
+        match &particles.elements {
+            Elements::Cubes { orientation, .. } => {
+                let orientation = Quat::from_array(*orientation);
+                for (from, to) in [(a, b), (b, a)] {
+                    let (axis, positive) = facing(orientation, position(from), position(to));
+                    hidden[from] |= 1 << (2 * axis + usize::from(positive));
+                }
+            }
+            Elements::Tets { vertices_m } => {
+                for (from, to) in [(a, b), (b, a)] {
+                    // the face opposite the one vertex of `from` that `to` lacks
+                    if let Some(k) = (0..4).find(|&k| !vertices_m[to].contains(&vertices_m[from][k])) {
+                        hidden[from] |= 1 << k;
+                    }
+                }
+            }
+            Elements::Trimtopes { .. } => {}
+        }
+    }
+    let mut meshes = vec![SurfaceMesh::default(); pieces];
+    for element in 0..n {
+        let mesh = &mut meshes[piece_of[element] as usize];
+        match &particles.elements {
+            Elements::Cubes { half_size_m, orientation } => {
+                let orientation = Quat::from_array(*orientation);
+                let h = half_size_m[element];
+                let centre = position(element);
+                for axis in 0..3 {
+                    for positive in [false, true] {
+                        if hidden[element] & (1 << (2 * axis + usize::from(positive))) != 0 {
+                            continue;
+                        }
+                        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+                        let sign = if positive { 1.0 } else { -1.0 };
+                        let corner = |a: f32, b: f32| {
+                            let mut local = Vec3::ZERO;
+                            local[axis] = sign * h;
+                            local[u] = a * h;
+                            local[v] = b * h;
+                            centre + orientation * local
+                        };
+                        // (u, v, axis) is right-handed: u then v is counter-clockwise about +axis
+                        let mut quad = [corner(-1.0, -1.0), corner(1.0, -1.0), corner(1.0, 1.0), corner(-1.0, 1.0)];
+                        if !positive {
+                            quad.reverse();
+                        }
+                        mesh.push_face(&quad);
+                    }
+                }
+            }
+            Elements::Tets { vertices_m } => {
+                let corners = vertices_m[element].map(Vec3::from_array);
+                let centre = corners.iter().copied().sum::<Vec3>() / 4.0;
+                for k in 0..4 {
+                    if hidden[element] & (1 << k) != 0 {
+                        continue;
+                    }
+                    let mut face = [corners[(k + 1) % 4], corners[(k + 2) % 4], corners[(k + 3) % 4]];
+                    let normal = (face[1] - face[0]).cross(face[2] - face[0]);
+                    if normal.dot(face[0] - centre) < 0.0 {
+                        face.swap(1, 2);
+                    }
+                    mesh.push_face(&face);
+                }
+            }
+            Elements::Trimtopes { triangle_offsets, triangles_m, .. } => {
+                let range = triangle_offsets[element] as usize..triangle_offsets[element + 1] as usize;
+                for triangle in &triangles_m[range] {
+                    mesh.push_face(&triangle.map(Vec3::from_array));
+                }
+            }
+        }
+    }
+    meshes
+}

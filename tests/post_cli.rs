@@ -1,0 +1,121 @@
+//! `shatter post` end to end, and its USD checked by Pixar's own parser (usd-core).
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn shatter(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_shatter")).args(args).current_dir(dir).output().expect("shatter runs")
+}
+
+fn stderr(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+const SCENE: &str = r#"
+[scene]
+name = "struck"
+output_dir = "out"
+seed = 2
+[geometry]
+source = "box"
+box_size_m = [0.012, 0.012, 0.004]
+sampler = "grid"
+spacing_m = 0.001
+horizon_factor = 3.0
+[material]
+density_kg_m3 = 2200.0
+bulk_modulus_pa = 14.9e9
+[sim]
+frames = 6
+steps_per_frame = 60
+gravity_m_s2 = [0.0, 0.0, 0.0]
+[[sim.projectile]]
+center_m = [0.0, 0.0, 0.0067]
+velocity_m_s = [0.0, 0.0, -150.0]
+radius_m = 0.003
+stiffness_pa = 3e7
+"#;
+
+/// What the USD check verifies, in Python with `pxr` (pip install usd-core):
+/// the stage opens; its time range is frames 1..=6 at 24 fps; it has exactly as many Mesh prims
+/// as the last frame has fragments; every mesh has points, face counts summing to its index
+/// count, indices within its points; every mesh's transform is sampled at each frame; and the
+/// transform of the piece holding element 0 at frame 6 maps its rest position (first point of the
+/// piece's mesh is not used: the test passes the expected position in).
+const USD_CHECK: &str = r#"
+import sys
+from pxr import Usd, UsdGeom, Gf
+path, fragments, rest, expected = sys.argv[1], int(sys.argv[2]), [float(v) for v in sys.argv[3:6]], [float(v) for v in sys.argv[6:9]]
+stage = Usd.Stage.Open(path)
+assert stage, "the stage does not open"
+assert stage.GetStartTimeCode() == 1 and stage.GetEndTimeCode() == 6, (stage.GetStartTimeCode(), stage.GetEndTimeCode())
+assert stage.GetTimeCodesPerSecond() == 24
+meshes = [p for p in stage.Traverse() if p.IsA(UsdGeom.Mesh)]
+assert len(meshes) == fragments, (len(meshes), fragments)
+for prim in meshes:
+    mesh = UsdGeom.Mesh(prim)
+    points = mesh.GetPointsAttr().Get()
+    counts = mesh.GetFaceVertexCountsAttr().Get()
+    indices = mesh.GetFaceVertexIndicesAttr().Get()
+    assert len(points) > 0 and sum(counts) == len(indices), prim.GetPath()
+    assert max(indices) < len(points), prim.GetPath()
+    samples = prim.GetAttribute("xformOp:transform").GetTimeSamples()
+    assert list(samples) == [1.0, 2.0, 3.0, 4.0, 5.0, 6.0], samples
+best = None
+for prim in meshes:
+    m = UsdGeom.Xformable(prim).GetLocalTransformation(6)
+    moved = m.Transform(Gf.Vec3d(*rest))
+    error = (moved - Gf.Vec3d(*expected)).GetLength()
+    best = error if best is None else min(best, error)
+assert best < 1e-5, best
+print("usd ok", len(meshes))
+"#;
+
+#[test]
+fn post_writes_fragments_point_caches_and_a_usd_that_usd_reads() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    std::fs::write(dir.path().join("pipeline.toml"), SCENE).expect("config");
+    let output = shatter(&["run", "--until", "post"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(stdout.contains("post: 6 frames"), "{stdout}");
+
+    let last = dir.path().join("out/fragments/fragments.0006.shp");
+    let summary = shatter(&["inspect", last.to_str().expect("utf-8"), "--json"], dir.path());
+    let summary: serde_json::Value = serde_json::from_slice(&summary.stdout).expect("json");
+    let fragments = summary["fragments"].as_u64().expect("fragment count");
+    assert!(fragments > 1, "the projectile should break the plate: {summary}");
+    assert!(dir.path().join("out/fragments/points.0006.ply").is_file());
+
+    // Element 0's rest and frame-6 positions, from the particle file and the frame's point cache.
+    let particles =
+        shatter_core::particles::ParticleSet::read(&dir.path().join("out/particles.shp")).expect("particles");
+    let frame = shatter_sim::frames::PointFrame::read(&dir.path().join("out/frames/points.0006.ply")).expect("frame");
+    let rest = particles.rest_position_m[0];
+    let now = [frame.position[0][0], frame.position[1][0], frame.position[2][0]];
+    let script = dir.path().join("check_usd.py");
+    std::fs::write(&script, USD_CHECK).expect("script");
+    let mut args = vec![
+        script.display().to_string(),
+        dir.path().join("out/fragments/fragments.usda").display().to_string(),
+        fragments.to_string(),
+    ];
+    args.extend(rest.iter().chain(&now).map(|v| v.to_string()));
+    let check = Command::new("python3").args(&args).output().expect("python3 runs");
+    assert!(
+        check.status.success(),
+        "USD check failed (needs Pixar's usd-core: pip install usd-core):\n{}{}",
+        String::from_utf8_lossy(&check.stdout),
+        String::from_utf8_lossy(&check.stderr)
+    );
+}
+
+#[test]
+fn post_before_sim_says_what_to_run() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    std::fs::write(dir.path().join("pipeline.toml"), SCENE).expect("config");
+    assert!(shatter(&["preprocess"], dir.path()).status.success());
+    let output = shatter(&["post"], dir.path());
+    assert_eq!(output.status.code(), Some(2));
+    assert!(stderr(&output).contains("run `shatter sim` first"), "{}", stderr(&output));
+}
