@@ -69,7 +69,7 @@ impl FragmentFrame {
         let mass_kg = input.read_rows("mass")?;
         let translation_m = translation.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
         let frame = FragmentFrame { meta, fragment_of, rotation, translation_m, elements, mass_kg };
-        if translation.len() % 3 != 0 {
+        if !translation.len().is_multiple_of(3) {
             return Err(input.malformed("translations are not triples".into()));
         }
         frame.validate().map_err(|what| input.malformed(what))?;

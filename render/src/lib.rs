@@ -6,4 +6,9 @@
 //! The renderer (k-d tree ray tracing of cube, tetrahedron and trimtope CSG unions under
 //! spherical-harmonic light, to EXR) arrives with issue #8.
 
+pub mod geometry;
+pub mod kdtree;
+pub mod lighting;
 pub mod post;
+pub mod scene;
+pub mod trace;

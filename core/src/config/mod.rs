@@ -11,9 +11,11 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 pub mod post;
+pub mod render;
 pub mod sim;
 
 pub use post::PostConfig;
+pub use render::RenderConfig;
 pub use sim::SimConfig;
 
 /// The largest horizon factor N accepted: bonds per particle grow as N^3 (about 2,100 at N = 8).
@@ -73,6 +75,9 @@ pub struct PipelineConfig {
     /// `[post]`: fragments and exports (every key has a default).
     #[serde(default)]
     pub post: PostConfig,
+    /// `[render]`: camera, image, lighting (every key has a default).
+    #[serde(default)]
+    pub render: RenderConfig,
     /// The config file this was loaded from (empty for configs parsed from a string).
     #[serde(skip)]
     pub path: PathBuf,
@@ -334,6 +339,7 @@ impl PipelineConfig {
             }
         }
         self.sim.resolve_paths(&base);
+        self.render.resolve_paths(&base);
     }
 
     fn validate(&self) -> Result<(), ConfigError> {
@@ -426,7 +432,8 @@ impl PipelineConfig {
         )?;
         check.non_negative("material.compression_alpha", material.compression_alpha, "dimensionless")?;
         self.sim.validate(&check)?;
-        self.post.validate(&check)
+        self.post.validate(&check)?;
+        self.render.validate(&check)
     }
 }
 
@@ -468,6 +475,11 @@ impl Checker<'_> {
     fn direction(&self, key: &str, values: &[f64; 3]) -> Result<(), ConfigError> {
         let ok = values.iter().all(|v| v.is_finite()) && values.iter().any(|v| *v != 0.0);
         self.that(ok, key, &format!("{values:?}"), || "must be a finite, non-zero vector".to_string())
+    }
+
+    fn unit_colour(&self, key: &str, values: &[f64; 3]) -> Result<(), ConfigError> {
+        let ok = values.iter().all(|v| v.is_finite() && (0.0..=1.0).contains(v));
+        self.that(ok, key, &format!("{values:?}"), || "every entry must be between 0 and 1".to_string())
     }
 
     fn positive_array(&self, key: &str, values: &[f64; 3]) -> Result<(), ConfigError> {

@@ -1,0 +1,217 @@
+//! `[render]`: camera, image, lighting and look of `shatter render`.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use super::sim::Backend;
+use super::{Checker, ConfigError};
+
+/// `[render]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RenderConfig {
+    /// Where the ray tracer runs.
+    pub backend: Backend,
+    /// Image width and height in pixels.
+    pub resolution: [u32; 2],
+    /// Samples per pixel (antialiasing, glass paths); the first goes through the pixel centre and
+    /// gives the depth, normal and fragment layers.
+    pub samples_per_pixel: u32,
+    /// Longest path through glass, in surface events (reflections and refractions).
+    pub max_bounces: u32,
+    /// Equirectangular HDR environment (.hdr or .exr), relative to the config file's folder;
+    /// absent, a uniform sky of radiance 1.
+    pub environment: Option<PathBuf>,
+    /// Multiplier of the environment's radiance.
+    pub environment_intensity: f64,
+    /// Show the environment behind the scene (else black and transparent).
+    pub show_environment: bool,
+    /// Also write tonemapped PNG previews beside the EXR frames.
+    pub previews: bool,
+    /// Exposure of the previews, in stops.
+    pub preview_exposure_stops: f64,
+    /// `[render.camera]`.
+    pub camera: CameraConfig,
+    /// `[render.material]`.
+    pub material: LookConfig,
+    /// `[render.floor]`: a textured floor plane; absent, none.
+    pub floor: Option<RenderFloorConfig>,
+}
+
+impl Default for RenderConfig {
+    fn default() -> Self {
+        RenderConfig {
+            backend: Backend::Auto,
+            resolution: [960, 540],
+            samples_per_pixel: 4,
+            max_bounces: 8,
+            environment: None,
+            environment_intensity: 1.0,
+            show_environment: true,
+            previews: true,
+            preview_exposure_stops: 0.0,
+            camera: CameraConfig::default(),
+            material: LookConfig::default(),
+            floor: None,
+        }
+    }
+}
+
+/// `[render.camera]`: a pinhole camera. Without a position it frames the body's rest bounds from
+/// the front and a little above.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CameraConfig {
+    /// Eye position, metres; absent, chosen to frame the body.
+    pub position_m: Option<[f64; 3]>,
+    /// Point looked at, metres; absent, the centre of the body.
+    pub look_at_m: Option<[f64; 3]>,
+    /// Up direction.
+    pub up: [f64; 3],
+    /// Vertical field of view, degrees.
+    pub fov_deg: f64,
+}
+
+impl Default for CameraConfig {
+    fn default() -> Self {
+        CameraConfig { position_m: None, look_at_m: None, up: [0.0, 1.0, 0.0], fov_deg: 40.0 }
+    }
+}
+
+/// `[render.material]`: how elements look. Cubes are glass; tetrahedra and trimtopes are opaque.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LookConfig {
+    /// Index of refraction of glass.
+    pub glass_ior: f64,
+    /// Absorption of light inside glass per metre travelled, RGB (a tint: 0 is clear).
+    pub glass_absorption_per_m: [f64; 3],
+    /// Diffuse albedo of opaque elements, RGB in [0, 1].
+    pub albedo: [f64; 3],
+    /// Strength of the normalized Blinn-Phong highlight of opaque elements.
+    pub specular: f64,
+    /// Blinn-Phong exponent.
+    pub shininess: f64,
+}
+
+impl Default for LookConfig {
+    fn default() -> Self {
+        LookConfig {
+            glass_ior: 1.5,
+            glass_absorption_per_m: [1.0, 0.3, 0.6],
+            albedo: [0.8, 0.75, 0.7],
+            specular: 0.2,
+            shininess: 64.0,
+        }
+    }
+}
+
+/// `[render.floor]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RenderFloorConfig {
+    /// Height of the floor plane, metres.
+    pub height_m: f64,
+    /// Albedo texture (sRGB image), relative to the config file's folder; absent, `albedo`.
+    pub texture: Option<PathBuf>,
+    /// Size of one texture tile, metres.
+    pub tile_size_m: f64,
+    /// Albedo without a texture, RGB in [0, 1].
+    pub albedo: [f64; 3],
+}
+
+impl Default for RenderFloorConfig {
+    fn default() -> Self {
+        RenderFloorConfig { height_m: 0.0, texture: None, tile_size_m: 0.5, albedo: [0.5, 0.5, 0.5] }
+    }
+}
+
+impl RenderConfig {
+    pub(super) fn resolve_paths(&mut self, base: &Path) {
+        let resolve = |path: &mut PathBuf| {
+            if path.is_relative() {
+                *path = base.join(&*path);
+            }
+        };
+        if let Some(path) = &mut self.environment {
+            resolve(path);
+        }
+        if let Some(path) = self.floor.as_mut().and_then(|floor| floor.texture.as_mut()) {
+            resolve(path);
+        }
+    }
+
+    pub(super) fn validate(&self, check: &Checker) -> Result<(), ConfigError> {
+        let [width, height] = self.resolution;
+        check.that(
+            (1..=16384).contains(&width) && (1..=16384).contains(&height),
+            "render.resolution",
+            &format!("{:?}", self.resolution),
+            || "width and height must be between 1 and 16384 pixels".into(),
+        )?;
+        check.that(
+            (1..=4096).contains(&self.samples_per_pixel),
+            "render.samples_per_pixel",
+            &self.samples_per_pixel.to_string(),
+            || "must be between 1 and 4096".into(),
+        )?;
+        check.that(
+            self.max_bounces >= 1 && self.max_bounces <= 64,
+            "render.max_bounces",
+            &self.max_bounces.to_string(),
+            || "must be between 1 and 64".into(),
+        )?;
+        for (key, path) in [
+            ("render.environment", &self.environment),
+            ("render.floor.texture", &self.floor.as_ref().and_then(|f| f.texture.clone())),
+        ] {
+            if let Some(path) = path {
+                check.that(path.is_file(), key, &format!("{:?}", path.display().to_string()), || {
+                    "file not found (relative paths start at the config file's folder)".into()
+                })?;
+            }
+        }
+        check.non_negative("render.environment_intensity", self.environment_intensity, "a multiplier")?;
+        check.finite("render.preview_exposure_stops", self.preview_exposure_stops)?;
+        let camera = &self.camera;
+        if let Some(position) = &camera.position_m {
+            check.finite_array("render.camera.position_m", position)?;
+        }
+        if let Some(target) = &camera.look_at_m {
+            check.finite_array("render.camera.look_at_m", target)?;
+        }
+        if let (Some(position), Some(target)) = (&camera.position_m, &camera.look_at_m) {
+            check.that(position != target, "render.camera.look_at_m", &format!("{target:?}"), || {
+                "must differ from render.camera.position_m".into()
+            })?;
+        }
+        check.direction("render.camera.up", &camera.up)?;
+        let fov = camera.fov_deg;
+        check.that(fov > 0.0 && fov < 179.0, "render.camera.fov_deg", &fov.to_string(), || {
+            "must be between 0 and 179 degrees".into()
+        })?;
+        let look = &self.material;
+        check.that(
+            look.glass_ior >= 1.0 && look.glass_ior <= 4.0,
+            "render.material.glass_ior",
+            &look.glass_ior.to_string(),
+            || "must be between 1 and 4".into(),
+        )?;
+        check.that(
+            look.glass_absorption_per_m.iter().all(|a| a.is_finite() && *a >= 0.0),
+            "render.material.glass_absorption_per_m",
+            &format!("{:?}", look.glass_absorption_per_m),
+            || "every entry must be finite and 0 or more".into(),
+        )?;
+        check.unit_colour("render.material.albedo", &look.albedo)?;
+        check.non_negative("render.material.specular", look.specular, "a multiplier")?;
+        check.positive("render.material.shininess", look.shininess, "a Blinn-Phong exponent")?;
+        if let Some(floor) = &self.floor {
+            check.finite("render.floor.height_m", floor.height_m)?;
+            check.positive("render.floor.tile_size_m", floor.tile_size_m, "metres")?;
+            check.unit_colour("render.floor.albedo", &floor.albedo)?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,269 @@
+//! Ray tests against the elements, all convex polytopes given by planes (a cube has 6, a
+//! tetrahedron 4, a Voronoi cell as many as its faces), and the trimtope rules of Levine et al.'s
+//! Fig. 4 for cells with embedded surface triangles. Written as plain functions of plain data to
+//! read like their twins in `shaders/trace.wgsl`.
+
+/// A plane [nx, ny, nz, d] with unit outward normal n: inside where n . x <= d.
+pub type Plane = [f32; 4];
+
+/// Elements are widened by this fraction of their size in ray tests, so that rays along a seam
+/// between touching elements hit one of them (no crack pixels).
+pub const WIDEN: f32 = 2e-5;
+
+/// Entry and exit of a ray through a convex polytope.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Span {
+    /// Ray parameter where it enters (may be behind the origin: then the origin is inside).
+    pub t_in: f32,
+    /// Ray parameter where it leaves.
+    pub t_out: f32,
+    /// The plane it enters through (index into the element's planes; u32::MAX if it starts inside
+    /// and never crossed one).
+    pub plane_in: u32,
+    /// The plane it leaves through.
+    pub plane_out: u32,
+}
+
+pub(crate) fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+pub(crate) fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+pub(crate) fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+pub(crate) fn along(origin: [f32; 3], direction: [f32; 3], t: f32) -> [f32; 3] {
+    [origin[0] + t * direction[0], origin[1] + t * direction[1], origin[2] + t * direction[2]]
+}
+
+/// The span of the ray `origin + t direction` inside the polytope `planes`, or None when the
+/// line misses the polytope widened by `slack`. The widening only decides hit or miss, so that
+/// rays along a seam between touching elements hit one of them; the span itself is the exact
+/// polytope's (for a ray that only grazes the widened rim it is empty, t_in > t_out, and t_in is
+/// where it passes the rim).
+pub fn polytope_span(planes: &[Plane], slack: f32, origin: [f32; 3], direction: [f32; 3]) -> Option<Span> {
+    let mut span = Span { t_in: f32::NEG_INFINITY, t_out: f32::INFINITY, plane_in: u32::MAX, plane_out: u32::MAX };
+    let (mut wide_in, mut wide_out) = (f32::NEG_INFINITY, f32::INFINITY);
+    for (index, plane) in planes.iter().enumerate() {
+        let normal = [plane[0], plane[1], plane[2]];
+        let facing = dot(normal, direction);
+        let room = plane[3] - dot(normal, origin);
+        if facing == 0.0 {
+            if room + slack < 0.0 {
+                return None;
+            }
+            continue;
+        }
+        let (t, wide) = (room / facing, (room + slack) / facing);
+        if facing < 0.0 {
+            wide_in = wide_in.max(wide);
+            if t > span.t_in {
+                span.t_in = t;
+                span.plane_in = index as u32;
+            }
+        } else {
+            wide_out = wide_out.min(wide);
+            if t < span.t_out {
+                span.t_out = t;
+                span.plane_out = index as u32;
+            }
+        }
+    }
+    (wide_in <= wide_out).then_some(span)
+}
+
+/// Whether `point` lies inside the polytope widened by `slack`.
+pub fn polytope_contains(planes: &[Plane], slack: f32, point: [f32; 3]) -> bool {
+    planes.iter().all(|p| dot([p[0], p[1], p[2]], point) <= p[3] + slack)
+}
+
+/// The 6 planes of a cube with centre `centre`, half size `half` and axes `axes` (unit, right-handed).
+pub fn cube_planes(centre: [f32; 3], half: f32, axes: [[f32; 3]; 3]) -> [Plane; 6] {
+    let mut planes = [[0.0; 4]; 6];
+    for (k, axis) in axes.iter().enumerate() {
+        let c = dot(*axis, centre);
+        planes[2 * k] = [axis[0], axis[1], axis[2], c + half];
+        planes[2 * k + 1] = [-axis[0], -axis[1], -axis[2], -c + half];
+    }
+    planes
+}
+
+/// The 4 planes of a tetrahedron (outward normals whatever its vertex order).
+pub fn tet_planes(vertices: [[f32; 3]; 4]) -> [Plane; 4] {
+    let centre = [0, 1, 2].map(|a| (vertices[0][a] + vertices[1][a] + vertices[2][a] + vertices[3][a]) * 0.25);
+    let mut planes = [[0.0; 4]; 4];
+    for (k, plane) in planes.iter_mut().enumerate() {
+        let [a, b, c] = [vertices[(k + 1) % 4], vertices[(k + 2) % 4], vertices[(k + 3) % 4]];
+        let mut n = cross(sub(b, a), sub(c, a));
+        let length = dot(n, n).sqrt();
+        n = n.map(|v| v / length);
+        if dot(n, sub(centre, a)) > 0.0 {
+            n = n.map(|v| -v);
+        }
+        *plane = [n[0], n[1], n[2], dot(n, a)];
+    }
+    planes
+}
+
+/// Ray-triangle intersection (Moller-Trumbore): the ray parameter and whether the ray meets the
+/// triangle's front (outward, counter-clockwise) side.
+pub fn triangle_hit(origin: [f32; 3], direction: [f32; 3], triangle: &[[f32; 3]; 3]) -> Option<(f32, bool)> {
+    let e1 = sub(triangle[1], triangle[0]);
+    let e2 = sub(triangle[2], triangle[0]);
+    let p = cross(direction, e2);
+    let det = dot(e1, p);
+    if det == 0.0 {
+        return None;
+    }
+    let inverse = 1.0 / det;
+    let s = sub(origin, triangle[0]);
+    let u = dot(s, p) * inverse;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = cross(s, e1);
+    let v = dot(direction, q) * inverse;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    let t = dot(e2, q) * inverse;
+    // det = e1 . (d x e2) = -d . (e1 x e2): positive when the ray runs against the normal
+    Some((t, det > 0.0))
+}
+
+/// How a ray meets a trimtope.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TrimtopeHit {
+    /// The ray passes: the cell's entry point is outside the surface (Fig. 4, ray A).
+    Miss,
+    /// The ray hits the cell's entry face, inside the surface (rays B and D): a fracture face.
+    Face {
+        /// Ray parameter.
+        t: f32,
+        /// The plane entered through.
+        plane: u32,
+    },
+    /// The ray hits the embedded surface from outside (ray C).
+    Surface {
+        /// Ray parameter.
+        t: f32,
+        /// The triangle hit.
+        triangle: u32,
+    },
+}
+
+/// The rules of Levine et al.'s Fig. 4 for a ray meeting a Voronoi cell (`planes`, site `site`)
+/// with embedded triangles, starting no earlier than `t_min`. Within the cell, the first
+/// triangle the ray meets decides: front side first (it enters the surface there) is a surface
+/// hit (C); back side first (it was inside already) is a hit on the entry face (D). Meeting no
+/// triangle, a secondary ray from the entry point to the site decides: a front side on the way
+/// means the entry point is outside the surface, a miss (A); otherwise a hit on the entry face (B).
+pub fn trimtope_hit(
+    planes: &[Plane],
+    triangles: &[[[f32; 3]; 3]],
+    site: [f32; 3],
+    slack: f32,
+    origin: [f32; 3],
+    direction: [f32; 3],
+    t_min: f32,
+) -> TrimtopeHit {
+    let Some(span) = polytope_span(planes, slack, origin, direction) else {
+        return TrimtopeHit::Miss;
+    };
+    // a ray grazing the widened rim has an empty exact span: treat it as a point at t_in
+    let t_out = span.t_out.max(span.t_in);
+    let t_in = span.t_in.max(t_min);
+    if t_in > t_out {
+        return TrimtopeHit::Miss;
+    }
+    let mut first: Option<(f32, bool, u32)> = None;
+    for (index, triangle) in triangles.iter().enumerate() {
+        if let Some((t, front)) = triangle_hit(origin, direction, triangle) {
+            if t >= t_in && t <= t_out && first.is_none_or(|(best, _, _)| t < best) {
+                first = Some((t, front, index as u32));
+            }
+        }
+    }
+    match first {
+        Some((t, true, triangle)) => TrimtopeHit::Surface { t, triangle },
+        Some((_, false, _)) => TrimtopeHit::Face { t: t_in, plane: span.plane_in },
+        None => {
+            let entry = along(origin, direction, t_in);
+            let to_site = sub(site, entry);
+            let mut nearest: Option<(f32, bool)> = None;
+            for triangle in triangles {
+                if let Some((t, front)) = triangle_hit(entry, to_site, triangle) {
+                    if (0.0..=1.0).contains(&t) && nearest.is_none_or(|(best, _)| t < best) {
+                        nearest = Some((t, front));
+                    }
+                }
+            }
+            match nearest {
+                Some((_, true)) => TrimtopeHit::Miss,
+                _ => TrimtopeHit::Face { t: t_in, plane: span.plane_in },
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const AXES: [[f32; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
+    #[test]
+    fn a_cube_span_is_its_slab_interval() {
+        let planes = cube_planes([1.0, 2.0, 3.0], 0.5, AXES);
+        let span = polytope_span(&planes, 0.0, [1.0, 2.0, 0.0], [0.0, 0.0, 1.0]).expect("hit");
+        assert_eq!((span.t_in, span.t_out), (2.5, 3.5));
+        assert_eq!(planes[span.plane_in as usize][2], -1.0, "enters through the -z face");
+        assert!(polytope_span(&planes, 0.0, [3.0, 2.0, 0.0], [0.0, 0.0, 1.0]).is_none());
+        assert!(polytope_contains(&planes, 0.0, [1.2, 2.3, 3.4]));
+        assert!(!polytope_contains(&planes, 0.0, [1.6, 2.0, 3.0]));
+    }
+
+    #[test]
+    fn tet_planes_point_outward_for_either_vertex_order() {
+        let tet = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let flipped = [tet[1], tet[0], tet[2], tet[3]];
+        for vertices in [tet, flipped] {
+            let planes = tet_planes(vertices);
+            assert!(polytope_contains(&planes, 1e-6, [0.1, 0.1, 0.1]));
+            assert!(!polytope_contains(&planes, 0.0, [0.5, 0.5, 0.5]));
+        }
+    }
+
+    /// A unit cube cell with site at its centre and a surface plane z = 0.2 (outward +z) across it:
+    /// the surface lies above the site, in the forward direction, as in Fig. 4.
+    fn cell() -> ([Plane; 6], Vec<[[f32; 3]; 3]>, [f32; 3]) {
+        let planes = cube_planes([0.0; 3], 0.5, AXES);
+        let z = 0.2;
+        let triangles =
+            vec![[[-0.5, -0.5, z], [0.5, -0.5, z], [0.5, 0.5, z]], [[-0.5, -0.5, z], [0.5, 0.5, z], [-0.5, 0.5, z]]];
+        (planes, triangles, [0.0, 0.0, 0.0])
+    }
+
+    #[test]
+    fn the_four_cases_of_fig_4() {
+        let (planes, triangles, site) = cell();
+        let hit = |origin: [f32; 3], direction: [f32; 3]| {
+            trimtope_hit(&planes, &triangles, site, 0.0, origin, direction, 0.0)
+        };
+        // A: enters and leaves above the surface (outside the solid), no triangle on the way:
+        // the secondary ray to the site crosses the surface's front: a miss
+        assert_eq!(hit([-2.0, 0.0, 0.4], [1.0, 0.0, 0.0]), TrimtopeHit::Miss);
+        // B: enters and leaves below the surface (inside the solid): the entry face
+        assert_eq!(hit([-2.0, 0.0, -0.3], [1.0, 0.0, 0.0]), TrimtopeHit::Face { t: 1.5, plane: 1 });
+        // C: comes down from above through the surface's front: a surface hit
+        let c = hit([0.1, 0.1, 2.0], [0.0, 0.0, -1.0]);
+        assert!(matches!(c, TrimtopeHit::Surface { t, .. } if (t - 1.8).abs() < 1e-6), "{c:?}");
+        // D: comes up from below: meets the surface's back first, so the entry face is the hit
+        let d = hit([0.1, 0.1, -2.0], [0.0, 0.0, 1.0]);
+        assert_eq!(d, TrimtopeHit::Face { t: 1.5, plane: 5 });
+    }
+}

@@ -1,0 +1,341 @@
+//! A k-d tree over primitive bounds, built with the surface area heuristic on the CPU and
+//! flattened for the GPU, and its traversal with the short stack of Horn et al. (2007): a stack
+//! of a few entries that, when it overflows, forgets its oldest entry; when it runs dry before the
+//! ray's interval is done, traversal restarts from the deepest node known to hold the rest of the
+//! interval (push-down), beginning where the last leaf ended (kd-restart).
+//!
+//! The flattened form is two arrays the shaders read as is: nodes of two words and leaf primitive
+//! lists. Interior node: `a = (far child << 2) | axis` with the near child at the next index,
+//! `b` = split position (f32 bits). Leaf: `a = (first primitive << 2) | 3`, `b` = count.
+
+/// Entries of the short stack (the same number in the shaders).
+pub const SHORT_STACK: usize = 4;
+
+/// Bins per axis for the SAH sweep.
+const BINS: usize = 32;
+/// Relative cost of a traversal step against one primitive test.
+const TRAVERSAL_COST: f32 = 1.0;
+/// Relative cost of testing one primitive.
+const INTERSECTION_COST: f32 = 1.5;
+/// Leaves this small are not split.
+const LEAF_SIZE: usize = 2;
+
+/// An axis-aligned box.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Aabb {
+    /// Minimum corner.
+    pub min: [f32; 3],
+    /// Maximum corner.
+    pub max: [f32; 3],
+}
+
+impl Aabb {
+    /// The empty box.
+    pub const EMPTY: Aabb = Aabb { min: [f32::INFINITY; 3], max: [f32::NEG_INFINITY; 3] };
+
+    /// The smallest box holding both.
+    pub fn union(&self, other: &Aabb) -> Aabb {
+        Aabb {
+            min: [0, 1, 2].map(|a| self.min[a].min(other.min[a])),
+            max: [0, 1, 2].map(|a| self.max[a].max(other.max[a])),
+        }
+    }
+
+    fn area(&self) -> f32 {
+        let d = [0, 1, 2].map(|a| (self.max[a] - self.min[a]).max(0.0));
+        2.0 * (d[0] * d[1] + d[1] * d[2] + d[2] * d[0])
+    }
+}
+
+/// A flattened k-d tree.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KdTree {
+    /// Nodes, depth first, two words each (see the module docs).
+    pub nodes: Vec<[u32; 2]>,
+    /// Primitive indices of the leaves.
+    pub items: Vec<u32>,
+    /// Bounds of everything.
+    pub bounds: Aabb,
+}
+
+const LEAF: u32 = 3;
+
+impl KdTree {
+    /// Builds the tree over primitives with the given bounds.
+    pub fn build(bounds: &[Aabb]) -> KdTree {
+        let scene = bounds.iter().fold(Aabb::EMPTY, |acc, b| acc.union(b));
+        let mut tree = KdTree { nodes: Vec::new(), items: Vec::new(), bounds: scene };
+        if bounds.is_empty() {
+            tree.nodes.push([LEAF, 0]);
+            return tree;
+        }
+        let max_depth = (8.0 + 1.3 * (bounds.len() as f32).log2()) as usize;
+        let all: Vec<u32> = (0..bounds.len() as u32).collect();
+        tree.build_node(bounds, all, scene, max_depth);
+        tree
+    }
+
+    fn build_node(&mut self, bounds: &[Aabb], items: Vec<u32>, node_box: Aabb, depth_left: usize) {
+        let here = self.nodes.len();
+        let split =
+            if items.len() <= LEAF_SIZE || depth_left == 0 { None } else { best_split(bounds, &items, &node_box) };
+        let Some((axis, position)) = split else {
+            self.nodes.push([((self.items.len() as u32) << 2) | LEAF, items.len() as u32]);
+            self.items.extend_from_slice(&items);
+            return;
+        };
+        let (mut left, mut right) = (Vec::new(), Vec::new());
+        for &item in &items {
+            let b = &bounds[item as usize];
+            if b.min[axis] < position || (b.min[axis] == position && b.max[axis] == position) {
+                left.push(item);
+            }
+            if b.max[axis] > position {
+                right.push(item);
+            }
+        }
+        drop(items);
+        let (mut left_box, mut right_box) = (node_box, node_box);
+        left_box.max[axis] = position;
+        right_box.min[axis] = position;
+        self.nodes.push([0, position.to_bits()]);
+        self.build_node(bounds, left, left_box, depth_left - 1);
+        let far = self.nodes.len() as u32;
+        self.build_node(bounds, right, right_box, depth_left - 1);
+        self.nodes[here][0] = (far << 2) | axis as u32;
+    }
+
+    /// Traverses the tree front to back along the ray `origin + t direction`, t in
+    /// [`t_start`, `t_end`], calling `hit(primitive, t_min, t_max)` for the primitives of each leaf
+    /// the ray passes, with the leaf's interval; `hit` returns the distance of the nearest hit it
+    /// found so far (or infinity). Traversal stops once a hit lies within the current leaf.
+    /// Returns the number of leaves visited. Mirrors `shaders/kdtree.wgsl` step for step.
+    pub fn traverse(
+        &self,
+        origin: [f32; 3],
+        direction: [f32; 3],
+        t_start: f32,
+        t_end: f32,
+        mut hit: impl FnMut(u32, f32, f32) -> f32,
+    ) -> u32 {
+        let inverse = direction.map(|d| 1.0 / d);
+        let Some((scene_min, scene_max)) = clip(&self.bounds, origin, inverse, t_start, t_end) else {
+            return 0;
+        };
+        let mut stack = [(0u32, 0.0f32, 0.0f32); SHORT_STACK];
+        let mut stack_len = 0usize;
+        let mut root = 0u32;
+        let (mut t_min, mut t_max) = (scene_min, scene_max);
+        let mut node = root;
+        let mut push_down = true;
+        let mut best = f32::INFINITY;
+        let mut leaves = 0;
+        loop {
+            let [a, b] = self.nodes[node as usize];
+            if a & 3 != LEAF {
+                let axis = (a & 3) as usize;
+                let split = f32::from_bits(b);
+                let t_split = (split - origin[axis]) * inverse[axis];
+                let below_first = origin[axis] < split || (origin[axis] == split && direction[axis] <= 0.0);
+                let (near, far) = if below_first { (node + 1, a >> 2) } else { (a >> 2, node + 1) };
+                if t_split >= t_max || t_split < 0.0 {
+                    node = near;
+                } else if t_split <= t_min {
+                    node = far;
+                } else {
+                    if stack_len == SHORT_STACK {
+                        stack.copy_within(1.., 0);
+                        stack_len -= 1;
+                    }
+                    stack[stack_len] = (far, t_split, t_max);
+                    stack_len += 1;
+                    node = near;
+                    t_max = t_split;
+                    push_down = false;
+                }
+                if push_down {
+                    root = node;
+                }
+                continue;
+            }
+            leaves += 1;
+            let (first, count) = ((a >> 2) as usize, b as usize);
+            for &item in &self.items[first..first + count] {
+                best = best.min(hit(item, t_min, t_max));
+            }
+            if best <= t_max {
+                return leaves;
+            }
+            if stack_len > 0 {
+                stack_len -= 1;
+                (node, t_min, t_max) = stack[stack_len];
+                push_down = false;
+            } else if t_max >= scene_max {
+                return leaves;
+            } else {
+                // kd-restart from the push-down root, beyond the leaf just done
+                t_min = t_max;
+                t_max = scene_max;
+                node = root;
+                push_down = true;
+            }
+        }
+    }
+}
+
+impl KdTree {
+    /// Calls `visit(primitive)` for the primitives of the leaf holding `point` (on a split plane,
+    /// the upper side's). Primitives whose bounds contain the point are all among them.
+    pub fn for_each_at(&self, point: [f32; 3], mut visit: impl FnMut(u32)) {
+        let inside = (0..3).all(|a| point[a] >= self.bounds.min[a] && point[a] <= self.bounds.max[a]);
+        if !inside {
+            return;
+        }
+        let mut node = 0usize;
+        loop {
+            let [a, b] = self.nodes[node];
+            if a & 3 == LEAF {
+                let (first, count) = ((a >> 2) as usize, b as usize);
+                for &item in &self.items[first..first + count] {
+                    visit(item);
+                }
+                return;
+            }
+            let axis = (a & 3) as usize;
+            node = if point[axis] < f32::from_bits(b) { node + 1 } else { (a >> 2) as usize };
+        }
+    }
+}
+
+/// The ray's interval inside `bounds`, intersected with [t_start, t_end].
+fn clip(bounds: &Aabb, origin: [f32; 3], inverse: [f32; 3], t_start: f32, t_end: f32) -> Option<(f32, f32)> {
+    let (mut near, mut far) = (t_start, t_end);
+    for axis in 0..3 {
+        let t0 = (bounds.min[axis] - origin[axis]) * inverse[axis];
+        let t1 = (bounds.max[axis] - origin[axis]) * inverse[axis];
+        let (lo, hi) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
+        // NaN (a zero direction component exactly on a slab plane) keeps the interval
+        near = if lo > near { lo } else { near };
+        far = if hi < far { hi } else { far };
+    }
+    (near <= far).then_some((near, far))
+}
+
+/// The SAH-best split of `items` in `node_box`, if any beats making a leaf.
+fn best_split(bounds: &[Aabb], items: &[u32], node_box: &Aabb) -> Option<(usize, f32)> {
+    let area = node_box.area();
+    if area <= 0.0 {
+        return None;
+    }
+    let leaf_cost = INTERSECTION_COST * items.len() as f32;
+    let mut best: Option<(f32, usize, f32)> = None;
+    for axis in 0..3 {
+        let (lo, hi) = (node_box.min[axis], node_box.max[axis]);
+        if hi <= lo {
+            continue;
+        }
+        let width = (hi - lo) / BINS as f32;
+        // Counts of items starting and ending in each bin.
+        let mut starts = [0u32; BINS];
+        let mut ends = [0u32; BINS];
+        let bin = |x: f32| (((x - lo) / width) as isize).clamp(0, BINS as isize - 1) as usize;
+        for &item in items {
+            let b = &bounds[item as usize];
+            starts[bin(b.min[axis])] += 1;
+            ends[bin(b.max[axis])] += 1;
+        }
+        let total = items.len() as u32;
+        let (mut left_count, mut right_count) = (0u32, total);
+        for plane in 1..BINS {
+            left_count += starts[plane - 1];
+            right_count -= ends[plane - 1];
+            let position = lo + plane as f32 * width;
+            let (mut left_box, mut right_box) = (*node_box, *node_box);
+            left_box.max[axis] = position;
+            right_box.min[axis] = position;
+            let cost = TRAVERSAL_COST
+                + INTERSECTION_COST * (left_box.area() * left_count as f32 + right_box.area() * right_count as f32)
+                    / area;
+            if best.is_none_or(|(c, _, _)| cost < c) {
+                best = Some((cost, axis, position));
+            }
+        }
+    }
+    best.filter(|(cost, _, _)| *cost < leaf_cost).map(|(_, axis, position)| (axis, position))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Random boxes and a brute-force nearest-hit against their slab intersections.
+    fn boxes(seed: u64, count: usize) -> Vec<Aabb> {
+        let mut rng = shatter_core::random::SplitMix64::new(seed);
+        let mut r = move || rng.next_f64() as f32;
+        (0..count)
+            .map(|_| {
+                let c = [r() * 10.0, r() * 10.0, r() * 10.0];
+                let h = [r() * 0.6 + 0.05, r() * 0.6 + 0.05, r() * 0.6 + 0.05];
+                Aabb { min: [c[0] - h[0], c[1] - h[1], c[2] - h[2]], max: [c[0] + h[0], c[1] + h[1], c[2] + h[2]] }
+            })
+            .collect()
+    }
+
+    fn entry(b: &Aabb, origin: [f32; 3], direction: [f32; 3]) -> f32 {
+        let inverse = direction.map(|d| 1.0 / d);
+        match clip(b, origin, inverse, 0.0, f32::INFINITY) {
+            Some((near, _)) => near,
+            None => f32::INFINITY,
+        }
+    }
+
+    #[test]
+    fn traversal_finds_the_nearest_box_like_brute_force() {
+        let bounds = boxes(1, 2000);
+        let tree = KdTree::build(&bounds);
+        let mut rng = shatter_core::random::SplitMix64::new(2);
+        let mut r = move || rng.next_f64() as f32;
+        let mut restarts_exercised = 0;
+        for _ in 0..3000 {
+            let origin = [r() * 14.0 - 2.0, r() * 14.0 - 2.0, r() * 14.0 - 2.0];
+            let direction = [r() - 0.5, r() - 0.5, r() - 0.5];
+            let expected = bounds.iter().map(|b| entry(b, origin, direction)).fold(f32::INFINITY, f32::min);
+            let mut found = f32::INFINITY;
+            let leaves = tree.traverse(origin, direction, 0.0, f32::INFINITY, |item, _, _| {
+                found = found.min(entry(&bounds[item as usize], origin, direction));
+                found
+            });
+            if leaves > 6 {
+                restarts_exercised += 1;
+            }
+            assert_eq!(found, expected);
+        }
+        assert!(restarts_exercised > 0, "deep traversals happen");
+    }
+
+    #[test]
+    fn axis_parallel_rays_and_empty_trees_work() {
+        let bounds = boxes(3, 300);
+        let tree = KdTree::build(&bounds);
+        for axis in 0..3 {
+            let mut origin = [5.0f32; 3];
+            origin[axis] = -1.0;
+            let mut direction = [0.0f32; 3];
+            direction[axis] = 1.0;
+            let expected = bounds.iter().map(|b| entry(b, origin, direction)).fold(f32::INFINITY, f32::min);
+            let mut found = f32::INFINITY;
+            tree.traverse(origin, direction, 0.0, f32::INFINITY, |item, _, _| {
+                found = found.min(entry(&bounds[item as usize], origin, direction));
+                found
+            });
+            assert_eq!(found, expected, "axis {axis}");
+        }
+        let empty = KdTree::build(&[]);
+        let mut calls = 0;
+        empty.traverse([0.0; 3], [1.0, 0.0, 0.0], 0.0, f32::INFINITY, |_, _, _| {
+            calls += 1;
+            0.0
+        });
+        assert_eq!(calls, 0);
+    }
+}

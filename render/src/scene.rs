@@ -1,0 +1,236 @@
+//! One frame's scene in world space: every element as the planes of its convex polytope (and a
+//! trimtope's site and surface triangles), moved by its fragment's rigid motion, with a k-d tree
+//! over the elements' bounds; and the camera.
+
+use glam::{DQuat, DVec3, Quat, Vec3};
+use rayon::prelude::*;
+use shatter_core::fragments::FragmentFrame;
+use shatter_core::particles::{ElementType, Elements, ParticleSet};
+
+use crate::geometry::{Plane, WIDEN, cube_planes, tet_planes};
+use crate::kdtree::{Aabb, KdTree};
+
+/// One element's planes, triangles, site and bounds.
+type ElementParts = (Vec<Plane>, Vec<[[f32; 3]; 3]>, [f32; 3], Aabb);
+
+/// The elements of one frame, flattened for tracing (and for upload to the GPU as is).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneGeometry {
+    /// What the elements are: cubes are glass, tetrahedra and trimtopes opaque.
+    pub element_type: ElementType,
+    /// Offsets into `planes`, one more than there are elements.
+    pub plane_offsets: Vec<u32>,
+    /// Element planes, unit outward normal: inside where n . x <= d.
+    pub planes: Vec<Plane>,
+    /// Offsets into `triangles` (trimtopes; all zero otherwise).
+    pub triangle_offsets: Vec<u32>,
+    /// Embedded surface triangles of trimtopes, outward winding.
+    pub triangles: Vec<[[f32; 3]; 3]>,
+    /// A point inside each element (a trimtope's Voronoi site).
+    pub sites: Vec<[f32; 3]>,
+    /// The fragment of each element.
+    pub fragment: Vec<u32>,
+    /// The k-d tree over the elements' bounds.
+    pub tree: KdTree,
+    /// How far elements are widened in ray tests (so touching elements leave no cracks), metres.
+    pub slack: f32,
+}
+
+impl SceneGeometry {
+    /// Number of elements.
+    pub fn len(&self) -> usize {
+        self.sites.len()
+    }
+
+    /// True for an empty scene.
+    pub fn is_empty(&self) -> bool {
+        self.sites.is_empty()
+    }
+
+    /// Element `e`'s planes.
+    pub fn planes_of(&self, e: usize) -> &[Plane] {
+        &self.planes[self.plane_offsets[e] as usize..self.plane_offsets[e + 1] as usize]
+    }
+
+    /// Element `e`'s surface triangles.
+    pub fn triangles_of(&self, e: usize) -> &[[[f32; 3]; 3]] {
+        &self.triangles[self.triangle_offsets[e] as usize..self.triangle_offsets[e + 1] as usize]
+    }
+
+    /// The scene of `particles` moved by `fragments` (the rest state when None).
+    pub fn build(particles: &ParticleSet, fragments: Option<&FragmentFrame>) -> SceneGeometry {
+        let n = particles.len();
+        let motion = |e: usize| -> (Quat, Vec3) {
+            match fragments {
+                Some(frame) => {
+                    let f = frame.fragment_of[e] as usize;
+                    let q = Quat::from_array(frame.rotation[f]);
+                    let t = DVec3::from_array(frame.translation_m[f]);
+                    (q, t.as_vec3())
+                }
+                None => (Quat::IDENTITY, Vec3::ZERO),
+            }
+        };
+        let fragment = match fragments {
+            Some(frame) => frame.fragment_of.clone(),
+            None => vec![0; n],
+        };
+        // Per element: planes, triangles, site, bounds.
+        let per_element: Vec<ElementParts> = (0..n)
+            .into_par_iter()
+            .map(|e| {
+                let (q, t) = motion(e);
+                let place = |p: [f32; 3]| (q * Vec3::from_array(p) + t).to_array();
+                let site = place(particles.rest_position_m[e]);
+                match &particles.elements {
+                    Elements::Cubes { half_size_m, orientation } => {
+                        let axes_rotation = q * Quat::from_array(*orientation);
+                        let axes = [Vec3::X, Vec3::Y, Vec3::Z].map(|a| (axes_rotation * a).to_array());
+                        let h = half_size_m[e];
+                        let reach = [0, 1, 2].map(|k| h * (axes[0][k].abs() + axes[1][k].abs() + axes[2][k].abs()));
+                        let bounds = Aabb {
+                            min: [0, 1, 2].map(|k| site[k] - reach[k]),
+                            max: [0, 1, 2].map(|k| site[k] + reach[k]),
+                        };
+                        (cube_planes(site, h, axes).to_vec(), Vec::new(), site, bounds)
+                    }
+                    Elements::Tets { vertices_m } => {
+                        let vertices = vertices_m[e].map(place);
+                        let bounds = vertices.iter().fold(Aabb::EMPTY, |b, v| b.union(&Aabb { min: *v, max: *v }));
+                        (tet_planes(vertices).to_vec(), Vec::new(), site, bounds)
+                    }
+                    Elements::Trimtopes { plane_offsets, planes, triangle_offsets, triangles_m } => {
+                        let range = plane_offsets[e] as usize..plane_offsets[e + 1] as usize;
+                        let moved_planes: Vec<Plane> = planes[range.clone()]
+                            .iter()
+                            .map(|p| {
+                                let n = q * Vec3::new(p[0], p[1], p[2]);
+                                [n.x, n.y, n.z, p[3] + n.dot(t)]
+                            })
+                            .collect();
+                        let triangles: Vec<[[f32; 3]; 3]> = triangles_m
+                            [triangle_offsets[e] as usize..triangle_offsets[e + 1] as usize]
+                            .iter()
+                            .map(|tri| tri.map(place))
+                            .collect();
+                        let bounds = polytope_bounds(&moved_planes, site);
+                        (moved_planes, triangles, site, bounds)
+                    }
+                }
+            })
+            .collect();
+        let element_type = particles.elements.element_type();
+        let mut scene = SceneGeometry {
+            element_type,
+            plane_offsets: Vec::with_capacity(n + 1),
+            planes: Vec::new(),
+            triangle_offsets: Vec::with_capacity(n + 1),
+            triangles: Vec::new(),
+            sites: Vec::with_capacity(n),
+            fragment,
+            tree: KdTree::build(&[]),
+            slack: WIDEN * particles.meta.lambda_m as f32,
+        };
+        scene.plane_offsets.push(0);
+        scene.triangle_offsets.push(0);
+        let slack = scene.slack;
+        let mut bounds = Vec::with_capacity(n);
+        for (planes, triangles, site, b) in per_element {
+            scene.planes.extend(planes);
+            scene.plane_offsets.push(scene.planes.len() as u32);
+            scene.triangles.extend(triangles);
+            scene.triangle_offsets.push(scene.triangles.len() as u32);
+            scene.sites.push(site);
+            bounds.push(Aabb { min: b.min.map(|v| v - 2.0 * slack), max: b.max.map(|v| v + 2.0 * slack) });
+        }
+        scene.tree = KdTree::build(&bounds);
+        scene
+    }
+}
+
+/// Bounds of a convex polytope around a point inside it: every vertex (three planes meeting,
+/// inside all others).
+fn polytope_bounds(planes: &[Plane], inside: [f32; 3]) -> Aabb {
+    let mut bounds = Aabb { min: inside, max: inside };
+    let n = planes.len();
+    let normal = |p: &Plane| DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]));
+    for a in 0..n {
+        for b in a + 1..n {
+            for c in b + 1..n {
+                let (na, nb, nc) = (normal(&planes[a]), normal(&planes[b]), normal(&planes[c]));
+                let det = na.dot(nb.cross(nc));
+                if det.abs() < 1e-12 {
+                    continue;
+                }
+                let (da, db, dc) = (f64::from(planes[a][3]), f64::from(planes[b][3]), f64::from(planes[c][3]));
+                let vertex = (da * nb.cross(nc) + db * nc.cross(na) + dc * na.cross(nb)) / det;
+                let tolerance = 1e-6 * (1.0 + vertex.length());
+                if planes.iter().all(|p| normal(p).dot(vertex) <= f64::from(p[3]) + tolerance) {
+                    let v = vertex.as_vec3().to_array();
+                    bounds = bounds.union(&Aabb { min: v, max: v });
+                }
+            }
+        }
+    }
+    bounds
+}
+
+/// A pinhole camera.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Camera {
+    /// Eye position.
+    pub origin: [f32; 3],
+    /// Unit view direction.
+    pub forward: [f32; 3],
+    /// Unit right vector, scaled by tan(fov / 2) times the aspect ratio.
+    pub right: [f32; 3],
+    /// Unit up vector, scaled by tan(fov / 2).
+    pub up: [f32; 3],
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+}
+
+impl Camera {
+    /// A camera at `eye` looking at `target` with vertical field of view `fov_deg`.
+    pub fn look_at(eye: DVec3, target: DVec3, up: DVec3, fov_deg: f64, width: u32, height: u32) -> Camera {
+        let forward = (target - eye).normalize();
+        let mut right = forward.cross(up);
+        if right.length() < 1e-9 {
+            right = forward.any_orthonormal_vector();
+        }
+        let right = right.normalize();
+        let true_up = right.cross(forward);
+        let tan = (fov_deg.to_radians() * 0.5).tan();
+        let aspect = f64::from(width) / f64::from(height);
+        Camera {
+            origin: eye.as_vec3().to_array(),
+            forward: forward.as_vec3().to_array(),
+            right: (right * tan * aspect).as_vec3().to_array(),
+            up: (true_up * tan).as_vec3().to_array(),
+            width,
+            height,
+        }
+    }
+
+    /// A camera framing `bounds` from the front (+Z) and a little above, looking at their centre.
+    pub fn framing(bounds: &Aabb, fov_deg: f64, width: u32, height: u32) -> Camera {
+        let lo = DVec3::from_array(bounds.min.map(f64::from));
+        let hi = DVec3::from_array(bounds.max.map(f64::from));
+        let centre = (lo + hi) * 0.5;
+        let radius = ((hi - lo).length() * 0.5).max(1e-6);
+        let distance = radius / (fov_deg.to_radians() * 0.5).sin() * 1.1;
+        let direction = DQuat::from_rotation_x(-0.3) * DVec3::Z;
+        Camera::look_at(centre + direction * distance, centre, DVec3::Y, fov_deg, width, height)
+    }
+
+    /// The unit direction through image point (px, py) in pixels (y down).
+    pub fn direction(&self, px: f32, py: f32) -> [f32; 3] {
+        let sx = 2.0 * px / self.width as f32 - 1.0;
+        let sy = 1.0 - 2.0 * py / self.height as f32;
+        let d = [0, 1, 2].map(|k| self.forward[k] + sx * self.right[k] + sy * self.up[k]);
+        let length = crate::geometry::dot(d, d).sqrt();
+        d.map(|v| v / length)
+    }
+}

@@ -1,0 +1,584 @@
+//! The CPU ray tracer, step for step the twin of `shaders/trace.wgsl`: nearest hits through the
+//! k-d tree with CSG union semantics, glass paths through unions of touching cubes, opaque
+//! tetrahedra and trimtopes, the floor and the environment.
+//!
+//! Union semantics: a ray from outside first meets the union of elements at the nearest entry
+//! of any element, so inner faces are never seen. Inside glass, the ray walks from element to
+//! element that holds the point where it leaves the previous one, and only leaves the glass where
+//! no element continues: the last element's face gives the exit normal (refraction out, or
+//! internal reflection).
+
+// Indexed loops mirror the shader this is the twin of.
+#![allow(clippy::needless_range_loop)]
+use rayon::prelude::*;
+use shatter_core::particles::ElementType;
+
+use crate::geometry::{TrimtopeHit, along, dot, polytope_contains, polytope_span, trimtope_hit};
+use crate::lighting::{EnvironmentMap, KeyLight, sh_irradiance};
+use crate::scene::{Camera, SceneGeometry};
+
+/// No element.
+pub const NONE: u32 = u32::MAX;
+
+/// The nearest element surface along a ray.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hit {
+    /// Ray parameter.
+    pub t: f32,
+    /// The element, or [`NONE`].
+    pub element: u32,
+    /// Unit outward normal there.
+    pub normal: [f32; 3],
+}
+
+impl Hit {
+    const MISS: Hit = Hit { t: f32::INFINITY, element: NONE, normal: [0.0; 3] };
+}
+
+/// Element `e`'s nearest surface along the ray from `t_min` on: a polytope's entry (or, for a
+/// trimtope, the rules of Fig. 4).
+pub fn element_hit(scene: &SceneGeometry, e: usize, origin: [f32; 3], direction: [f32; 3], t_min: f32) -> Hit {
+    let planes = scene.planes_of(e);
+    if scene.element_type == ElementType::Trimtope {
+        let hit = trimtope_hit(planes, scene.triangles_of(e), scene.sites[e], scene.slack, origin, direction, t_min);
+        return match hit {
+            TrimtopeHit::Miss => Hit::MISS,
+            TrimtopeHit::Face { t, plane } => {
+                let p = planes[plane as usize];
+                Hit { t, element: e as u32, normal: [p[0], p[1], p[2]] }
+            }
+            TrimtopeHit::Surface { t, triangle } => {
+                let tri = scene.triangles_of(e)[triangle as usize];
+                let n =
+                    crate::geometry::cross(crate::geometry::sub(tri[1], tri[0]), crate::geometry::sub(tri[2], tri[0]));
+                let length = dot(n, n).sqrt();
+                Hit { t, element: e as u32, normal: n.map(|v| v / length) }
+            }
+        };
+    }
+    match polytope_span(planes, scene.slack, origin, direction) {
+        Some(span) if span.t_in >= t_min && span.plane_in != NONE => {
+            let p = planes[span.plane_in as usize];
+            Hit { t: span.t_in, element: e as u32, normal: [p[0], p[1], p[2]] }
+        }
+        _ => Hit::MISS,
+    }
+}
+
+/// The nearest element surface along the ray from `t_min` on (ties go to the lower element).
+pub fn closest_hit(scene: &SceneGeometry, origin: [f32; 3], direction: [f32; 3], t_min: f32) -> Hit {
+    let mut best = Hit::MISS;
+    scene.tree.traverse(origin, direction, t_min, f32::INFINITY, |e, _, _| {
+        let hit = element_hit(scene, e as usize, origin, direction, t_min);
+        if hit.t < best.t || (hit.t == best.t && hit.element < best.element) {
+            best = hit;
+        }
+        best.t
+    });
+    best
+}
+
+/// The element (other than `except`) holding `point`, if any.
+pub fn element_at(scene: &SceneGeometry, point: [f32; 3], except: u32) -> u32 {
+    let mut found = NONE;
+    scene.tree.for_each_at(point, |e| {
+        if found == NONE && e != except && polytope_contains(scene.planes_of(e as usize), scene.slack, point) {
+            found = e;
+        }
+    });
+    found
+}
+
+/// Where a ray inside the union containing `element` leaves it: (distance, unit outward normal of
+/// the last element's exit face, last element).
+pub fn union_exit(scene: &SceneGeometry, element: u32, origin: [f32; 3], direction: [f32; 3]) -> (f32, [f32; 3], u32) {
+    let step = 4.0 * scene.slack;
+    let mut current = element;
+    let mut travelled = 0.0f32;
+    let mut from = origin;
+    for _ in 0..100_000 {
+        let planes = scene.planes_of(current as usize);
+        let Some(span) = polytope_span(planes, scene.slack, from, direction) else {
+            break;
+        };
+        let t = span.t_out.max(0.0);
+        let exit = along(from, direction, t);
+        let next = element_at(scene, along(exit, direction, step), current);
+        if next == NONE || span.plane_out == NONE {
+            let p = planes[span.plane_out.min(planes.len() as u32 - 1) as usize];
+            return (travelled + t, [p[0], p[1], p[2]], current);
+        }
+        travelled += t;
+        from = exit;
+        current = next;
+    }
+    (travelled, [0.0; 3], current)
+}
+
+/// What the renderer needs besides the geometry.
+#[derive(Debug, Clone)]
+pub struct Look {
+    /// The environment.
+    pub environment: EnvironmentMap,
+    /// Its 9 SH coefficients.
+    pub sh: [[f32; 3]; 9],
+    /// Its key light.
+    pub key: KeyLight,
+    /// Show it as background.
+    pub show_environment: bool,
+    /// Glass index of refraction.
+    pub ior: f32,
+    /// Glass absorption per metre.
+    pub absorption: [f32; 3],
+    /// Opaque albedo.
+    pub albedo: [f32; 3],
+    /// Highlight strength.
+    pub specular: f32,
+    /// Highlight exponent.
+    pub shininess: f32,
+    /// The floor, if any.
+    pub floor: Option<FloorLook>,
+    /// Longest glass path.
+    pub max_bounces: u32,
+}
+
+/// A floor plane with a tiled albedo texture.
+#[derive(Debug, Clone)]
+pub struct FloorLook {
+    /// Height, metres.
+    pub height: f32,
+    /// Tile size, metres.
+    pub tile: f32,
+    /// Texture width and height (1 x 1 for a plain albedo).
+    pub size: [usize; 2],
+    /// Linear albedo texels, row-major.
+    pub texels: Vec<[f32; 3]>,
+}
+
+impl FloorLook {
+    fn albedo(&self, p: [f32; 3]) -> [f32; 3] {
+        let u = (p[0] / self.tile).rem_euclid(1.0);
+        let v = (p[2] / self.tile).rem_euclid(1.0);
+        let x = ((u * self.size[0] as f32) as usize).min(self.size[0] - 1);
+        let y = ((v * self.size[1] as f32) as usize).min(self.size[1] - 1);
+        self.texels[y * self.size[0] + x]
+    }
+}
+
+/// One pixel's layers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pixel {
+    /// Linear RGB.
+    pub color: [f32; 3],
+    /// Coverage: 1 where an element or the floor was seen first.
+    pub alpha: f32,
+    /// Distance along the ray to the first surface (infinity for none).
+    pub depth: f32,
+    /// Unit normal at the first surface (zero for none).
+    pub normal: [f32; 3],
+    /// Fragment id + 1 of the first element seen (0 for none).
+    pub fragment: u32,
+    /// The first element seen ([`NONE`] for none).
+    pub element: u32,
+}
+
+/// A deterministic uniform number in [0, 1) for (pixel, sample, event).
+fn random(pixel: u32, sample: u32, event: u32) -> f32 {
+    let bits = shatter_core::random::splitmix64((u64::from(pixel) << 32) ^ (u64::from(sample) << 8) ^ u64::from(event));
+    (bits >> 40) as f32 / (1u64 << 24) as f32
+}
+
+fn reflect(d: [f32; 3], n: [f32; 3]) -> [f32; 3] {
+    let k = 2.0 * dot(d, n);
+    [d[0] - k * n[0], d[1] - k * n[1], d[2] - k * n[2]]
+}
+
+/// Refraction of unit `d` at unit normal `n` facing against it, index ratio `eta` = n1 / n2;
+/// None on total internal reflection.
+fn refract(d: [f32; 3], n: [f32; 3], eta: f32) -> Option<[f32; 3]> {
+    let cos_i = -dot(d, n);
+    let sin2_t = eta * eta * (1.0 - cos_i * cos_i);
+    if sin2_t > 1.0 {
+        return None;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let k = eta * cos_i - cos_t;
+    Some([eta * d[0] + k * n[0], eta * d[1] + k * n[1], eta * d[2] + k * n[2]])
+}
+
+/// Schlick's Fresnel reflectance for cosine `cos_i` between media of index ratio n1 / n2 = `eta`.
+fn fresnel(cos_i: f32, eta: f32) -> f32 {
+    let r0 = ((1.0 - eta) / (1.0 + eta)).powi(2);
+    r0 + (1.0 - r0) * (1.0 - cos_i.clamp(0.0, 1.0)).powi(5)
+}
+
+fn floor_t(look: &Look, origin: [f32; 3], direction: [f32; 3]) -> f32 {
+    match &look.floor {
+        Some(floor) if direction[1] < 0.0 && origin[1] > floor.height => (floor.height - origin[1]) / direction[1],
+        _ => f32::INFINITY,
+    }
+}
+
+/// Diffuse irradiance from the SH plus a normalized Blinn-Phong highlight of the key light.
+fn shade_opaque(look: &Look, albedo: [f32; 3], normal: [f32; 3], view: [f32; 3], specular: f32) -> [f32; 3] {
+    let irradiance = sh_irradiance(&look.sh, normal);
+    let l = look.key.direction;
+    let h = {
+        let v = [l[0] - view[0], l[1] - view[1], l[2] - view[2]];
+        let length = dot(v, v).sqrt().max(1e-12);
+        v.map(|c| c / length)
+    };
+    let highlight = if dot(normal, l) > 0.0 {
+        specular * (look.shininess + 8.0) / (8.0 * std::f32::consts::PI) * dot(normal, h).max(0.0).powf(look.shininess)
+    } else {
+        0.0
+    };
+    [0, 1, 2].map(|c| albedo[c] / std::f32::consts::PI * irradiance[c] + highlight * look.key.irradiance[c])
+}
+
+/// Radiance along one camera ray, and its first-surface layers.
+pub fn trace_ray(
+    scene: &SceneGeometry,
+    look: &Look,
+    origin: [f32; 3],
+    direction: [f32; 3],
+    pixel: u32,
+    sample: u32,
+) -> Pixel {
+    let mut result =
+        Pixel { color: [0.0; 3], alpha: 0.0, depth: f32::INFINITY, normal: [0.0; 3], fragment: 0, element: NONE };
+    let mut throughput = [1.0f32; 3];
+    let (mut o, mut d) = (origin, direction);
+    let mut inside = NONE;
+    let mut first = true;
+    let eps = 4.0 * scene.slack;
+    let glass = scene.element_type == ElementType::Cube;
+    for event in 0..look.max_bounces {
+        if inside != NONE {
+            // Through the glass to where the union ends; reflect inside or refract out.
+            let (t, m, last) = union_exit(scene, inside, o, d);
+            let exit = along(o, d, t);
+            for c in 0..3 {
+                throughput[c] *= (-look.absorption[c] * t).exp();
+            }
+            let cos_i = dot(d, m);
+            let out = refract(d, m.map(|v| -v), look.ior);
+            let reflectance = if out.is_some() { fresnel(cos_i, look.ior) } else { 1.0 };
+            match out {
+                Some(refracted) if random(pixel, sample, event) >= reflectance => {
+                    o = along(exit, m, eps);
+                    d = refracted;
+                    inside = NONE;
+                }
+                _ => {
+                    d = reflect(d, m);
+                    o = along(exit, m, -eps);
+                    inside = last;
+                }
+            }
+            continue;
+        }
+        let hit = closest_hit(scene, o, d, 0.0);
+        let t_floor = floor_t(look, o, d);
+        if t_floor < hit.t {
+            let p = along(o, d, t_floor);
+            if first {
+                result = Pixel { alpha: 1.0, depth: t_floor, normal: [0.0, 1.0, 0.0], ..result };
+            }
+            let floor = look.floor.as_ref().map_or([0.5; 3], |f| f.albedo(p));
+            let shade = shade_opaque(look, floor, [0.0, 1.0, 0.0], d, 0.0);
+            for c in 0..3 {
+                result.color[c] += throughput[c] * shade[c];
+            }
+            return result;
+        }
+        if hit.element == NONE {
+            if first && !look.show_environment {
+                return result;
+            }
+            let sky = look.environment.radiance(d);
+            for c in 0..3 {
+                result.color[c] += throughput[c] * sky[c];
+            }
+            if first {
+                result.alpha = 0.0;
+            }
+            return result;
+        }
+        if first {
+            result.alpha = 1.0;
+            result.depth = hit.t;
+            result.normal = hit.normal;
+            result.element = hit.element;
+            result.fragment = scene.fragment[hit.element as usize] + 1;
+            first = false;
+        }
+        let p = along(o, d, hit.t);
+        if !glass {
+            let shade = shade_opaque(look, look.albedo, hit.normal, d, look.specular);
+            for c in 0..3 {
+                result.color[c] += throughput[c] * shade[c];
+            }
+            return result;
+        }
+        // Glass: reflect, or refract into the union.
+        let cos_i = -dot(d, hit.normal);
+        if random(pixel, sample, event) < fresnel(cos_i, 1.0 / look.ior) {
+            d = reflect(d, hit.normal);
+            o = along(p, hit.normal, eps);
+        } else if let Some(refracted) = refract(d, hit.normal, 1.0 / look.ior) {
+            d = refracted;
+            o = along(p, hit.normal, -eps);
+            inside = hit.element;
+        }
+    }
+    result
+}
+
+/// Traces every pixel of `camera`'s image with `samples` samples each (the first through the
+/// pixel centre gives the depth, normal and fragment layers). Rows in parallel; deterministic.
+pub fn render(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32) -> Vec<Pixel> {
+    let (width, height) = (camera.width as usize, camera.height as usize);
+    let mut image =
+        vec![
+            Pixel { color: [0.0; 3], alpha: 0.0, depth: f32::INFINITY, normal: [0.0; 3], fragment: 0, element: NONE };
+            width * height
+        ];
+    image.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
+        for (x, out) in row.iter_mut().enumerate() {
+            let pixel = (y * width + x) as u32;
+            let mut sum = [0.0f32; 3];
+            let mut alpha = 0.0;
+            for sample in 0..samples {
+                let (jx, jy) =
+                    if sample == 0 { (0.5, 0.5) } else { (random(pixel, sample, 1000), random(pixel, sample, 1001)) };
+                let d = camera.direction(x as f32 + jx, y as f32 + jy);
+                let traced = trace_ray(scene, look, camera.origin, d, pixel, sample);
+                if sample == 0 {
+                    *out = traced;
+                }
+                for c in 0..3 {
+                    sum[c] += traced.color[c];
+                }
+                alpha += traced.alpha;
+            }
+            out.color = sum.map(|v| v / samples as f32);
+            out.alpha = alpha / samples as f32;
+        }
+    });
+    image
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::DVec3;
+    use shatter_core::particles::{Bonds, Elements, ParticleMeta, ParticleSet};
+
+    use super::*;
+    use crate::lighting::{EnvironmentMap, key_light, sh_project};
+
+    fn set(positions: Vec<[f32; 3]>, elements: Elements) -> ParticleSet {
+        let n = positions.len();
+        ParticleSet {
+            meta: ParticleMeta {
+                scene_name: "t".into(),
+                source: "box".into(),
+                sampler: "grid".into(),
+                lambda_m: 1.0,
+                horizon_factor: 1.0,
+                delta_m: 1.0,
+                density_kg_m3: 1.0,
+                bulk_modulus_pa: 1.0,
+                mean_critical_stretch: 0.01,
+                threshold_jitter: 0.0,
+                seed: 0,
+            },
+            rest_position_m: positions,
+            volume_m3: vec![1.0; n],
+            mass_kg: vec![1.0; n],
+            elements,
+            bonds: Bonds { offsets: vec![0; n + 1], ..Bonds::default() },
+            adjacency: Vec::new(),
+        }
+    }
+
+    fn cubes(centres: Vec<[f32; 3]>) -> SceneGeometry {
+        let n = centres.len();
+        let elements = Elements::Cubes { half_size_m: vec![0.5; n], orientation: [0.0, 0.0, 0.0, 1.0] };
+        SceneGeometry::build(&set(centres, elements), None)
+    }
+
+    fn look() -> Look {
+        let environment = EnvironmentMap::constant([0.5; 3]);
+        Look {
+            sh: sh_project(&environment),
+            key: key_light(&environment),
+            environment,
+            show_environment: true,
+            ior: 1.5,
+            absorption: [0.0; 3],
+            albedo: [0.8; 3],
+            specular: 0.0,
+            shininess: 32.0,
+            floor: None,
+            max_bounces: 8,
+        }
+    }
+
+    /// Entry distance and normal of a ray into an axis-aligned box, in f64; None if it misses
+    /// the box shrunk by `margin` (a sure hit needs that), Some(None) if it hits the box grown by
+    /// `margin` only (ambiguous: skip).
+    fn analytic_box(lo: DVec3, hi: DVec3, o: DVec3, d: DVec3, margin: f64) -> Option<Option<(f64, DVec3)>> {
+        let slab = |lo: DVec3, hi: DVec3| {
+            let (mut near, mut far, mut normal) = (f64::NEG_INFINITY, f64::INFINITY, DVec3::ZERO);
+            for a in 0..3 {
+                let (t0, t1) = ((lo[a] - o[a]) / d[a], (hi[a] - o[a]) / d[a]);
+                let (enter, leave, sign) = if t0 < t1 { (t0, t1, -1.0) } else { (t1, t0, 1.0) };
+                if enter > near {
+                    near = enter;
+                    normal = DVec3::ZERO;
+                    normal[a] = sign;
+                }
+                far = far.min(leave);
+            }
+            (near <= far && near > 0.0).then_some((near, normal))
+        };
+        match (slab(lo + margin, hi - margin), slab(lo - margin, hi + margin)) {
+            (Some(_), _) => Some(slab(lo, hi)),
+            (None, Some(_)) => Some(None),
+            (None, None) => None,
+        }
+    }
+
+    #[test]
+    fn a_single_cube_has_analytic_depth_and_normals() {
+        let scene = cubes(vec![[0.0; 3]]);
+        let camera = Camera::look_at(DVec3::new(1.3, 1.7, 4.0), DVec3::ZERO, DVec3::Y, 30.0, 64, 48);
+        let image = render(&scene, &look(), &camera, 1);
+        let mut checked = 0;
+        for y in 0..48 {
+            for x in 0..64 {
+                let pixel = image[y * 64 + x];
+                let d = DVec3::from_array(camera.direction(x as f32 + 0.5, y as f32 + 0.5).map(f64::from));
+                let o = DVec3::from_array(camera.origin.map(f64::from));
+                match analytic_box(DVec3::splat(-0.5), DVec3::splat(0.5), o, d, 1e-4) {
+                    Some(Some((t, n))) => {
+                        assert!((f64::from(pixel.depth) - t).abs() < 1e-4, "({x}, {y}): depth {} vs {t}", pixel.depth);
+                        for a in 0..3 {
+                            assert!((f64::from(pixel.normal[a]) - n[a]).abs() < 1e-4, "({x}, {y}) normal");
+                        }
+                        assert_eq!(pixel.fragment, 1);
+                        checked += 1;
+                    }
+                    None => assert_eq!(pixel.element, NONE, "({x}, {y}) should miss"),
+                    Some(None) => {}
+                }
+            }
+        }
+        assert!(checked > 300, "{checked} pixels on the cube");
+    }
+
+    #[test]
+    fn a_single_tet_has_analytic_depth_and_normals() {
+        let vertices = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let set = set(vec![[0.25; 3]], Elements::Tets { vertices_m: vec![vertices] });
+        let scene = SceneGeometry::build(&set, None);
+        let camera = Camera::look_at(DVec3::new(2.0, 1.5, 3.0), DVec3::splat(0.25), DVec3::Y, 30.0, 64, 48);
+        let image = render(&scene, &look(), &camera, 1);
+        let v = vertices.map(|p| DVec3::from_array(p.map(f64::from)));
+        let faces = [[v[1], v[2], v[3]], [v[0], v[2], v[3]], [v[0], v[1], v[3]], [v[0], v[1], v[2]]];
+        let mut checked = 0;
+        for y in 0..48 {
+            for x in 0..64 {
+                let pixel = image[y * 64 + x];
+                let d = DVec3::from_array(camera.direction(x as f32 + 0.5, y as f32 + 0.5).map(f64::from));
+                let o = DVec3::from_array(camera.origin.map(f64::from));
+                // nearest face by Moller-Trumbore in f64, keeping how far inside the triangle it is
+                let mut best: Option<(f64, DVec3, f64)> = None;
+                for face in &faces {
+                    let (e1, e2) = (face[1] - face[0], face[2] - face[0]);
+                    let p = d.cross(e2);
+                    let det = e1.dot(p);
+                    let s = o - face[0];
+                    let (u, w) = (s.dot(p) / det, d.dot(s.cross(e1)) / det);
+                    let t = e2.dot(s.cross(e1)) / det;
+                    let inset = u.min(w).min(1.0 - u - w);
+                    if inset >= -1e-4 && t > 0.0 && best.is_none_or(|(b, _, _)| t < b) {
+                        let mut n = e1.cross(e2).normalize();
+                        if n.dot(face[0] - DVec3::splat(0.25)) < 0.0 {
+                            n = -n;
+                        }
+                        best = Some((t, n, inset));
+                    }
+                }
+                match best {
+                    Some((t, n, inset)) if inset > 1e-4 => {
+                        assert!((f64::from(pixel.depth) - t).abs() < 1e-4, "({x}, {y}) depth");
+                        assert!(
+                            (DVec3::from_array(pixel.normal.map(f64::from)) - n).length() < 1e-4,
+                            "({x}, {y}) normal"
+                        );
+                        checked += 1;
+                    }
+                    Some(_) => {}
+                    None => assert_eq!(pixel.element, NONE, "({x}, {y}) should miss"),
+                }
+            }
+        }
+        assert!(checked > 100, "{checked} pixels on the tet");
+    }
+
+    #[test]
+    fn touching_cubes_show_no_seam_and_no_inner_face() {
+        let scene = cubes(vec![[0.0; 3], [1.0, 0.0, 0.0]]);
+        // Looking straight at the shared face's edge: every pixel inside the union must hit it.
+        let camera = Camera::look_at(DVec3::new(0.5, 0.0, 4.0), DVec3::new(0.5, 0.0, 0.0), DVec3::Y, 40.0, 81, 61);
+        let image = render(&scene, &look(), &camera, 1);
+        let o = DVec3::from_array(camera.origin.map(f64::from));
+        for y in 0..61 {
+            for x in 0..81 {
+                let d = DVec3::from_array(camera.direction(x as f32 + 0.5, y as f32 + 0.5).map(f64::from));
+                if let Some(Some((t, _))) =
+                    analytic_box(DVec3::new(-0.5, -0.5, -0.5), DVec3::new(1.5, 0.5, 0.5), o, d, 1e-4)
+                {
+                    let pixel = image[y * 81 + x];
+                    assert_ne!(pixel.element, NONE, "crack pixel at ({x}, {y})");
+                    assert!((f64::from(pixel.depth) - t).abs() < 1e-4, "({x}, {y}): depth {} vs {t}", pixel.depth);
+                }
+            }
+        }
+        // Inside the glass a ray walks on to the far side of the union, not to the inner face.
+        let (t, normal, last) = union_exit(&scene, 0, [-0.4, 0.1, 0.0], [1.0, 0.0, 0.0]);
+        assert!((t - 1.9).abs() < 1e-4, "exit at x = 1.5, not 0.5: t = {t}");
+        assert_eq!(normal, [1.0, 0.0, 0.0]);
+        assert_eq!(last, 1);
+    }
+
+    #[test]
+    fn a_ray_through_a_glass_slab_of_touching_cubes_leaves_parallel() {
+        let mut centres = Vec::new();
+        for x in 0..5 {
+            for z in 0..5 {
+                centres.push([x as f32 - 2.0, 0.0, z as f32 - 2.0]);
+            }
+        }
+        let scene = cubes(centres);
+        let look = look();
+        let d = {
+            let v = DVec3::new(0.3, -1.0, 0.2).normalize();
+            v.as_vec3().to_array()
+        };
+        let o = [-0.7, 2.0, -0.4];
+        let entry = closest_hit(&scene, o, d, 0.0);
+        assert_eq!(entry.normal, [0.0, 1.0, 0.0], "enters through the top");
+        let inside_d = refract(d, entry.normal, 1.0 / look.ior).expect("refracts in");
+        let p = along(o, d, entry.t);
+        let (t, m, _) = union_exit(&scene, entry.element, along(p, entry.normal, -1e-4), inside_d);
+        assert_eq!(m, [0.0, -1.0, 0.0], "leaves through the bottom face of the slab");
+        assert!(t > 1.0, "crosses the slab's full thickness: {t}");
+        let out = refract(inside_d, m.map(|v| -v), look.ior).expect("refracts out");
+        for a in 0..3 {
+            assert!((out[a] - d[a]).abs() < 1e-5, "leaves parallel: {out:?} vs {d:?}");
+        }
+    }
+}
