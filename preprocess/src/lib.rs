@@ -5,6 +5,7 @@
 //! Z-curve, bonded within the horizon by k-d tree range queries ([`bonds`]), and finally rotated
 //! and translated into the world.
 
+pub mod blue_noise;
 pub mod bonds;
 pub mod delaunay;
 pub mod grid;
@@ -12,7 +13,9 @@ pub mod inside;
 pub mod kdtree;
 pub mod lattice;
 pub mod mesh;
+pub mod mesh_query;
 pub mod repair;
+pub mod voronoi;
 
 use glam::{DQuat, DVec3};
 use shatter_core::Progress;
