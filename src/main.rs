@@ -5,6 +5,7 @@ mod inspect;
 mod post;
 mod preprocess;
 mod progress;
+mod render;
 mod sim;
 
 use std::path::PathBuf;
@@ -14,6 +15,7 @@ use clap::{Parser, Subcommand};
 use shatter_core::{ConfigError, PipelineConfig};
 use shatter_preprocess::PreprocessError;
 use shatter_render::post::PostError;
+use shatter_render::run::RenderError;
 use shatter_sim::run::RunError;
 
 /// Exit code for bad input: a config, mesh or setting the user must fix (clap uses it for bad
@@ -59,7 +61,12 @@ enum Command {
     /// Find fragments and their rigid motion per frame.
     Post(ConfigArg),
     /// Ray trace the fragments to EXR frames.
-    Render(ConfigArg),
+    Render {
+        #[command(flatten)]
+        config: ConfigArg,
+        #[command(flatten)]
+        options: render::RenderArgs,
+    },
     /// Run every stage in order.
     Run {
         #[command(flatten)]
@@ -98,6 +105,7 @@ impl<E: Into<anyhow::Error>> From<E> for Failure {
                 || cause.is::<PreprocessError>()
                 || cause.downcast_ref::<RunError>().is_some_and(RunError::is_bad_input)
                 || cause.downcast_ref::<PostError>().is_some_and(PostError::is_bad_input)
+                || cause.downcast_ref::<RenderError>().is_some_and(RenderError::is_bad_input)
         }) {
             EXIT_BAD_INPUT
         } else {
@@ -130,10 +138,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
         Command::Preprocess(arg) => preprocess::run(&load_config(&arg)?),
         Command::Sim { config, options } => sim::run(&load_config(&config)?, &options),
         Command::Post(arg) => post::run(&load_config(&arg)?),
-        Command::Render(arg) => {
-            load_config(&arg)?;
-            Err(not_implemented("render", 8))
-        }
+        Command::Render { config, options } => render::run(&load_config(&config)?, &options),
         Command::Run { config, options, until } => {
             let config = load_config(&config)?;
             preprocess::run(&config)?;
@@ -144,7 +149,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 post::run(&config)?;
             }
             if until >= Stage::Render {
-                return Err(not_implemented("render", 8));
+                render::run(&config, &render::RenderArgs { frames: None, backend: options.backend })?;
             }
             Ok(())
         }

@@ -35,6 +35,17 @@ pub enum BackendArg {
     Gpu,
 }
 
+impl BackendArg {
+    /// The config's backend value.
+    pub fn backend(self) -> Backend {
+        match self {
+            BackendArg::Auto => Backend::Auto,
+            BackendArg::Cpu => Backend::Cpu,
+            BackendArg::Gpu => Backend::Gpu,
+        }
+    }
+}
+
 /// Runs the simulation stage.
 pub fn run(config: &PipelineConfig, args: &SimArgs) -> Result<(), Failure> {
     let backend = match args.backend {

@@ -118,7 +118,7 @@ impl KdTree {
         t_end: f32,
         mut hit: impl FnMut(u32, f32, f32) -> f32,
     ) -> u32 {
-        let inverse = direction.map(|d| 1.0 / d);
+        let inverse = direction.map(inverse_component);
         let Some((scene_min, scene_max)) = clip(&self.bounds, origin, inverse, t_start, t_end) else {
             return 0;
         };
@@ -207,6 +207,13 @@ impl KdTree {
     }
 }
 
+/// 1 / d, with zero replaced by a tiny number of the same sign: infinities are not reliable on
+/// GPUs, so both sides avoid them.
+pub fn inverse_component(d: f32) -> f32 {
+    let tiny = 1e-30f32;
+    if d.abs() < tiny { 1.0 / tiny.copysign(d) } else { 1.0 / d }
+}
+
 /// The ray's interval inside `bounds`, intersected with [t_start, t_end].
 fn clip(bounds: &Aabb, origin: [f32; 3], inverse: [f32; 3], t_start: f32, t_end: f32) -> Option<(f32, f32)> {
     let (mut near, mut far) = (t_start, t_end);
@@ -282,7 +289,7 @@ mod tests {
     }
 
     fn entry(b: &Aabb, origin: [f32; 3], direction: [f32; 3]) -> f32 {
-        let inverse = direction.map(|d| 1.0 / d);
+        let inverse = direction.map(inverse_component);
         match clip(b, origin, inverse, 0.0, f32::INFINITY) {
             Some((near, _)) => near,
             None => f32::INFINITY,

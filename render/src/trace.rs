@@ -182,10 +182,18 @@ pub struct Pixel {
     pub element: u32,
 }
 
+/// A 32-bit integer hash (the PCG output permutation): WGSL has no 64-bit integers, so the
+/// tracer's randomness is 32-bit on both sides.
+pub fn hash32(x: u32) -> u32 {
+    let state = x.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+    let word = ((state >> ((state >> 28) + 4)) ^ state).wrapping_mul(277_803_737);
+    (word >> 22) ^ word
+}
+
 /// A deterministic uniform number in [0, 1) for (pixel, sample, event).
-fn random(pixel: u32, sample: u32, event: u32) -> f32 {
-    let bits = shatter_core::random::splitmix64((u64::from(pixel) << 32) ^ (u64::from(sample) << 8) ^ u64::from(event));
-    (bits >> 40) as f32 / (1u64 << 24) as f32
+pub fn random(pixel: u32, sample: u32, event: u32) -> f32 {
+    let bits = hash32(pixel ^ hash32(sample.wrapping_mul(0x9e37_79b9) ^ hash32(event)));
+    (bits >> 8) as f32 / (1u32 << 24) as f32
 }
 
 fn reflect(d: [f32; 3], n: [f32; 3]) -> [f32; 3] {

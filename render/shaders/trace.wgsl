@@ -1,0 +1,662 @@
+// The GPU ray tracer, one pixel per invocation: the twin of render/src/trace.rs (and of the
+// functions of geometry.rs, kdtree.rs and lighting.rs it uses), step for step.
+
+const NONE: u32 = 0xffffffffu;
+const LEAF: u32 = 3u;
+const SHORT_STACK: u32 = 4u;
+const PI: f32 = 3.14159265358979;
+const WG: u32 = 8u;
+
+struct Params {
+    camera_origin: vec4<f32>,
+    camera_forward: vec4<f32>,
+    camera_right: vec4<f32>,
+    camera_up: vec4<f32>,
+    // width, height, samples per pixel, max bounces
+    size: vec4<u32>,
+    // elements, element type (0 cube, 1 tet, 2 trimtope), environment width, environment height
+    counts: vec4<u32>,
+    // floor texture width, height, has floor, show environment
+    flags: vec4<u32>,
+    // k-d tree bounds; min.w = slack, max.w = index of refraction
+    scene_min: vec4<f32>,
+    scene_max: vec4<f32>,
+    // glass absorption per metre; w = highlight strength
+    absorption: vec4<f32>,
+    // opaque albedo; w = highlight exponent
+    albedo: vec4<f32>,
+    // floor height, tile size, first pixel of this dispatch, pixels in this dispatch (bits)
+    floor: vec4<f32>,
+    key_direction: vec4<f32>,
+    key_irradiance: vec4<f32>,
+    sh: array<vec4<f32>, 9>,
+}
+
+struct PixelOut {
+    color: vec4<f32>,   // rgb, alpha
+    normal: vec4<f32>,  // xyz, w = depth
+    ids: vec4<u32>,     // fragment + 1, element, 0, 0
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> nodes: array<vec2<u32>>;
+@group(0) @binding(2) var<storage, read> items: array<u32>;
+@group(0) @binding(3) var<storage, read> plane_offsets: array<u32>;
+@group(0) @binding(4) var<storage, read> planes: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read> triangle_offsets: array<u32>;
+@group(0) @binding(6) var<storage, read> triangles: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read> sites: array<vec4<f32>>;
+@group(0) @binding(8) var<storage, read> fragments: array<u32>;
+@group(0) @binding(9) var<storage, read> environment: array<vec4<f32>>;
+@group(0) @binding(10) var<storage, read> floor_texels: array<vec4<f32>>;
+@group(0) @binding(11) var<storage, read_write> pixels: array<PixelOut>;
+
+fn infinity() -> f32 {
+    return bitcast<f32>(0x7f800000u);
+}
+
+struct Span {
+    t_in: f32,
+    t_out: f32,
+    plane_in: u32,
+    plane_out: u32,
+    hit: bool,
+}
+
+// geometry.rs polytope_span
+fn polytope_span(e: u32, slack: f32, origin: vec3<f32>, direction: vec3<f32>) -> Span {
+    var span = Span(-infinity(), infinity(), NONE, NONE, false);
+    var wide_in = -infinity();
+    var wide_out = infinity();
+    let first = plane_offsets[e];
+    let end = plane_offsets[e + 1u];
+    for (var k = first; k < end; k++) {
+        let plane = planes[k];
+        let normal = plane.xyz;
+        let facing = dot3(normal, direction);
+        let room = plane.w - dot3(normal, origin);
+        if (facing == 0.0) {
+            if (room + slack < 0.0) {
+                return span;
+            }
+            continue;
+        }
+        let t = room / facing;
+        let wide = (room + slack) / facing;
+        if (facing < 0.0) {
+            wide_in = max(wide_in, wide);
+            if (t > span.t_in) {
+                span.t_in = t;
+                span.plane_in = k - first;
+            }
+        } else {
+            wide_out = min(wide_out, wide);
+            if (t < span.t_out) {
+                span.t_out = t;
+                span.plane_out = k - first;
+            }
+        }
+    }
+    span.hit = wide_in <= wide_out;
+    return span;
+}
+
+// a . b summed x, y, z in that order (as the CPU does)
+fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
+    return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+
+fn cross3(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+
+// geometry.rs polytope_contains
+fn polytope_contains(e: u32, slack: f32, point: vec3<f32>) -> bool {
+    for (var k = plane_offsets[e]; k < plane_offsets[e + 1u]; k++) {
+        let plane = planes[k];
+        if (!(dot3(plane.xyz, point) <= plane.w + slack)) {
+            return false;
+        }
+    }
+    return true;
+}
+
+struct TriangleHit {
+    t: f32,
+    front: bool,
+    hit: bool,
+}
+
+// geometry.rs triangle_hit
+fn triangle_hit(origin: vec3<f32>, direction: vec3<f32>, index: u32) -> TriangleHit {
+    var result = TriangleHit(0.0, false, false);
+    let a = triangles[3u * index].xyz;
+    let b = triangles[3u * index + 1u].xyz;
+    let c = triangles[3u * index + 2u].xyz;
+    let e1 = b - a;
+    let e2 = c - a;
+    let p = cross3(direction, e2);
+    let det = dot3(e1, p);
+    if (det == 0.0) {
+        return result;
+    }
+    let inverse = 1.0 / det;
+    let s = origin - a;
+    let u = dot3(s, p) * inverse;
+    if (!(u >= 0.0 && u <= 1.0)) {
+        return result;
+    }
+    let q = cross3(s, e1);
+    let v = dot3(direction, q) * inverse;
+    if (v < 0.0 || u + v > 1.0) {
+        return result;
+    }
+    result.t = dot3(e2, q) * inverse;
+    result.front = det > 0.0;
+    result.hit = true;
+    return result;
+}
+
+struct Hit {
+    t: f32,
+    element: u32,
+    normal: vec3<f32>,
+}
+
+fn miss() -> Hit {
+    return Hit(infinity(), NONE, vec3<f32>(0.0));
+}
+
+fn plane_normal(e: u32, plane: u32) -> vec3<f32> {
+    return planes[plane_offsets[e] + plane].xyz;
+}
+
+// geometry.rs trimtope_hit, as trace.rs element_hit returns it
+fn trimtope_hit(e: u32, origin: vec3<f32>, direction: vec3<f32>, t_min: f32) -> Hit {
+    let slack = params.scene_min.w;
+    let span = polytope_span(e, slack, origin, direction);
+    if (!span.hit) {
+        return miss();
+    }
+    let t_out = max(span.t_out, span.t_in);
+    let t_in = max(span.t_in, t_min);
+    if (t_in > t_out) {
+        return miss();
+    }
+    var first_t = infinity();
+    var first_front = false;
+    var first_index = NONE;
+    for (var k = triangle_offsets[e]; k < triangle_offsets[e + 1u]; k++) {
+        let hit = triangle_hit(origin, direction, k);
+        if (hit.hit && hit.t >= t_in && hit.t <= t_out && (first_index == NONE || hit.t < first_t)) {
+            first_t = hit.t;
+            first_front = hit.front;
+            first_index = k;
+        }
+    }
+    if (first_index != NONE) {
+        if (first_front) {
+            let a = triangles[3u * first_index].xyz;
+            let n = cross3(triangles[3u * first_index + 1u].xyz - a, triangles[3u * first_index + 2u].xyz - a);
+            return Hit(first_t, e, n / sqrt(dot3(n, n)));
+        }
+        return Hit(t_in, e, plane_normal(e, span.plane_in));
+    }
+    let entry = origin + t_in * direction;
+    let to_site = sites[e].xyz - entry;
+    var nearest_t = infinity();
+    var nearest_front = false;
+    var found = false;
+    for (var k = triangle_offsets[e]; k < triangle_offsets[e + 1u]; k++) {
+        let hit = triangle_hit(entry, to_site, k);
+        if (hit.hit && hit.t >= 0.0 && hit.t <= 1.0 && (!found || hit.t < nearest_t)) {
+            nearest_t = hit.t;
+            nearest_front = hit.front;
+            found = true;
+        }
+    }
+    if (found && nearest_front) {
+        return miss();
+    }
+    return Hit(t_in, e, plane_normal(e, span.plane_in));
+}
+
+// trace.rs element_hit
+fn element_hit(e: u32, origin: vec3<f32>, direction: vec3<f32>, t_min: f32) -> Hit {
+    if (params.counts.y == 2u) {
+        return trimtope_hit(e, origin, direction, t_min);
+    }
+    let span = polytope_span(e, params.scene_min.w, origin, direction);
+    if (span.hit && span.t_in >= t_min && span.plane_in != NONE) {
+        return Hit(span.t_in, e, plane_normal(e, span.plane_in));
+    }
+    return miss();
+}
+
+// kdtree.rs inverse_component
+fn inverse_component(d: f32) -> f32 {
+    let tiny = 1e-30;
+    if (abs(d) < tiny) {
+        return 1.0 / select(tiny, -tiny, d < 0.0 || (d == 0.0 && bitcast<u32>(d) != 0u));
+    }
+    return 1.0 / d;
+}
+
+// trace.rs closest_hit through kdtree.rs traverse (short stack, push-down, kd-restart)
+fn closest_hit(origin: vec3<f32>, direction: vec3<f32>, t_min_ray: f32) -> Hit {
+    var best = miss();
+    let inverse = vec3<f32>(inverse_component(direction.x), inverse_component(direction.y), inverse_component(direction.z));
+    // clip to the scene bounds
+    var near = t_min_ray;
+    var far = infinity();
+    for (var axis = 0u; axis < 3u; axis++) {
+        let t0 = (params.scene_min[axis] - origin[axis]) * inverse[axis];
+        let t1 = (params.scene_max[axis] - origin[axis]) * inverse[axis];
+        let lo = select(t1, t0, t0 <= t1);
+        let hi = select(t0, t1, t0 <= t1);
+        if (lo > near) {
+            near = lo;
+        }
+        if (hi < far) {
+            far = hi;
+        }
+    }
+    if (!(near <= far)) {
+        return best;
+    }
+    let scene_max = far;
+    var stack_node: array<u32, 4>;
+    var stack_min: array<f32, 4>;
+    var stack_max: array<f32, 4>;
+    var stack_len = 0u;
+    var root = 0u;
+    var t_min = near;
+    var t_max = far;
+    var node = root;
+    var push_down = true;
+    loop {
+        let entry = nodes[node];
+        if ((entry.x & 3u) != LEAF) {
+            let axis = entry.x & 3u;
+            let split = bitcast<f32>(entry.y);
+            let t_split = (split - origin[axis]) * inverse[axis];
+            let below_first = origin[axis] < split || (origin[axis] == split && direction[axis] <= 0.0);
+            let near_child = select(entry.x >> 2u, node + 1u, below_first);
+            let far_child = select(node + 1u, entry.x >> 2u, below_first);
+            if (t_split >= t_max || t_split < 0.0) {
+                node = near_child;
+            } else if (t_split <= t_min) {
+                node = far_child;
+            } else {
+                if (stack_len == SHORT_STACK) {
+                    for (var k = 1u; k < SHORT_STACK; k++) {
+                        stack_node[k - 1u] = stack_node[k];
+                        stack_min[k - 1u] = stack_min[k];
+                        stack_max[k - 1u] = stack_max[k];
+                    }
+                    stack_len -= 1u;
+                }
+                stack_node[stack_len] = far_child;
+                stack_min[stack_len] = t_split;
+                stack_max[stack_len] = t_max;
+                stack_len += 1u;
+                node = near_child;
+                t_max = t_split;
+                push_down = false;
+            }
+            if (push_down) {
+                root = node;
+            }
+            continue;
+        }
+        let first = entry.x >> 2u;
+        for (var k = first; k < first + entry.y; k++) {
+            let e = items[k];
+            let hit = element_hit(e, origin, direction, t_min_ray);
+            if (hit.t < best.t || (hit.t == best.t && hit.element < best.element)) {
+                best = hit;
+            }
+        }
+        if (best.t <= t_max) {
+            return best;
+        }
+        if (stack_len > 0u) {
+            stack_len -= 1u;
+            node = stack_node[stack_len];
+            t_min = stack_min[stack_len];
+            t_max = stack_max[stack_len];
+            push_down = false;
+        } else if (t_max >= scene_max) {
+            return best;
+        } else {
+            t_min = t_max;
+            t_max = scene_max;
+            node = root;
+            push_down = true;
+        }
+    }
+    return best;
+}
+
+// trace.rs element_at through kdtree.rs for_each_at
+fn element_at(point: vec3<f32>, except: u32) -> u32 {
+    for (var axis = 0u; axis < 3u; axis++) {
+        if (!(point[axis] >= params.scene_min[axis] && point[axis] <= params.scene_max[axis])) {
+            return NONE;
+        }
+    }
+    var node = 0u;
+    loop {
+        let entry = nodes[node];
+        if ((entry.x & 3u) == LEAF) {
+            let first = entry.x >> 2u;
+            for (var k = first; k < first + entry.y; k++) {
+                let e = items[k];
+                if (e != except && polytope_contains(e, params.scene_min.w, point)) {
+                    return e;
+                }
+            }
+            return NONE;
+        }
+        let axis = entry.x & 3u;
+        node = select(entry.x >> 2u, node + 1u, point[axis] < bitcast<f32>(entry.y));
+    }
+    return NONE;
+}
+
+struct Exit {
+    t: f32,
+    normal: vec3<f32>,
+    element: u32,
+}
+
+// trace.rs union_exit
+fn union_exit(element: u32, origin: vec3<f32>, direction: vec3<f32>) -> Exit {
+    let slack = params.scene_min.w;
+    let step = 4.0 * slack;
+    var current = element;
+    var travelled = 0.0;
+    var start = origin;
+    for (var guard = 0u; guard < 100000u; guard++) {
+        let span = polytope_span(current, slack, start, direction);
+        if (!span.hit) {
+            break;
+        }
+        let t = max(span.t_out, 0.0);
+        let exit = start + t * direction;
+        let next = element_at(exit + step * direction, current);
+        if (next == NONE || span.plane_out == NONE) {
+            let count = plane_offsets[current + 1u] - plane_offsets[current];
+            return Exit(travelled + t, plane_normal(current, min(span.plane_out, count - 1u)), current);
+        }
+        travelled += t;
+        start = exit;
+        current = next;
+    }
+    return Exit(travelled, vec3<f32>(0.0), current);
+}
+
+// trace.rs hash32 and random
+fn hash32(x: u32) -> u32 {
+    let state = x * 747796405u + 2891336453u;
+    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+fn random(pixel: u32, sample: u32, event: u32) -> f32 {
+    let bits = hash32(pixel ^ hash32((sample * 0x9e3779b9u) ^ hash32(event)));
+    return f32(bits >> 8u) / 16777216.0;
+}
+
+fn reflect3(d: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let k = 2.0 * dot3(d, n);
+    return vec3<f32>(d.x - k * n.x, d.y - k * n.y, d.z - k * n.z);
+}
+
+struct Refraction {
+    direction: vec3<f32>,
+    ok: bool,
+}
+
+fn refract3(d: vec3<f32>, n: vec3<f32>, eta: f32) -> Refraction {
+    let cos_i = -dot3(d, n);
+    let sin2_t = eta * eta * (1.0 - cos_i * cos_i);
+    if (sin2_t > 1.0) {
+        return Refraction(vec3<f32>(0.0), false);
+    }
+    let cos_t = sqrt(1.0 - sin2_t);
+    let k = eta * cos_i - cos_t;
+    return Refraction(vec3<f32>(eta * d.x + k * n.x, eta * d.y + k * n.y, eta * d.z + k * n.z), true);
+}
+
+fn fresnel(cos_i: f32, eta: f32) -> f32 {
+    let r = (1.0 - eta) / (1.0 + eta);
+    let r0 = r * r;
+    let m = 1.0 - clamp(cos_i, 0.0, 1.0);
+    return r0 + (1.0 - r0) * (m * m * m * m * m);
+}
+
+// lighting.rs coordinates_of and EnvironmentMap::radiance
+fn environment_radiance(d: vec3<f32>) -> vec3<f32> {
+    let width = params.counts.z;
+    let height = params.counts.w;
+    let u = 0.5 + atan2(d.x, -d.z) / (2.0 * PI);
+    let v = acos(clamp(d.y, -1.0, 1.0)) / PI;
+    let fx = u * f32(width) - 0.5;
+    let fy = clamp(v * f32(height) - 0.5, 0.0, f32(height - 1u));
+    let x0 = floor(fx);
+    let y0 = floor(fy);
+    let ax = fx - x0;
+    let ay = fy - y0;
+    let a = texel(x0, y0);
+    let b = texel(x0 + 1.0, y0);
+    let c = texel(x0, y0 + 1.0);
+    let e = texel(x0 + 1.0, y0 + 1.0);
+    return (a * (1.0 - ax) + b * ax) * (1.0 - ay) + (c * (1.0 - ax) + e * ax) * ay;
+}
+
+fn texel(x: f32, y: f32) -> vec3<f32> {
+    let width = i32(params.counts.z);
+    let xi = ((i32(x) % width) + width) % width;
+    let yi = min(u32(y), params.counts.w - 1u);
+    return environment[yi * params.counts.z + u32(xi)].xyz;
+}
+
+// lighting.rs sh_basis and sh_irradiance
+fn sh_irradiance(n: vec3<f32>) -> vec3<f32> {
+    let x = n.x;
+    let y = n.y;
+    let z = n.z;
+    var basis: array<f32, 9>;
+    basis[0] = 0.282095;
+    basis[1] = 0.488603 * y;
+    basis[2] = 0.488603 * z;
+    basis[3] = 0.488603 * x;
+    basis[4] = 1.092548 * x * y;
+    basis[5] = 1.092548 * y * z;
+    basis[6] = 0.315392 * (3.0 * z * z - 1.0);
+    basis[7] = 1.092548 * x * z;
+    basis[8] = 0.546274 * (x * x - y * y);
+    var weight: array<f32, 9>;
+    weight[0] = PI;
+    for (var k = 1u; k < 4u; k++) {
+        weight[k] = 2.0 * PI / 3.0;
+    }
+    for (var k = 4u; k < 9u; k++) {
+        weight[k] = PI / 4.0;
+    }
+    var e = vec3<f32>(0.0);
+    for (var k = 0u; k < 9u; k++) {
+        e += weight[k] * params.sh[k].xyz * basis[k];
+    }
+    return max(e, vec3<f32>(0.0));
+}
+
+// trace.rs shade_opaque
+fn shade_opaque(albedo: vec3<f32>, normal: vec3<f32>, view: vec3<f32>, specular: f32) -> vec3<f32> {
+    let irradiance = sh_irradiance(normal);
+    let l = params.key_direction.xyz;
+    let v = l - view;
+    let h = v / max(sqrt(dot3(v, v)), 1e-12);
+    var highlight = 0.0;
+    let shininess = params.albedo.w;
+    if (dot3(normal, l) > 0.0) {
+        highlight = specular * (shininess + 8.0) / (8.0 * PI) * pow(max(dot3(normal, h), 0.0), shininess);
+    }
+    return albedo / PI * irradiance + highlight * params.key_irradiance.xyz;
+}
+
+// trace.rs FloorLook::albedo
+fn floor_albedo(p: vec3<f32>) -> vec3<f32> {
+    let tile = params.floor.y;
+    let u = p.x / tile - floor(p.x / tile);
+    let v = p.z / tile - floor(p.z / tile);
+    let width = params.flags.x;
+    let height = params.flags.y;
+    let x = min(u32(u * f32(width)), width - 1u);
+    let y = min(u32(v * f32(height)), height - 1u);
+    return floor_texels[y * width + x].xyz;
+}
+
+struct Traced {
+    color: vec3<f32>,
+    alpha: f32,
+    depth: f32,
+    normal: vec3<f32>,
+    fragment: u32,
+    element: u32,
+}
+
+// trace.rs trace_ray
+fn trace_ray(origin: vec3<f32>, direction: vec3<f32>, pixel: u32, sample: u32) -> Traced {
+    var result = Traced(vec3<f32>(0.0), 0.0, infinity(), vec3<f32>(0.0), 0u, NONE);
+    var throughput = vec3<f32>(1.0);
+    var o = origin;
+    var d = direction;
+    var inside = NONE;
+    var first = true;
+    let eps = 4.0 * params.scene_min.w;
+    let ior = params.scene_max.w;
+    let glass = params.counts.y == 0u;
+    for (var event = 0u; event < params.size.w; event++) {
+        if (inside != NONE) {
+            let exit = union_exit(inside, o, d);
+            let p = o + exit.t * d;
+            throughput *= exp(-params.absorption.xyz * exit.t);
+            let cos_i = dot3(d, exit.normal);
+            let out = refract3(d, -exit.normal, ior);
+            let reflectance = select(1.0, fresnel(cos_i, ior), out.ok);
+            if (out.ok && random(pixel, sample, event) >= reflectance) {
+                o = p + eps * exit.normal;
+                d = out.direction;
+                inside = NONE;
+            } else {
+                d = reflect3(d, exit.normal);
+                o = p - eps * exit.normal;
+                inside = exit.element;
+            }
+            continue;
+        }
+        let hit = closest_hit(o, d, 0.0);
+        var t_floor = infinity();
+        if (params.flags.z != 0u && d.y < 0.0 && o.y > params.floor.x) {
+            t_floor = (params.floor.x - o.y) / d.y;
+        }
+        if (t_floor < hit.t) {
+            let p = o + t_floor * d;
+            if (first) {
+                result.alpha = 1.0;
+                result.depth = t_floor;
+                result.normal = vec3<f32>(0.0, 1.0, 0.0);
+            }
+            let shade = shade_opaque(floor_albedo(p), vec3<f32>(0.0, 1.0, 0.0), d, 0.0);
+            result.color += throughput * shade;
+            return result;
+        }
+        if (hit.element == NONE) {
+            if (first && params.flags.w == 0u) {
+                return result;
+            }
+            result.color += throughput * environment_radiance(d);
+            if (first) {
+                result.alpha = 0.0;
+            }
+            return result;
+        }
+        if (first) {
+            result.alpha = 1.0;
+            result.depth = hit.t;
+            result.normal = hit.normal;
+            result.element = hit.element;
+            result.fragment = fragments[hit.element] + 1u;
+            first = false;
+        }
+        let p = o + hit.t * d;
+        if (!glass) {
+            result.color += throughput * shade_opaque(params.albedo.xyz, hit.normal, d, params.absorption.w);
+            return result;
+        }
+        let cos_i = -dot3(d, hit.normal);
+        if (random(pixel, sample, event) < fresnel(cos_i, 1.0 / ior)) {
+            d = reflect3(d, hit.normal);
+            o = p + eps * hit.normal;
+        } else {
+            let into = refract3(d, hit.normal, 1.0 / ior);
+            if (into.ok) {
+                d = into.direction;
+                o = p - eps * hit.normal;
+                inside = hit.element;
+            }
+        }
+    }
+    return result;
+}
+
+// scene.rs Camera::direction
+fn camera_direction(px: f32, py: f32) -> vec3<f32> {
+    let sx = 2.0 * px / f32(params.size.x) - 1.0;
+    let sy = 1.0 - 2.0 * py / f32(params.size.y);
+    let d = params.camera_forward.xyz + sx * params.camera_right.xyz + sy * params.camera_up.xyz;
+    return d / sqrt(dot3(d, d));
+}
+
+// trace.rs render, for the pixels of this dispatch
+@compute @workgroup_size(64)
+fn trace(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let local = (wid.x + wid.y * nwg.x) * 64u + lid;
+    let first_pixel = bitcast<u32>(params.floor.z);
+    let count = bitcast<u32>(params.floor.w);
+    if (local >= count) {
+        return;
+    }
+    let pixel = first_pixel + local;
+    let width = params.size.x;
+    let x = pixel % width;
+    let y = pixel / width;
+    let samples = params.size.z;
+    var sum = vec3<f32>(0.0);
+    var alpha = 0.0;
+    var out: PixelOut;
+    for (var sample = 0u; sample < samples; sample++) {
+        var jx = 0.5;
+        var jy = 0.5;
+        if (sample != 0u) {
+            jx = random(pixel, sample, 1000u);
+            jy = random(pixel, sample, 1001u);
+        }
+        let d = camera_direction(f32(x) + jx, f32(y) + jy);
+        let traced = trace_ray(params.camera_origin.xyz, d, pixel, sample);
+        if (sample == 0u) {
+            out.normal = vec4<f32>(traced.normal, traced.depth);
+            out.ids = vec4<u32>(traced.fragment, traced.element, 0u, 0u);
+        }
+        sum += traced.color;
+        alpha += traced.alpha;
+    }
+    out.color = vec4<f32>(sum / f32(samples), alpha / f32(samples));
+    pixels[local] = out;
+}

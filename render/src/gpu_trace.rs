@@ -1,0 +1,177 @@
+//! The GPU ray tracer: uploads a frame's scene and look, runs `shaders/trace.wgsl` (one pixel per
+//! invocation, in batches of pixels so no single dispatch runs long), reads the pixels back.
+//! The twin of [`crate::trace::render`].
+
+use bytemuck::{Pod, Zeroable};
+use shatter_core::particles::ElementType;
+use shatter_gpu::{ComputeKernel, GpuContext, GpuError, wgpu};
+
+use crate::scene::{Camera, SceneGeometry};
+use crate::trace::{Look, Pixel};
+
+const SHADER: &str = include_str!("../shaders/trace.wgsl");
+/// Pixels per dispatch: a multiple of 16 so every batch's output starts at a bindable offset.
+const BATCH_PIXELS: u32 = 1 << 16;
+
+/// The shader's `Params` (see trace.wgsl for the meaning of each lane).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct Params {
+    camera_origin: [f32; 4],
+    camera_forward: [f32; 4],
+    camera_right: [f32; 4],
+    camera_up: [f32; 4],
+    size: [u32; 4],
+    counts: [u32; 4],
+    flags: [u32; 4],
+    scene_min: [f32; 4],
+    scene_max: [f32; 4],
+    absorption: [f32; 4],
+    albedo: [f32; 4],
+    floor: [f32; 4],
+    key_direction: [f32; 4],
+    key_irradiance: [f32; 4],
+    sh: [[f32; 4]; 9],
+}
+
+/// The shader's `PixelOut`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct PixelOut {
+    color: [f32; 4],
+    normal: [f32; 4],
+    ids: [u32; 4],
+}
+
+fn vec4(v: [f32; 3], w: f32) -> [f32; 4] {
+    [v[0], v[1], v[2], w]
+}
+
+/// A compiled tracer on one GPU.
+pub struct GpuTracer {
+    kernel: ComputeKernel,
+}
+
+impl GpuTracer {
+    /// Compiles the tracer for `ctx`.
+    pub fn new(ctx: &GpuContext) -> Result<GpuTracer, GpuError> {
+        Ok(GpuTracer { kernel: ComputeKernel::new(ctx, "trace.wgsl", SHADER)? })
+    }
+
+    /// Traces every pixel of `camera`'s image with `samples` samples each, like
+    /// [`crate::trace::render`].
+    pub fn render(
+        &self,
+        ctx: &GpuContext,
+        scene: &SceneGeometry,
+        look: &Look,
+        camera: &Camera,
+        samples: u32,
+    ) -> Result<Vec<Pixel>, GpuError> {
+        let non_empty = |v: Vec<[f32; 4]>| if v.is_empty() { vec![[0.0; 4]] } else { v };
+        let nodes = ctx.create_storage_buffer("kd nodes", &scene.tree.nodes)?;
+        let items = ctx.create_storage_buffer(
+            "kd items",
+            if scene.tree.items.is_empty() { &[0u32][..] } else { &scene.tree.items },
+        )?;
+        let plane_offsets = ctx.create_storage_buffer("plane offsets", &scene.plane_offsets)?;
+        let planes = ctx.create_storage_buffer("planes", &non_empty(scene.planes.clone()))?;
+        let triangle_offsets = ctx.create_storage_buffer("triangle offsets", &scene.triangle_offsets)?;
+        let triangles: Vec<[f32; 4]> = scene.triangles.iter().flat_map(|t| t.map(|v| vec4(v, 0.0))).collect();
+        let triangles = ctx.create_storage_buffer("triangles", &non_empty(triangles))?;
+        let sites: Vec<[f32; 4]> = scene.sites.iter().map(|s| vec4(*s, 0.0)).collect();
+        let sites = ctx.create_storage_buffer("sites", &non_empty(sites))?;
+        let fragments = ctx.create_storage_buffer(
+            "fragments",
+            if scene.fragment.is_empty() { &[0u32][..] } else { &scene.fragment },
+        )?;
+        let environment: Vec<[f32; 4]> = look.environment.texels.iter().map(|t| vec4(*t, 0.0)).collect();
+        let environment = ctx.create_storage_buffer("environment", &environment)?;
+        let (floor_size, floor_texels) = match &look.floor {
+            Some(floor) => (floor.size, floor.texels.iter().map(|t| vec4(*t, 0.0)).collect()),
+            None => ([1, 1], vec![[0.0; 4]]),
+        };
+        let floor_texels = ctx.create_storage_buffer("floor texture", &floor_texels)?;
+
+        let total = camera.width * camera.height;
+        let element_type = match scene.element_type {
+            ElementType::Cube => 0,
+            ElementType::Tet => 1,
+            ElementType::Trimtope => 2,
+        };
+        let mut params = Params {
+            camera_origin: vec4(camera.origin, 0.0),
+            camera_forward: vec4(camera.forward, 0.0),
+            camera_right: vec4(camera.right, 0.0),
+            camera_up: vec4(camera.up, 0.0),
+            size: [camera.width, camera.height, samples, look.max_bounces],
+            counts: [scene.len() as u32, element_type, look.environment.width as u32, look.environment.height as u32],
+            flags: [
+                floor_size[0] as u32,
+                floor_size[1] as u32,
+                u32::from(look.floor.is_some()),
+                u32::from(look.show_environment),
+            ],
+            scene_min: vec4(scene.tree.bounds.min, scene.slack),
+            scene_max: vec4(scene.tree.bounds.max, look.ior),
+            absorption: vec4(look.absorption, look.specular),
+            albedo: vec4(look.albedo, look.shininess),
+            floor: [
+                look.floor.as_ref().map_or(0.0, |f| f.height),
+                look.floor.as_ref().map_or(1.0, |f| f.tile),
+                0.0,
+                0.0,
+            ],
+            key_direction: vec4(look.key.direction, 0.0),
+            key_irradiance: vec4(look.key.irradiance, 0.0),
+            sh: look.sh.map(|c| vec4(c, 0.0)),
+        };
+        let uniform = ctx.create_uniform_buffer("trace params", &params)?;
+        let pixel_bytes = std::mem::size_of::<PixelOut>() as u64;
+        let output = ctx.create_zeroed_storage_buffer("pixels", u64::from(total.max(1)) * pixel_bytes)?;
+        let mut first = 0u32;
+        while first < total {
+            let count = BATCH_PIXELS.min(total - first);
+            params.floor[2] = f32::from_bits(first);
+            params.floor[3] = f32::from_bits(count);
+            ctx.write_buffer(&uniform, 0, std::slice::from_ref(&params))?;
+            let output_slice = wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                buffer: &output,
+                offset: u64::from(first) * pixel_bytes,
+                size: wgpu::BufferSize::new(u64::from(count) * pixel_bytes),
+            });
+            let group = self.kernel.bind_group(
+                ctx,
+                0,
+                &[
+                    uniform.as_entire_binding(),
+                    nodes.as_entire_binding(),
+                    items.as_entire_binding(),
+                    plane_offsets.as_entire_binding(),
+                    planes.as_entire_binding(),
+                    triangle_offsets.as_entire_binding(),
+                    triangles.as_entire_binding(),
+                    sites.as_entire_binding(),
+                    fragments.as_entire_binding(),
+                    environment.as_entire_binding(),
+                    floor_texels.as_entire_binding(),
+                    output_slice,
+                ],
+            )?;
+            self.kernel.dispatch_invocations(ctx, &[&group], u64::from(count))?;
+            first += count;
+        }
+        let out: Vec<PixelOut> = ctx.read_buffer(&output, total as usize)?;
+        Ok(out
+            .iter()
+            .map(|p| Pixel {
+                color: [p.color[0], p.color[1], p.color[2]],
+                alpha: p.color[3],
+                depth: p.normal[3],
+                normal: [p.normal[0], p.normal[1], p.normal[2]],
+                fragment: p.ids[0],
+                element: p.ids[1],
+            })
+            .collect())
+    }
+}

@@ -1,0 +1,175 @@
+//! Writing frames: multi-layer OpenEXR (linear RGBA half, depth, normals, fragment ids) and
+//! tonemapped PNG previews, both atomically.
+
+use std::io::Cursor;
+use std::path::{Path, PathBuf};
+
+use exr::prelude::{
+    AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, SmallVec, Text, WritableImage, f16,
+    read_all_flat_layers_from_file,
+};
+
+use crate::trace::Pixel;
+
+/// Why an image could not be written or read.
+#[derive(Debug, thiserror::Error)]
+pub enum ImageError {
+    /// Encoding or decoding failed.
+    #[error("{path}: {what}")]
+    Format {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        what: String,
+    },
+    /// The file could not be written.
+    #[error("{path}: cannot write: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+}
+
+/// The channels of a shatter EXR frame, in the sorted order EXR stores them.
+pub const EXR_CHANNELS: [&str; 9] = ["A", "B", "G", "N.X", "N.Y", "N.Z", "R", "Z", "fragment"];
+
+/// Writes `pixels` (row-major, top row first) as an EXR with channels R, G, B, A (half, linear),
+/// Z (float: distance along the camera ray to the first surface; infinity where there is none),
+/// N.X, N.Y, N.Z (float: world-space unit normal there) and fragment (uint: fragment id + 1 of
+/// the first element seen, 0 for none). `comment` goes into the header.
+pub fn write_exr(path: &Path, width: usize, height: usize, pixels: &[Pixel], comment: &str) -> Result<(), ImageError> {
+    let column = |f: &dyn Fn(&Pixel) -> f32| pixels.iter().map(f).collect::<Vec<f32>>();
+    let half = |f: &dyn Fn(&Pixel) -> f32| FlatSamples::F16(pixels.iter().map(|p| f16::from_f32(f(p))).collect());
+    let channels = AnyChannels::sort(SmallVec::from_vec(vec![
+        AnyChannel::new("R", half(&|p| p.color[0])),
+        AnyChannel::new("G", half(&|p| p.color[1])),
+        AnyChannel::new("B", half(&|p| p.color[2])),
+        AnyChannel::new("A", half(&|p| p.alpha)),
+        AnyChannel::new("Z", FlatSamples::F32(column(&|p| p.depth))),
+        AnyChannel::new("N.X", FlatSamples::F32(column(&|p| p.normal[0]))),
+        AnyChannel::new("N.Y", FlatSamples::F32(column(&|p| p.normal[1]))),
+        AnyChannel::new("N.Z", FlatSamples::F32(column(&|p| p.normal[2]))),
+        AnyChannel::new("fragment", FlatSamples::U32(pixels.iter().map(|p| p.fragment).collect())),
+    ]));
+    let attributes = LayerAttributes {
+        comments: Some(Text::from(comment)),
+        software_name: Some(Text::from("shatter")),
+        ..LayerAttributes::default()
+    };
+    let layer = Layer::new((width, height), attributes, Encoding::FAST_LOSSLESS, channels);
+    let mut bytes = Cursor::new(Vec::new());
+    Image::from_layer(layer)
+        .write()
+        .to_buffered(&mut bytes)
+        .map_err(|error| ImageError::Format { path: path.to_path_buf(), what: error.to_string() })?;
+    shatter_core::stage_file::write_atomically(path, &[bytes.get_ref()])
+        .map_err(|source| ImageError::Io { path: path.to_path_buf(), source })
+}
+
+/// One channel of an EXR read back.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExrChannel {
+    /// Channel name.
+    pub name: String,
+    /// "f16", "f32" or "u32".
+    pub sample_type: &'static str,
+    /// Values as f32 (u32 converted).
+    pub values: Vec<f32>,
+}
+
+/// Reads every channel of the first layer of an EXR (tests, tools): (width, height, channels).
+pub fn read_exr(path: &Path) -> Result<(usize, usize, Vec<ExrChannel>), ImageError> {
+    let image = read_all_flat_layers_from_file(path)
+        .map_err(|error| ImageError::Format { path: path.to_path_buf(), what: error.to_string() })?;
+    let layer = image
+        .layer_data
+        .first()
+        .ok_or_else(|| ImageError::Format { path: path.to_path_buf(), what: "no layer".into() })?;
+    let channels = layer
+        .channel_data
+        .list
+        .iter()
+        .map(|channel| {
+            let sample_type = match &channel.sample_data {
+                FlatSamples::F16(_) => "f16",
+                FlatSamples::F32(_) => "f32",
+                FlatSamples::U32(_) => "u32",
+            };
+            ExrChannel {
+                name: channel.name.to_string(),
+                sample_type,
+                values: channel.sample_data.values_as_f32().collect(),
+            }
+        })
+        .collect();
+    Ok((layer.size.0, layer.size.1, channels))
+}
+
+/// Writes a tonemapped sRGB PNG preview: exposure, a filmic curve, sRGB encoding.
+pub fn write_png(
+    path: &Path,
+    width: usize,
+    height: usize,
+    pixels: &[Pixel],
+    exposure_stops: f32,
+) -> Result<(), ImageError> {
+    let scale = exposure_stops.exp2();
+    let encode = |linear: f32| {
+        let x = linear * scale;
+        let mapped = x / (1.0 + x); // Reinhard
+        let srgb = if mapped <= 0.003_130_8 { 12.92 * mapped } else { 1.055 * mapped.powf(1.0 / 2.4) - 0.055 };
+        (srgb.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
+    };
+    let mut rgb = Vec::with_capacity(width * height * 3);
+    for p in pixels {
+        rgb.extend(p.color.map(encode));
+    }
+    let image = image::RgbImage::from_raw(width as u32, height as u32, rgb)
+        .ok_or_else(|| ImageError::Format { path: path.to_path_buf(), what: "image size mismatch".into() })?;
+    let mut bytes = Cursor::new(Vec::new());
+    image
+        .write_to(&mut bytes, image::ImageFormat::Png)
+        .map_err(|error| ImageError::Format { path: path.to_path_buf(), what: error.to_string() })?;
+    shatter_core::stage_file::write_atomically(path, &[bytes.get_ref()])
+        .map_err(|source| ImageError::Io { path: path.to_path_buf(), source })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::trace::NONE;
+
+    #[test]
+    fn exr_frames_read_back_with_their_layers_and_channel_types() {
+        let pixels: Vec<Pixel> = (0..12)
+            .map(|i| Pixel {
+                color: [i as f32 * 0.1, 0.5, 2.0],
+                alpha: if i % 2 == 0 { 1.0 } else { 0.0 },
+                depth: if i % 2 == 0 { 1.5 + i as f32 } else { f32::INFINITY },
+                normal: [0.0, 1.0, 0.0],
+                fragment: (i % 3) as u32,
+                element: NONE,
+            })
+            .collect();
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("shot.0001.exr");
+        write_exr(&path, 4, 3, &pixels, "frame 1").expect("write");
+        let (width, height, channels) = read_exr(&path).expect("read");
+        assert_eq!((width, height), (4, 3));
+        let names: Vec<&str> = channels.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names, EXR_CHANNELS);
+        let channel = |name: &str| channels.iter().find(|c| c.name == name).expect("channel");
+        assert_eq!(channel("R").sample_type, "f16");
+        assert_eq!(channel("Z").sample_type, "f32");
+        assert_eq!(channel("fragment").sample_type, "u32");
+        assert_eq!(channel("Z").values[2], 3.5);
+        assert!(channel("Z").values[1].is_infinite());
+        assert_eq!(channel("fragment").values[5], 2.0);
+        assert!((channel("R").values[7] - 0.7).abs() < 1e-3);
+        let png = dir.path().join("shot.0001.png");
+        write_png(&png, 4, 3, &pixels, 0.0).expect("png");
+        assert_eq!(image::open(&png).expect("png reads").width(), 4);
+    }
+}

@@ -1,0 +1,303 @@
+//! `shatter render`: the fragments of each frame ray traced to multi-layer EXR (and PNG previews),
+//! frame ranges for render farms, progress with ETA.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use glam::DVec3;
+use shatter_core::config::render::RenderConfig;
+use shatter_core::config::sim::Backend;
+use shatter_core::fragments::FragmentFrame;
+use shatter_core::particles::ParticleSet;
+use shatter_core::stage_file::StageFileError;
+use shatter_core::{PipelineConfig, Progress};
+use shatter_gpu::{AdapterChoice, GpuContext, GpuError};
+use shatter_sim::run::PARTICLES_FILE;
+
+use crate::gpu_trace::GpuTracer;
+use crate::image_out::{ImageError, write_exr, write_png};
+use crate::kdtree::Aabb;
+use crate::lighting::{EnvironmentMap, LightingError, key_light, sh_project};
+use crate::post::{FRAGMENTS_DIR, fragments_path};
+use crate::scene::{Camera, SceneGeometry};
+use crate::trace::{FloorLook, Look, Pixel, render};
+
+/// The folder `shatter render` writes into, inside the output folder.
+pub const RENDER_DIR: &str = "render";
+
+/// Why rendering failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// Bad input the user must fix: frames out of range, missing fragments, a bad texture (exit 2).
+    #[error("{0}")]
+    Input(String),
+    /// The environment map is unusable (exit 2).
+    #[error(transparent)]
+    Lighting(#[from] LightingError),
+    /// A stage file could not be read.
+    #[error(transparent)]
+    StageFile(#[from] StageFileError),
+    /// An image could not be written.
+    #[error(transparent)]
+    Image(#[from] ImageError),
+    /// The GPU failed (or `--backend gpu` found none).
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+}
+
+impl RenderError {
+    /// True when the user must change the input.
+    pub fn is_bad_input(&self) -> bool {
+        matches!(self, RenderError::Input(_) | RenderError::Lighting(_))
+    }
+}
+
+/// What a render run did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderReport {
+    /// Frames written.
+    pub frames: Vec<u32>,
+    /// Image size.
+    pub resolution: [u32; 2],
+    /// Samples per pixel.
+    pub samples: u32,
+    /// Primary rays per second over the run.
+    pub rays_per_second: f64,
+    /// Where the frames are.
+    pub folder: PathBuf,
+    /// Wall time, seconds.
+    pub wall_s: f64,
+    /// The device that traced: "CPU" or the GPU adapter.
+    pub device: String,
+}
+
+/// Where the rays are traced.
+enum Tracer {
+    Cpu,
+    Gpu(Box<(GpuContext, GpuTracer)>),
+}
+
+impl Tracer {
+    /// The tracer `backend` asks for: `auto` takes a hardware GPU when there is one.
+    fn new(backend: Backend) -> Result<Tracer, RenderError> {
+        let gpu = |context: GpuContext| -> Result<Tracer, RenderError> {
+            let tracer = GpuTracer::new(&context)?;
+            Ok(Tracer::Gpu(Box::new((context, tracer))))
+        };
+        match backend {
+            Backend::Cpu => Ok(Tracer::Cpu),
+            Backend::Gpu => gpu(GpuContext::new(AdapterChoice::from_env())?),
+            Backend::Auto => match GpuContext::new(AdapterChoice::from_env()) {
+                Ok(context) => gpu(context),
+                Err(_) => Ok(Tracer::Cpu),
+            },
+        }
+    }
+
+    fn describe(&self) -> String {
+        match self {
+            Tracer::Cpu => format!("CPU ({} threads)", rayon::current_num_threads()),
+            Tracer::Gpu(gpu) => gpu.0.describe(),
+        }
+    }
+
+    fn render(
+        &self,
+        scene: &SceneGeometry,
+        look: &Look,
+        camera: &Camera,
+        samples: u32,
+    ) -> Result<Vec<Pixel>, RenderError> {
+        match self {
+            Tracer::Cpu => Ok(render(scene, look, camera, samples)),
+            Tracer::Gpu(gpu) => Ok(gpu.1.render(&gpu.0, scene, look, camera, samples)?),
+        }
+    }
+}
+
+/// Parses a frame list such as `1-240`, `7` or `1-10,20,30-32` against frames 1..=`last`.
+pub fn parse_frames(text: &str, last: u32) -> Result<Vec<u32>, String> {
+    let mut frames = Vec::new();
+    for part in text.split(',').map(str::trim) {
+        let number =
+            |s: &str| s.trim().parse::<u32>().map_err(|_| format!("--frames {text:?}: {s:?} is not a frame number"));
+        let (first, end) = match part.split_once('-') {
+            Some((a, b)) => (number(a)?, number(b)?),
+            None => (number(part)?, number(part)?),
+        };
+        if first == 0 || end < first || end > last {
+            return Err(format!("--frames {text:?}: {part} is not within frames 1-{last} (sim.frames = {last})"));
+        }
+        frames.extend(first..=end);
+    }
+    frames.sort_unstable();
+    frames.dedup();
+    Ok(frames)
+}
+
+/// The file of frame `frame` with extension `extension`.
+pub fn frame_file(folder: &Path, scene: &str, frame: u32, extension: &str) -> PathBuf {
+    folder.join(format!("{scene}.{frame:04}.{extension}"))
+}
+
+/// The look of a scene from its config.
+pub fn look(render: &RenderConfig) -> Result<Look, RenderError> {
+    let environment = match &render.environment {
+        Some(path) => EnvironmentMap::load(path, render.environment_intensity as f32)?,
+        None => EnvironmentMap::constant([render.environment_intensity as f32; 3]),
+    };
+    let floor = match &render.floor {
+        None => None,
+        Some(floor) => {
+            let (size, texels) = match &floor.texture {
+                Some(path) => load_texture(path)?,
+                None => ([1, 1], vec![floor.albedo.map(|v| v as f32)]),
+            };
+            Some(FloorLook { height: floor.height_m as f32, tile: floor.tile_size_m as f32, size, texels })
+        }
+    };
+    let material = &render.material;
+    Ok(Look {
+        sh: sh_project(&environment),
+        key: key_light(&environment),
+        environment,
+        show_environment: render.show_environment,
+        ior: material.glass_ior as f32,
+        absorption: material.glass_absorption_per_m.map(|v| v as f32),
+        albedo: material.albedo.map(|v| v as f32),
+        specular: material.specular as f32,
+        shininess: material.shininess as f32,
+        floor,
+        max_bounces: render.max_bounces,
+    })
+}
+
+/// An sRGB texture as linear texels.
+fn load_texture(path: &Path) -> Result<([usize; 2], Vec<[f32; 3]>), RenderError> {
+    let image = image::open(path)
+        .map_err(|error| RenderError::Input(format!("render.floor.texture: {}: cannot read: {error}", path.display())))?
+        .into_rgb8();
+    let linear = |v: u8| {
+        let c = f32::from(v) / 255.0;
+        if c <= 0.040_45 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+    };
+    let texels = image.pixels().map(|p| p.0.map(linear)).collect();
+    Ok(([image.width() as usize, image.height() as usize], texels))
+}
+
+/// The camera of a scene: configured, or framing the body's rest bounds.
+pub fn camera(render: &RenderConfig, particles: &ParticleSet) -> Camera {
+    let [width, height] = render.resolution;
+    let bounds = particles.rest_position_m.iter().fold(Aabb::EMPTY, |b, p| b.union(&Aabb { min: *p, max: *p }));
+    let config = &render.camera;
+    let centre = DVec3::from_array([0, 1, 2].map(|a| f64::from(bounds.min[a] + bounds.max[a]) * 0.5));
+    match config.position_m {
+        Some(position) => Camera::look_at(
+            DVec3::from_array(position),
+            config.look_at_m.map_or(centre, DVec3::from_array),
+            DVec3::from_array(config.up),
+            config.fov_deg,
+            width,
+            height,
+        ),
+        None => Camera::framing(&bounds, config.fov_deg, width, height),
+    }
+}
+
+/// Renders the frames `frames` (all of `sim.frames` when None) of `config` on `backend` (the
+/// config's `render.backend` when None).
+pub fn run(
+    config: &PipelineConfig,
+    frames: Option<&str>,
+    backend: Option<Backend>,
+    progress: &dyn Progress,
+) -> Result<RenderReport, RenderError> {
+    let started = Instant::now();
+    let render_config = &config.render;
+    let last = config.sim.frames;
+    let frames = match frames {
+        Some(text) => parse_frames(text, last).map_err(RenderError::Input)?,
+        None => (1..=last).collect(),
+    };
+    let output = config.output_dir();
+    let particles = ParticleSet::read(&output.join(PARTICLES_FILE))?;
+    let look = look(render_config)?;
+    let camera = camera(render_config, &particles);
+    let tracer = Tracer::new(backend.unwrap_or(render_config.backend))?;
+    let folder = output.join(RENDER_DIR);
+    std::fs::create_dir_all(&folder).map_err(|source| ImageError::Io { path: folder.clone(), source })?;
+    let fragments_dir = output.join(FRAGMENTS_DIR);
+    let [width, height] = render_config.resolution;
+    let samples = render_config.samples_per_pixel;
+    progress.start("render", frames.len() as u64);
+    for &frame in &frames {
+        let path = fragments_path(&fragments_dir, frame);
+        let fragments = if path.is_file() {
+            Some(FragmentFrame::read(&path)?)
+        } else if frame == 1 {
+            None // the rest state
+        } else {
+            return Err(RenderError::Input(format!("{}: missing; run `shatter post` first", path.display())));
+        };
+        if let Some(fragments) = &fragments {
+            if fragments.fragment_of.len() != particles.len() {
+                return Err(RenderError::Input(format!(
+                    "{}: {} elements, but the particle file has {}; run `shatter sim` and `shatter post` again",
+                    path.display(),
+                    fragments.fragment_of.len(),
+                    particles.len()
+                )));
+            }
+        }
+        let scene = SceneGeometry::build(&particles, fragments.as_ref());
+        let pixels = tracer.render(&scene, &look, &camera, samples)?;
+        let comment = format!("shatter render: scene {}, frame {frame}", config.scene.name);
+        write_exr(
+            &frame_file(&folder, &config.scene.name, frame, "exr"),
+            width as usize,
+            height as usize,
+            &pixels,
+            &comment,
+        )?;
+        if render_config.previews {
+            let exposure = render_config.preview_exposure_stops as f32;
+            write_png(
+                &frame_file(&folder, &config.scene.name, frame, "png"),
+                width as usize,
+                height as usize,
+                &pixels,
+                exposure,
+            )?;
+        }
+        progress.advance(1);
+        progress.message(&format!("frame {frame}"));
+    }
+    progress.finish();
+    let wall_s = started.elapsed().as_secs_f64();
+    let rays = f64::from(width) * f64::from(height) * f64::from(samples) * frames.len() as f64;
+    Ok(RenderReport {
+        frames,
+        resolution: render_config.resolution,
+        samples,
+        rays_per_second: rays / wall_s.max(1e-9),
+        folder,
+        wall_s,
+        device: tracer.describe(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_lists_parse_like_a_render_farm_writes_them() {
+        assert_eq!(parse_frames("1-5", 48).expect("range"), vec![1, 2, 3, 4, 5]);
+        assert_eq!(parse_frames("7", 48).expect("one"), vec![7]);
+        assert_eq!(parse_frames("1-3, 10,2", 48).expect("list"), vec![1, 2, 3, 10]);
+        assert!(parse_frames("0-3", 48).expect_err("zero").contains("not within frames 1-48"));
+        assert!(parse_frames("40-50", 48).is_err());
+        assert!(parse_frames("5-3", 48).is_err());
+        assert!(parse_frames("a-b", 48).expect_err("text").contains("not a frame number"));
+    }
+}
