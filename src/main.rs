@@ -2,11 +2,13 @@
 //! bars and stage dispatch; the work happens in the library crates.
 
 mod inspect;
+mod pipeline;
 mod post;
 mod preprocess;
 mod progress;
 mod render;
 mod sim;
+mod stamps;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -67,7 +69,7 @@ enum Command {
         #[command(flatten)]
         options: render::RenderArgs,
     },
-    /// Run every stage in order.
+    /// Run every stage in order, skipping what is up to date and resuming what was interrupted.
     Run {
         #[command(flatten)]
         config: ConfigArg,
@@ -139,20 +141,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
         Command::Sim { config, options } => sim::run(&load_config(&config)?, &options),
         Command::Post(arg) => post::run(&load_config(&arg)?),
         Command::Render { config, options } => render::run(&load_config(&config)?, &options),
-        Command::Run { config, options, until } => {
-            let config = load_config(&config)?;
-            preprocess::run(&config)?;
-            if until >= Stage::Sim {
-                sim::run(&config, &options)?;
-            }
-            if until >= Stage::Post {
-                post::run(&config)?;
-            }
-            if until >= Stage::Render {
-                render::run(&config, &render::RenderArgs { frames: None, backend: options.backend })?;
-            }
-            Ok(())
-        }
+        Command::Run { config, options, until } => pipeline::run(&load_config(&config)?, &options, until),
         Command::Inspect { path, json } => inspect::run(&path, json),
     }
 }

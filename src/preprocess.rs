@@ -5,11 +5,10 @@ use std::time::Instant;
 use anyhow::Context;
 use shatter_core::PipelineConfig;
 
+use shatter_sim::run::PARTICLES_FILE;
+
 use crate::Failure;
 use crate::progress::Bars;
-
-/// The particle file's name inside the scene's output folder.
-pub const PARTICLES_FILE: &str = "particles.shp";
 
 /// Preprocesses the scene and writes its particle file.
 pub fn run(config: &PipelineConfig) -> Result<(), Failure> {

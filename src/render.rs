@@ -1,6 +1,7 @@
 //! `shatter render`: fragments to EXR frames.
 
 use shatter_core::PipelineConfig;
+use shatter_render::run::{AfterFrame, RenderError, parse_frames};
 
 use crate::Failure;
 use crate::progress::Bars;
@@ -18,10 +19,19 @@ pub struct RenderArgs {
     pub backend: Option<BackendArg>,
 }
 
-/// Runs the render stage.
+/// Runs the render stage for the frames `args` asks for.
 pub fn run(config: &PipelineConfig, args: &RenderArgs) -> Result<(), Failure> {
-    let backend = args.backend.map(BackendArg::backend);
-    let report = shatter_render::run::run(config, args.frames.as_deref(), backend, &Bars::default())?;
+    let frames = match &args.frames {
+        Some(text) => parse_frames(text, config.sim.frames).map_err(RenderError::Input)?,
+        None => (1..=config.sim.frames).collect(),
+    };
+    render_frames(config, &frames, args.backend, &mut |_| Ok(()))
+}
+
+/// Renders `frames`, calling `after_frame` when each is written.
+pub fn render_frames(config: &PipelineConfig, frames: &[u32], backend: Option<BackendArg>, after_frame: AfterFrame) -> Result<(), Failure> {
+    let backend = backend.map(BackendArg::backend);
+    let report = shatter_render::run::run(config, Some(frames), backend, &Bars::default(), after_frame)?;
     let [width, height] = report.resolution;
     println!(
         "render: {} frames at {width} x {height}, {} samples per pixel ({:.2} M primary rays/s)",

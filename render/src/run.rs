@@ -43,7 +43,18 @@ pub enum RenderError {
     /// The GPU failed (or `--backend gpu` found none).
     #[error(transparent)]
     Gpu(#[from] GpuError),
+    /// The caller's work after a frame failed.
+    #[error("after frame {frame}: {source}")]
+    AfterFrame {
+        /// The frame just written.
+        frame: u32,
+        /// What failed.
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
 }
+
+/// Called after each frame is written (e.g. to record that it is up to date).
+pub type AfterFrame<'a> = &'a mut dyn FnMut(u32) -> Result<(), Box<dyn std::error::Error + Send + Sync>>;
 
 impl RenderError {
     /// True when the user must change the input.
@@ -205,19 +216,19 @@ pub fn camera(render: &RenderConfig, particles: &ParticleSet) -> Camera {
 }
 
 /// Renders the frames `frames` (all of `sim.frames` when None) of `config` on `backend` (the
-/// config's `render.backend` when None).
+/// config's `render.backend` when None), calling `after_frame` when each frame is written.
 pub fn run(
     config: &PipelineConfig,
-    frames: Option<&str>,
+    frames: Option<&[u32]>,
     backend: Option<Backend>,
     progress: &dyn Progress,
+    after_frame: AfterFrame,
 ) -> Result<RenderReport, RenderError> {
     let started = Instant::now();
     let render_config = &config.render;
-    let last = config.sim.frames;
-    let frames = match frames {
-        Some(text) => parse_frames(text, last).map_err(RenderError::Input)?,
-        None => (1..=last).collect(),
+    let frames: Vec<u32> = match frames {
+        Some(frames) => frames.to_vec(),
+        None => (1..=config.sim.frames).collect(),
     };
     let output = config.output_dir();
     let particles = ParticleSet::read(&output.join(PARTICLES_FILE))?;
@@ -269,6 +280,7 @@ pub fn run(
                 exposure,
             )?;
         }
+        after_frame(frame).map_err(|source| RenderError::AfterFrame { frame, source })?;
         progress.advance(1);
         progress.message(&format!("frame {frame}"));
     }

@@ -1,0 +1,153 @@
+//! `shatter run`: every stage in order, for overnight work. A stage whose inputs and settings are
+//! unchanged since it last finished is skipped (see [`crate::stamps`]); the simulation resumes
+//! from its last checkpoint; rendering records each frame as it is written, so an interrupted run
+//! loses at most the frame in flight. Every file is written atomically, so a kill never leaves a
+//! corrupt file under a final name. A summary closes the run.
+
+use std::time::Instant;
+
+use shatter_core::PipelineConfig;
+use shatter_core::config::GeometrySource;
+use shatter_core::fragments::FragmentFrame;
+use shatter_render::post::{FRAGMENTS_DIR, fragments_path};
+use shatter_render::run::{RENDER_DIR, frame_file};
+use shatter_sim::run::{CHECKPOINT_FILE, FRAMES_DIR, PARTICLES_FILE, RunError, frame_path};
+
+use crate::sim::SimArgs;
+use crate::stamps::{Hasher, Stamps};
+use crate::{Failure, Stage, post, preprocess, render, sim};
+
+/// One line of the summary.
+struct Done {
+    stage: &'static str,
+    seconds: f64,
+    note: String,
+}
+
+/// Runs the stages of `config` up to `until`.
+pub fn run(config: &PipelineConfig, options: &SimArgs, until: Stage) -> Result<(), Failure> {
+    let output = config.output_dir();
+    std::fs::create_dir_all(output).map_err(|error| anyhow::anyhow!("{}: cannot create: {error}", output.display()))?;
+    let mut stamps = Stamps::load(output);
+    let mut done = Vec::new();
+    let frames = config.sim.frames;
+
+    // preprocess: the geometry and material settings, and the mesh's contents
+    let mut hash = Hasher::default()
+        .bytes(env!("CARGO_PKG_VERSION").as_bytes())
+        .json(&(&config.scene.name, config.scene.seed))
+        .json(&config.geometry)
+        .json(&config.material);
+    if let GeometrySource::Mesh(mesh) = &config.geometry.source {
+        hash = hash.file(mesh);
+    }
+    let preprocess_hash = hash.finish();
+    let started = Instant::now();
+    if stamps.matches("preprocess", &preprocess_hash) && output.join(PARTICLES_FILE).is_file() {
+        done.push(Done { stage: "preprocess", seconds: 0.0, note: "up to date".into() });
+    } else {
+        preprocess::run(config)?;
+        stamps.record("preprocess", &preprocess_hash)?;
+        done.push(Done { stage: "preprocess", seconds: started.elapsed().as_secs_f64(), note: "particles.shp".into() });
+    }
+    if until < Stage::Sim {
+        return summary(&done, config);
+    }
+
+    // sim: the particles and the simulation settings (the backend too: GPU and CPU round apart)
+    let backend = options.backend.map(crate::sim::BackendArg::backend).unwrap_or(config.sim.backend);
+    let sim_hash = Hasher::default()
+        .bytes(preprocess_hash.as_bytes())
+        .json(&config.sim)
+        .json(&config.material)
+        .json(&backend)
+        .finish();
+    let started = Instant::now();
+    let frames_dir = output.join(FRAMES_DIR);
+    if stamps.matches("sim", &sim_hash) && frame_path(&frames_dir, frames).is_file() {
+        done.push(Done { stage: "sim", seconds: 0.0, note: "up to date".into() });
+    } else {
+        let resume = output.join(CHECKPOINT_FILE).is_file();
+        let resumed = SimArgs { resume, ..options.clone() };
+        match sim::run(config, &resumed) {
+            Err(failure) if is_checkpoint_mismatch(&failure) => {
+                eprintln!("note: the checkpoint belongs to other settings: simulating from the start");
+                sim::run(config, &SimArgs { resume: false, ..options.clone() })?;
+            }
+            result => result?,
+        }
+        stamps.record("sim", &sim_hash)?;
+        done.push(Done { stage: "sim", seconds: started.elapsed().as_secs_f64(), note: format!("{frames} frames") });
+    }
+    if until < Stage::Post {
+        return summary(&done, config);
+    }
+
+    // post: the simulation's outputs (identified by its settings: it is deterministic) and [post]
+    let post_hash =
+        Hasher::default().bytes(sim_hash.as_bytes()).json(&config.post).json(&config.scene.frames_per_second).finish();
+    let fragments_dir = output.join(FRAGMENTS_DIR);
+    let started = Instant::now();
+    if stamps.matches("post", &post_hash) && fragments_path(&fragments_dir, frames).is_file() {
+        done.push(Done { stage: "post", seconds: 0.0, note: "up to date".into() });
+    } else {
+        post::run(config)?;
+        stamps.record("post", &post_hash)?;
+        done.push(Done { stage: "post", seconds: started.elapsed().as_secs_f64(), note: String::new() });
+    }
+    if until < Stage::Render {
+        return summary(&done, config);
+    }
+
+    // render, frame by frame: the fragments, [render] and the image files it reads
+    let mut hash = Hasher::default().bytes(post_hash.as_bytes()).json(&config.render).json(&backend);
+    for path in config.render.environment.iter().chain(config.render.floor.as_ref().and_then(|f| f.texture.as_ref())) {
+        hash = hash.file(path);
+    }
+    let render_hash = hash.finish();
+    let render_dir = output.join(RENDER_DIR);
+    let key = |frame: u32| format!("render.{frame:04}");
+    let stale: Vec<u32> = (1..=frames)
+        .filter(|&frame| {
+            !(stamps.matches(&key(frame), &render_hash)
+                && frame_file(&render_dir, &config.scene.name, frame, "exr").is_file())
+        })
+        .collect();
+    let started = Instant::now();
+    if stale.is_empty() {
+        done.push(Done { stage: "render", seconds: 0.0, note: "up to date".into() });
+    } else {
+        let render_backend = options.backend;
+        render::render_frames(config, &stale, render_backend, &mut |frame| {
+            stamps.record(&key(frame), &render_hash).map_err(|error| error.into())
+        })?;
+        let note = format!("{} of {frames} frames", stale.len());
+        done.push(Done { stage: "render", seconds: started.elapsed().as_secs_f64(), note });
+    }
+    summary(&done, config)
+}
+
+fn is_checkpoint_mismatch(failure: &Failure) -> bool {
+    failure.error.chain().any(|cause| matches!(cause.downcast_ref::<RunError>(), Some(RunError::CheckpointMismatch { .. })))
+}
+
+/// Prints time per stage, fragments, frames written and where they are.
+fn summary(done: &[Done], config: &PipelineConfig) -> Result<(), Failure> {
+    let output = config.output_dir();
+    println!("\nshatter run: {} ({})", config.scene.name, output.display());
+    for line in done {
+        let time = if line.note == "up to date" { "skipped".to_string() } else { format!("{:.1} s", line.seconds) };
+        println!("  {:<11} {time:>10}  {}", line.stage, line.note);
+    }
+    let last = fragments_path(&output.join(FRAGMENTS_DIR), config.sim.frames);
+    if let Ok(frame) = FragmentFrame::read(&last) {
+        let largest = frame.elements.iter().copied().max().unwrap_or(0);
+        println!("  fragments in the last frame: {} (largest {} elements)", frame.fragment_count(), largest);
+    }
+    let render_dir = output.join(RENDER_DIR);
+    if render_dir.is_dir() {
+        let first = frame_file(&render_dir, &config.scene.name, 1, "exr");
+        println!("  frames: {} ...", first.display());
+    }
+    Ok(())
+}
