@@ -100,9 +100,7 @@ impl<E: Into<anyhow::Error>> From<E> for Failure {
     fn from(error: E) -> Self {
         let error = error.into();
         let find = |test: &dyn Fn(&(dyn std::error::Error + 'static)) -> bool| error.chain().any(test);
-        let code = if find(&|cause| cause.downcast_ref::<PreprocessError>().is_some_and(|e| !e.is_bad_input())) {
-            EXIT_NOT_IMPLEMENTED
-        } else if find(&|cause| {
+        let code = if find(&|cause| {
             cause.is::<ConfigError>()
                 || cause.is::<PreprocessError>()
                 || cause.downcast_ref::<RunError>().is_some_and(RunError::is_bad_input)

@@ -198,18 +198,18 @@ fn a_failed_run_keeps_the_good_output_and_corruption_is_reported() {
 }
 
 #[test]
-fn stages_not_built_yet_say_so_and_write_nothing() {
-    let (dir, _) = scene(GOOD);
-    for stage in ["render"] {
-        let output = shatter(&[stage], dir.path());
-        assert_eq!(output.status.code(), Some(3), "{stage}");
-        assert!(stderr(&output).contains("is not available yet"), "{stage}: {}", stderr(&output));
+fn every_sampler_fills_a_box() {
+    for (sampler, element) in [("grid", "cube"), ("tet_shell", "tet"), ("voronoi", "trimtope")] {
+        let (dir, _) = scene(&GOOD.replace("\"grid\"", &format!("{sampler:?}")).replace("spacing_m = 0.001", "spacing_m = 0.002"));
+        let output = shatter(&["preprocess"], dir.path());
+        assert!(output.status.success(), "{sampler}: {}", stderr(&output));
+        let file = dir.path().join("out/particles.shp");
+        let summary = shatter(&["inspect", file.to_str().expect("utf-8"), "--json"], dir.path());
+        let summary: serde_json::Value = serde_json::from_slice(&summary.stdout).expect("json");
+        assert_eq!(summary["element_type"], element, "{sampler}");
+        let volume = summary["total_volume_m3"].as_f64().expect("volume");
+        assert!(volume > 0.0 && volume <= 400e-9 * 1.001, "{sampler}: volume {volume}");
     }
-    let (dir, _) = scene(&GOOD.replace("\"grid\"", "\"voronoi\""));
-    let output = shatter(&["preprocess"], dir.path());
-    assert_eq!(output.status.code(), Some(3));
-    assert!(stderr(&output).contains("not available yet: it arrives with issue #5"), "{}", stderr(&output));
-    assert!(!dir.path().join("out/particles.shp").exists());
 }
 
 #[test]

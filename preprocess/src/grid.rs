@@ -97,7 +97,7 @@ fn sample_cells(lattice: Lattice, keep: impl Fn(usize) -> bool) -> GridSample {
 }
 
 /// Interleaves the low 21 bits of each coordinate: x in bit 0, y in bit 1, z in bit 2, ...
-fn morton_code(cell: [usize; 3]) -> u64 {
+pub(crate) fn morton_code(cell: [usize; 3]) -> u64 {
     fn spread(v: usize) -> u64 {
         let mut x = (v as u64) & 0x1f_ffff;
         x = (x | (x << 32)) & 0x001f_0000_0000_ffff;

@@ -1,9 +1,10 @@
 //! Preprocessing: from a scene's geometry to a particle set.
 //!
-//! The source (a box or a closed mesh, repaired as [`repair`] describes) is scaled into metres,
-//! sampled into particles in that frame (for now by the [`grid`] sampler), ordered along a
-//! Z-curve, bonded within the horizon by k-d tree range queries ([`bonds`]), and finally rotated
-//! and translated into the world.
+//! The source (a box or a closed mesh, repaired as [`mod@repair`] describes) is scaled into metres,
+//! sampled into particles in that frame (cubes on a lattice by the [`grid`] sampler, the tets of a
+//! layered shell by [`mod@tet_shell`], clipped Voronoi cells of blue-noise sites by
+//! [`voronoi_sampler`]), ordered along a Z-curve, bonded within the horizon by k-d tree range
+//! queries ([`bonds`]), and finally rotated and translated into the world.
 
 pub mod blue_noise;
 pub mod bonds;
@@ -14,8 +15,11 @@ pub mod kdtree;
 pub mod lattice;
 pub mod mesh;
 pub mod mesh_query;
+pub mod order;
 pub mod repair;
+pub mod tet_shell;
 pub mod voronoi;
+pub mod voronoi_sampler;
 
 use glam::{DQuat, DVec3};
 use shatter_core::Progress;
@@ -24,8 +28,12 @@ use shatter_core::particles::{Elements, ParticleMeta, ParticleSet};
 
 use crate::bonds::{BondParams, build_bonds};
 use crate::grid::{GridError, GridSample};
+use crate::inside::FillRule;
 use crate::mesh::{MeshError, TriangleMesh};
+use crate::mesh_query::MeshQuery;
 use crate::repair::{MeshReport, repair};
+use crate::tet_shell::{ShellError, ShellParams, TetShell, tet_shell};
+use crate::voronoi_sampler::{SiteSpacing, VoronoiSample, VoronoiSamplerError, voronoi_sample};
 
 /// Why preprocessing failed.
 #[derive(Debug, thiserror::Error)]
@@ -43,21 +51,14 @@ pub enum PreprocessError {
         /// What is wrong.
         message: String,
     },
-    /// The sampler is part of the design but not built yet.
-    #[error("geometry.sampler = \"{sampler}\" is not available yet: it arrives with issue #{issue}")]
-    SamplerNotImplemented {
+    /// The sampler's geometry failed on this mesh (bad input: exit code 2).
+    #[error("geometry.sampler = \"{sampler}\": {message}")]
+    Sampler {
         /// The sampler's name.
         sampler: &'static str,
-        /// The issue that delivers it.
-        issue: u32,
+        /// What failed.
+        message: String,
     },
-}
-
-impl PreprocessError {
-    /// True when the user must fix the config or the mesh; false for a sampler not built yet.
-    pub fn is_bad_input(&self) -> bool {
-        !matches!(self, PreprocessError::SamplerNotImplemented { .. })
-    }
 }
 
 /// A particle set and what was learned making it.
@@ -106,8 +107,30 @@ pub fn preprocess(config: &PipelineConfig, progress: &dyn Progress) -> Result<Pr
                 sample
             }
         },
-        Sampler::TetShell => return Err(PreprocessError::SamplerNotImplemented { sampler: "tet_shell", issue: 4 }),
-        Sampler::Voronoi => return Err(PreprocessError::SamplerNotImplemented { sampler: "voronoi", issue: 5 }),
+        Sampler::TetShell | Sampler::Voronoi => {
+            let (mesh, report) = match &geometry.source {
+                GeometrySource::Mesh(path) => {
+                    progress.start("load mesh", 0);
+                    let loaded =
+                        load_repaired(path, &geometry.transform, geometry.mesh_repair.min_body_volume_fraction);
+                    progress.finish();
+                    let (mesh, report) = loaded?;
+                    (mesh, Some(report))
+                }
+                GeometrySource::Box => {
+                    let size = geometry.box_size_m.unwrap_or_else(|| unreachable!("validated: a box has a size"));
+                    (TriangleMesh::cuboid(size), None)
+                }
+            };
+            let rule = report.as_ref().map_or(FillRule::NonZero, |report| report.fill_rule);
+            let query = MeshQuery::with_fill_rule(&mesh, rule);
+            let particles = if geometry.sampler == Sampler::TetShell {
+                tet_shell_particles(config, &mesh, &query, progress, &mut notes)?
+            } else {
+                voronoi_particles(config, &mesh, &query, progress, &mut notes)?
+            };
+            return Ok(Preprocessed { particles, mesh_report: report, notes });
+        }
     };
     if sample.cells.is_empty() {
         return Err(PreprocessError::Setting {
@@ -222,4 +245,228 @@ fn grid_particles(config: &PipelineConfig, sample: &GridSample, progress: &dyn P
         bonds,
         adjacency: sample.adjacency.clone(),
     }
+}
+
+/// The particle file's scalars for a sampler with minimum distance `lambda` and horizon `delta`.
+fn particle_meta(config: &PipelineConfig, lambda: f64, delta: f64, mean_threshold: f64) -> ParticleMeta {
+    ParticleMeta {
+        scene_name: config.scene.name.clone(),
+        source: config.geometry.source.to_string(),
+        sampler: config.geometry.sampler.name().to_string(),
+        lambda_m: lambda,
+        horizon_factor: config.geometry.horizon_factor,
+        delta_m: delta,
+        density_kg_m3: config.material.density_kg_m3,
+        bulk_modulus_pa: config.material.bulk_modulus_pa,
+        mean_critical_stretch: mean_threshold,
+        threshold_jitter: config.material.threshold_jitter,
+        seed: config.scene.seed,
+    }
+}
+
+/// Particles at `points` (sampling frame) with `volumes` and `elements` (already in the world),
+/// bonded within `lambda` times the horizon factor; element pairs in `adjacency` (indices into
+/// `points`, a < b, sorted) that are not bonds are dropped, with a note.
+#[allow(clippy::too_many_arguments)]
+fn assemble(
+    config: &PipelineConfig,
+    lambda: f64,
+    points: &[DVec3],
+    volumes: &[f64],
+    elements: Elements,
+    mut adjacency: Vec<[u32; 2]>,
+    progress: &dyn Progress,
+    notes: &mut Vec<String>,
+) -> ParticleSet {
+    let delta = config.geometry.horizon_factor * lambda;
+    let placement = Placement::new(&config.geometry.transform);
+    let rest_position_m: Vec<[f32; 3]> = points.iter().map(|p| placement.world(*p)).collect();
+    let mean_threshold = config.material.mean_critical_stretch(delta);
+    let params = BondParams {
+        delta_m: delta,
+        mean_threshold,
+        jitter: config.material.threshold_jitter,
+        seed: config.scene.seed,
+    };
+    let bonds = build_bonds(points, &rest_position_m, &params, progress);
+    let before = adjacency.len();
+    adjacency.retain(|&[a, b]| bonds.find(a as usize, b).is_some());
+    if adjacency.len() < before {
+        notes.push(format!(
+            "{} of {before} adjacent element pairs are farther apart than the horizon delta = {delta:.4e} m and are \
+             not bonds: they were left out of the adjacency graph (a larger geometry.horizon_factor keeps them)",
+            before - adjacency.len()
+        ));
+    }
+    let density = config.material.density_kg_m3;
+    ParticleSet {
+        meta: particle_meta(config, lambda, delta, mean_threshold),
+        rest_position_m,
+        volume_m3: volumes.iter().map(|v| *v as f32).collect(),
+        mass_kg: volumes.iter().map(|v| (v * density) as f32).collect(),
+        elements,
+        bonds,
+        adjacency,
+    }
+}
+
+/// Refuses particle counts the file cannot number.
+fn check_count(key: &'static str, value: String, count: usize) -> Result<(), PreprocessError> {
+    if u32::try_from(count).is_err() {
+        return Err(PreprocessError::Setting {
+            key,
+            value,
+            message: format!("{count} particles: at most {} are supported", u32::MAX),
+        });
+    }
+    Ok(())
+}
+
+/// The tets of the layered shell as particles: barycentres, tet volumes, the tets in the world.
+fn tet_shell_particles(
+    config: &PipelineConfig,
+    mesh: &TriangleMesh,
+    query: &MeshQuery,
+    progress: &dyn Progress,
+    notes: &mut Vec<String>,
+) -> Result<ParticleSet, PreprocessError> {
+    let geometry = &config.geometry;
+    let params = ShellParams {
+        spacing: geometry.spacing_m,
+        layers: geometry.tet_shell_layers(),
+        layer_spacing: geometry.tet_shell_layer_spacing_m(),
+        filled_core: geometry.tet_shell.filled_core,
+        seed: config.scene.seed,
+        keep_thick_surface_tets: true,
+    };
+    if f64::from(params.layers) <= geometry.horizon_factor {
+        notes.push(format!(
+            "geometry.tet_shell.layers = {} is not more than geometry.horizon_factor = {}: the shell is thinner than \
+             the horizon (Levine et al. found that the layers should outnumber N)",
+            params.layers, geometry.horizon_factor
+        ));
+    }
+    let placement = Placement::new(&geometry.transform);
+    let shell = tet_shell(mesh, query, &params, &|p| placement.world(p), progress);
+    let shell = shell.map_err(|error| match error {
+        ShellError::TooFine { .. } | ShellError::Empty => PreprocessError::Setting {
+            key: "geometry.spacing_m",
+            value: geometry.spacing_m.to_string(),
+            message: error.to_string(),
+        },
+        ShellError::Delaunay(_) => PreprocessError::Sampler { sampler: "tet_shell", message: error.to_string() },
+    })?;
+    check_count("geometry.spacing_m", geometry.spacing_m.to_string(), shell.tets.len())?;
+    notes.push(shell_note(&shell, &params));
+    let TetShell { points, tets, barycentres, volumes, adjacency, .. } = shell;
+    let vertices_m = tets.iter().map(|tet| tet.map(|v| placement.world(points.points[v as usize]))).collect();
+    let elements = Elements::Tets { vertices_m };
+    Ok(assemble(config, geometry.spacing_m, &barycentres, &volumes, elements, adjacency, progress, notes))
+}
+
+/// What the shell is made of, for the user.
+fn shell_note(shell: &TetShell, params: &ShellParams) -> String {
+    let removed = &shell.removed;
+    let core = if params.filled_core { format!(" and {} core points", shell.points.core) } else { String::new() };
+    format!(
+        "tet shell: {} layers {:.4e} m apart ({} points per layer from the surface in){core}; {} of {} Delaunay \
+         tets kept (left out: {} on the surface only, {} on the innermost layer only, {} outside the mesh, {} \
+         deeper than the innermost layer, {} flat in f32)",
+        params.layers,
+        params.layer_spacing,
+        shell.points.per_layer.iter().map(|n| n.to_string()).collect::<Vec<_>>().join(", "),
+        shell.tets.len(),
+        shell.delaunay_tets,
+        removed.outer,
+        removed.inner,
+        removed.outside,
+        removed.deep,
+        removed.flat,
+    )
+}
+
+/// How far apart two sampling-frame points may come once rounded to f32 world coordinates
+/// (an upper bound on the change of their distance), for a mesh with these bounds.
+fn f32_rounding_reach((lo, hi): (DVec3, DVec3), placement: &Placement) -> f64 {
+    let largest = (0..8)
+        .map(|corner| {
+            let p = DVec3::new(
+                if corner & 1 == 0 { lo.x } else { hi.x },
+                if corner & 2 == 0 { lo.y } else { hi.y },
+                if corner & 4 == 0 { lo.z } else { hi.z },
+            );
+            (placement.rotation * p + placement.translation).abs().max_element()
+        })
+        .fold(0.0, f64::max);
+    // Each coordinate of each point moves by at most 2^-24 of the largest: 2 sqrt(3) 2^-24 in
+    // distance, rounded up to 4 to cover the f64 arithmetic before the rounding.
+    4.0 * largest * f64::from(f32::EPSILON) * 0.5
+}
+
+/// The clipped Voronoi cells of blue-noise sites as particles: sites, cell volumes, trimtopes.
+fn voronoi_particles(
+    config: &PipelineConfig,
+    mesh: &TriangleMesh,
+    query: &MeshQuery,
+    progress: &dyn Progress,
+    notes: &mut Vec<String>,
+) -> Result<ParticleSet, PreprocessError> {
+    let geometry = &config.geometry;
+    let placement = Placement::new(&geometry.transform);
+    let margin = f32_rounding_reach(mesh.bounds(), &placement);
+    let (spacing, key, value) = match geometry.voronoi.particles {
+        Some(count) => (SiteSpacing::Count(count as usize), "geometry.voronoi.particles", count.to_string()),
+        None => (SiteSpacing::MinDistance(geometry.spacing_m), "geometry.spacing_m", geometry.spacing_m.to_string()),
+    };
+    progress.start("voronoi cells", 0);
+    let sample = voronoi_sample(mesh, query, mesh.signed_volume(), spacing, margin, config.scene.seed);
+    progress.finish();
+    let sample = sample.map_err(|error| match error {
+        VoronoiSamplerError::TooFine { .. } | VoronoiSamplerError::Empty => {
+            PreprocessError::Setting { key, value: value.clone(), message: error.to_string() }
+        }
+        VoronoiSamplerError::Voronoi(_) => PreprocessError::Sampler { sampler: "voronoi", message: error.to_string() },
+    })?;
+    check_count(key, value, sample.sites.len())?;
+    let VoronoiSample { sample_distance, sites, diagram } = sample;
+    if let Some(index) = diagram.cells.iter().position(|cell| {
+        let volume = cell.volume as f32;
+        !volume.is_finite() || volume <= 0.0
+    }) {
+        return Err(PreprocessError::Sampler {
+            sampler: "voronoi",
+            message: format!(
+                "the cell of site {index} at {} has volume {:e} inside the mesh (is the mesh inside out or \
+                 self-intersecting there?)",
+                sites[index], diagram.cells[index].volume
+            ),
+        });
+    }
+    let lambda = sample_distance - margin;
+    if geometry.voronoi.particles.is_some() {
+        notes.push(format!(
+            "voronoi: {} sites at least {lambda:.4e} m apart (from geometry.voronoi.particles; geometry.spacing_m is \
+             not used)",
+            sites.len()
+        ));
+    }
+    let mut plane_offsets = Vec::with_capacity(sites.len() + 1);
+    let mut triangle_offsets = Vec::with_capacity(sites.len() + 1);
+    plane_offsets.push(0u64);
+    triangle_offsets.push(0u64);
+    let mut planes = Vec::new();
+    let mut triangles_m = Vec::new();
+    for cell in &diagram.cells {
+        for &[nx, ny, nz, d] in &cell.planes {
+            let normal = placement.rotation * DVec3::new(nx, ny, nz);
+            let offset = d + normal.dot(placement.translation);
+            planes.push([normal.x as f32, normal.y as f32, normal.z as f32, offset as f32]);
+        }
+        triangles_m.extend(cell.triangles.iter().map(|triangle| triangle.map(|p| placement.world(p))));
+        plane_offsets.push(planes.len() as u64);
+        triangle_offsets.push(triangles_m.len() as u64);
+    }
+    let volumes: Vec<f64> = diagram.cells.iter().map(|cell| cell.volume).collect();
+    let elements = Elements::Trimtopes { plane_offsets, planes, triangle_offsets, triangles_m };
+    Ok(assemble(config, lambda, &sites, &volumes, elements, diagram.adjacency, progress, notes))
 }

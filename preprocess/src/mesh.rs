@@ -141,6 +141,17 @@ impl TriangleMesh {
         before - self.triangles.len()
     }
 
+    /// An axis-aligned box of edge lengths `size`, centred on the origin, wound outward.
+    pub fn cuboid(size: [f64; 3]) -> TriangleMesh {
+        let half = DVec3::from_array(size) * 0.5;
+        let positions = (0..8)
+            .map(|i| DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64) * 2.0 * half - half)
+            .collect();
+        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let triangles = quads.iter().flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]]).collect();
+        TriangleMesh { positions, triangles }
+    }
+
     /// The corners of triangle `t`.
     pub fn corners(&self, t: usize) -> [DVec3; 3] {
         self.triangles[t].map(|v| self.positions[v as usize])
@@ -211,11 +222,9 @@ pub(crate) mod tests {
 
     /// An axis-aligned unit cube with outward winding, corners at 0 and `size`.
     pub(crate) fn cube(size: f64) -> TriangleMesh {
-        let positions =
-            (0..8).map(|i| DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64) * size).collect();
-        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
-        let triangles = quads.iter().flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]]).collect();
-        TriangleMesh { positions, triangles }
+        let mut mesh = TriangleMesh::cuboid([size; 3]);
+        mesh.map_positions(|p| p + DVec3::splat(0.5 * size));
+        mesh
     }
 
     #[test]

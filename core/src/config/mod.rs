@@ -113,7 +113,9 @@ pub struct GeometryConfig {
     pub box_size_m: Option<[f64; 3]>,
     /// How the solid becomes particles.
     pub sampler: Sampler,
-    /// Target spacing in metres: lambda for `grid`, point spacing for `tet_shell` and `voronoi`.
+    /// Spacing in metres, which is also lambda: the cube side for `grid`, the minimum distance
+    /// between the points of a layer for `tet_shell`, the minimum distance between sites for
+    /// `voronoi` (unless `[geometry.voronoi] particles` is given).
     pub spacing_m: f64,
     /// N in delta = N * lambda: particles closer than delta are bonded.
     pub horizon_factor: f64,
@@ -123,6 +125,59 @@ pub struct GeometryConfig {
     /// `[geometry.mesh_repair]`: what to do with defects of real meshes.
     #[serde(default)]
     pub mesh_repair: MeshRepairConfig,
+    /// `[geometry.tet_shell]`: the layered shell of the `tet_shell` sampler.
+    #[serde(default)]
+    pub tet_shell: TetShellConfig,
+    /// `[geometry.voronoi]`: the blue-noise sites of the `voronoi` sampler.
+    #[serde(default)]
+    pub voronoi: VoronoiConfig,
+}
+
+/// The most layers `[geometry.tet_shell]` accepts.
+pub const MAX_TET_SHELL_LAYERS: u32 = 1000;
+
+/// The layers of the `tet_shell` sampler when `layers` is not given: the paper's six for its vase,
+/// or one more than the horizon factor N where N is 6 or more (the paper: layers should outnumber N).
+pub fn default_tet_shell_layers(horizon_factor: f64) -> u32 {
+    let beyond_horizon = horizon_factor.floor().clamp(0.0, MAX_TET_SHELL_LAYERS as f64 - 1.0) as u32 + 1;
+    beyond_horizon.max(6)
+}
+
+/// `[geometry.tet_shell]`: layers offset inward from the surface, each sampled with blue noise at
+/// `spacing_m`, tetrahedralized together (the paper's vase).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TetShellConfig {
+    /// Number of layers, the surface included (at least 2); default
+    /// [`default_tet_shell_layers`] (6, or N + 1 for N >= 6).
+    pub layers: Option<u32>,
+    /// Distance between consecutive layers in metres; default `spacing_m`.
+    pub layer_spacing_m: Option<f64>,
+    /// Fill the core under the innermost layer with blue-noise points and keep its tets: a solid
+    /// tetrahedral mesh instead of a shell.
+    pub filled_core: bool,
+}
+
+impl GeometryConfig {
+    /// The number of `tet_shell` layers: the configured one or the default for the horizon factor.
+    pub fn tet_shell_layers(&self) -> u32 {
+        self.tet_shell.layers.unwrap_or_else(|| default_tet_shell_layers(self.horizon_factor))
+    }
+
+    /// The distance between `tet_shell` layers in metres: the configured one or `spacing_m`.
+    pub fn tet_shell_layer_spacing_m(&self) -> f64 {
+        self.tet_shell.layer_spacing_m.unwrap_or(self.spacing_m)
+    }
+}
+
+/// `[geometry.voronoi]`: blue-noise sites inside the mesh, cut into clipped Voronoi cells (the
+/// paper's dragon).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct VoronoiConfig {
+    /// Aim for about this many particles (within a few percent) instead of using `spacing_m` as
+    /// the minimum distance between sites; the minimum distance is then chosen to match.
+    pub particles: Option<u64>,
 }
 
 /// Where the solid comes from.
@@ -395,6 +450,26 @@ impl PipelineConfig {
         check.positive("geometry.transform.scale", transform.scale, "source units to metres")?;
         check.finite_array("geometry.transform.rotate_deg", &transform.rotate_deg)?;
         check.finite_array("geometry.transform.translate_m", &transform.translate_m)?;
+        let shell = &geometry.tet_shell;
+        if let Some(layers) = shell.layers {
+            check.that((2..=MAX_TET_SHELL_LAYERS).contains(&layers), "geometry.tet_shell.layers", &layers.to_string(), || {
+                format!(
+                    "must be between 2 and {MAX_TET_SHELL_LAYERS}: the surface and at least one layer under it (the \
+                     paper: more layers than horizon_factor)"
+                )
+            })?;
+        }
+        if let Some(layer_spacing) = shell.layer_spacing_m {
+            check.positive("geometry.tet_shell.layer_spacing_m", layer_spacing, "metres")?;
+        }
+        if let Some(particles) = geometry.voronoi.particles {
+            check.that(
+                (1..=u64::from(u32::MAX)).contains(&particles),
+                "geometry.voronoi.particles",
+                &particles.to_string(),
+                || format!("must be between 1 and {} (particles are numbered with 32 bits)", u32::MAX),
+            )?;
+        }
         let fraction = geometry.mesh_repair.min_body_volume_fraction;
         check.that(
             (0.0..1.0).contains(&fraction),
