@@ -23,8 +23,6 @@ use shatter_sim::run::RunError;
 /// Exit code for bad input: a config, mesh or setting the user must fix (clap uses it for bad
 /// arguments too).
 const EXIT_BAD_INPUT: u8 = 2;
-/// Exit code for a stage that is not built yet.
-const EXIT_NOT_IMPLEMENTED: u8 = 3;
 
 #[derive(Debug, Parser)]
 #[command(name = "shatter", version, about = "Peridynamic fracture, from a mesh to EXR frames of it breaking apart")]
@@ -115,20 +113,14 @@ impl<E: Into<anyhow::Error>> From<E> for Failure {
     }
 }
 
-/// The stage cannot run yet: says which issue delivers it.
-fn not_implemented(stage: &str, issue: u32) -> Failure {
-    Failure {
-        code: EXIT_NOT_IMPLEMENTED,
-        error: anyhow::anyhow!(
-            "`shatter {stage}` is not available yet: it arrives with issue #{issue}; nothing was written"
-        ),
-    }
-}
-
 fn load_config(arg: &ConfigArg) -> Result<PipelineConfig, Failure> {
     let config = PipelineConfig::load(&arg.config)?;
     for key in config.unused_keys() {
         eprintln!("warning: {}: {key} is set but has no effect", arg.config.display());
+    }
+    // A run killed mid-write leaves hidden temporary files; the next run of the scene clears them.
+    if let Err(error) = shatter_core::stage_file::remove_abandoned_temporaries(config.output_dir()) {
+        eprintln!("warning: {}: cannot clear abandoned temporary files: {error}", config.output_dir().display());
     }
     Ok(config)
 }

@@ -128,7 +128,10 @@ pub fn run(config: &PipelineConfig, options: &SimArgs, until: Stage) -> Result<(
 }
 
 fn is_checkpoint_mismatch(failure: &Failure) -> bool {
-    failure.error.chain().any(|cause| matches!(cause.downcast_ref::<RunError>(), Some(RunError::CheckpointMismatch { .. })))
+    failure
+        .error
+        .chain()
+        .any(|cause| matches!(cause.downcast_ref::<RunError>(), Some(RunError::CheckpointMismatch { .. })))
 }
 
 /// Prints time per stage, fragments, frames written and where they are.

@@ -29,7 +29,12 @@ pub fn run(config: &PipelineConfig, args: &RenderArgs) -> Result<(), Failure> {
 }
 
 /// Renders `frames`, calling `after_frame` when each is written.
-pub fn render_frames(config: &PipelineConfig, frames: &[u32], backend: Option<BackendArg>, after_frame: AfterFrame) -> Result<(), Failure> {
+pub fn render_frames(
+    config: &PipelineConfig,
+    frames: &[u32],
+    backend: Option<BackendArg>,
+    after_frame: AfterFrame,
+) -> Result<(), Failure> {
     let backend = backend.map(BackendArg::backend);
     let report = shatter_render::run::run(config, Some(frames), backend, &Bars::default(), after_frame)?;
     let [width, height] = report.resolution;

@@ -4,13 +4,14 @@ use shatter_core::PipelineConfig;
 use shatter_core::config::sim::Backend;
 use shatter_sim::run::{RunOptions, run as run_simulation};
 
+use crate::Failure;
 use crate::progress::Bars;
-use crate::{Failure, not_implemented};
 
 /// Command-line choices of `shatter sim`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct SimArgs {
-    /// Where to run: a hardware GPU when found, else the CPU (auto); or force one.
+    /// Where to run: a hardware GPU when found, else the CPU (auto); or force one. A software GPU
+    /// (Mesa lavapipe) counts only with SHATTER_GPU_ALLOW_SOFTWARE=1.
     #[arg(long, value_enum)]
     pub backend: Option<BackendArg>,
     /// Continue from the last checkpoint instead of starting over.
@@ -54,22 +55,20 @@ pub fn run(config: &PipelineConfig, args: &SimArgs) -> Result<(), Failure> {
         Some(BackendArg::Gpu) => Backend::Gpu,
         None => config.sim.backend,
     };
-    if backend == Backend::Gpu {
-        return Err(not_implemented("sim --backend gpu", 6));
-    }
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(threads) = args.threads {
         pool = pool.num_threads(threads);
     }
     let pool = pool.build().map_err(|error| anyhow::anyhow!("cannot start worker threads: {error}"))?;
-    let options = RunOptions { resume: args.resume, allow_unstable_dt: args.allow_unstable_dt };
+    let options = RunOptions { backend: Some(backend), resume: args.resume, allow_unstable_dt: args.allow_unstable_dt };
     let report = pool.install(|| run_simulation(config, options, &Bars::default()))?;
     for warning in &report.warnings {
         eprintln!("warning: {warning}");
     }
     let steps_per_second = report.steps as f64 / report.wall_s.max(1e-9);
     println!(
-        "sim: {} particles, frames {}..{} ({} steps, {:.0} steps/s), {} bonds broken, stable dt {:.3e} s",
+        "sim on {}: {} particles, frames {}..{} ({} steps, {:.0} steps/s), {} bonds broken, stable dt {:.3e} s",
+        report.backend,
         report.particles,
         report.started_at_frame,
         report.frames,

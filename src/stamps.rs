@@ -63,7 +63,8 @@ impl Stamps {
     /// runs).
     pub fn load(output_dir: &Path) -> Stamps {
         let path = output_dir.join(STAMPS_FILE);
-        let entries = std::fs::read(&path).ok().and_then(|bytes| serde_json::from_slice(&bytes).ok()).unwrap_or_default();
+        let entries =
+            std::fs::read(&path).ok().and_then(|bytes| serde_json::from_slice(&bytes).ok()).unwrap_or_default();
         Stamps { path, entries }
     }
 

@@ -193,7 +193,7 @@ impl GpuContext {
         if !buffer.usage().contains(wgpu::BufferUsages::COPY_SRC) {
             return Err(fail("the buffer lacks COPY_SRC usage".to_owned()));
         }
-        if byte_offset % wgpu::COPY_BUFFER_ALIGNMENT != 0 {
+        if !byte_offset.is_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT) {
             return Err(fail(format!("byte offset {byte_offset} is not a multiple of 4")));
         }
         // Copies move whole 4-byte words; the last word may run past `want` into the buffer's padding.

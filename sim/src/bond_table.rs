@@ -143,7 +143,7 @@ impl BondTable {
 
 /// Per-particle stiffness factors g_i. `Energy`: g_i = pi delta^4 / sum_j |xi_ij| V_j, which makes
 /// a uniform dilation store exactly the continuum energy density 4.5 K s^2 at particle i.
-fn stiffness_factors(particles: &ParticleSet, correction: StiffnessCorrection) -> Vec<f64> {
+pub(crate) fn stiffness_factors(particles: &ParticleSet, correction: StiffnessCorrection) -> Vec<f64> {
     let n = particles.len();
     match correction {
         StiffnessCorrection::None => vec![1.0; n],

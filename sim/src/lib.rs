@@ -5,19 +5,25 @@
 //! - [`bond_table`]: the chunked bond layout.
 //! - [`kernels`]: the step's kernels (springs, collisions, body forces, Verlet halves).
 //! - [`simulation`]: the state and the step.
+//! - [`gpu`]: the GPU backend (wgpu, WGSL kernels in `shaders/`, their CPU twins).
+//! - [`backend`]: what the frame loop needs of either backend.
 //! - [`art`]: art direction of the cracks (weakened paths, seams, shards).
 //! - [`frames`]: the PLY point caches and the bond-break log.
 //! - [`run`]: the `shatter sim` driver: frames, checkpoints, resume, stability checks.
 
 pub mod art;
+pub mod backend;
 pub mod bond_table;
 pub mod contact;
 pub mod frames;
+pub mod gpu;
 pub mod kernels;
 pub mod model;
 pub mod run;
 pub mod simulation;
 
+pub use backend::{Backend, create_backend};
+pub use gpu::GpuSimulation;
 pub use model::Model;
 pub use simulation::{Dynamics, Energy, Simulation};
 

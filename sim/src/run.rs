@@ -1,6 +1,6 @@
 //! `shatter sim`: runs a scene's simulation frame by frame, writing point caches, the break log
 //! and checkpoints; resumes from the last checkpoint; stops on instability with the last good
-//! checkpoint intact.
+//! checkpoint intact. The same loop drives either backend (see [`crate::backend`]).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -10,9 +10,13 @@ use shatter_core::particles::ParticleSet;
 use shatter_core::stage_file::{StageFileError, StageKind, StageReader, StageWriter};
 use shatter_core::{PipelineConfig, Progress};
 
+use shatter_core::config::sim::Backend as BackendChoice;
+use shatter_gpu::GpuError;
+
 use crate::SimError;
+use crate::backend::{Backend, BackendError, create_backend};
 use crate::frames::{BreakLog, FrameFileError, PointFrame};
-use crate::simulation::{Dynamics, Simulation};
+use crate::simulation::Dynamics;
 
 /// The particle file's name in the output folder.
 pub const PARTICLES_FILE: &str = "particles.shp";
@@ -31,6 +35,8 @@ pub fn frame_path(frames_dir: &Path, frame: u32) -> PathBuf {
 /// How a run starts.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct RunOptions {
+    /// Where to run (`None`: the config's `sim.backend`).
+    pub backend: Option<BackendChoice>,
     /// Continue from the last checkpoint if there is one.
     pub resume: bool,
     /// Run even when `sim.dt_s` exceeds the stable time step (a warning instead of an error).
@@ -82,6 +88,18 @@ pub enum RunError {
     /// A frame file or the break log could not be read or written.
     #[error(transparent)]
     FrameFile(#[from] FrameFileError),
+    /// No GPU for `--backend gpu`, or the GPU failed.
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+}
+
+impl From<BackendError> for RunError {
+    fn from(error: BackendError) -> RunError {
+        match error {
+            BackendError::Input(error) => RunError::Input(error),
+            BackendError::Gpu(error) => RunError::Gpu(error),
+        }
+    }
 }
 
 impl RunError {
@@ -94,6 +112,8 @@ impl RunError {
 /// What a finished run did.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunReport {
+    /// What ran the steps: "CPU (N threads)" or "GPU: adapter".
+    pub backend: String,
     /// Particles simulated.
     pub particles: usize,
     /// The frame the run started from (1 for a fresh run).
@@ -134,6 +154,10 @@ pub struct CheckpointMeta {
     pub external_work_j: f64,
     /// Kinetic plus bond energy at the start, joules.
     pub initial_energy_j: f64,
+    /// The backend that wrote it ("CPU (N threads)", "GPU: adapter"; empty in older files). A
+    /// run resumed on another kind of backend continues correctly but not bit for bit.
+    #[serde(default)]
+    pub backend: String,
 }
 
 /// Reads a checkpoint's scalars and particle count (for `shatter inspect`).
@@ -197,15 +221,33 @@ fn non_finite(dynamics: &Dynamics) -> Option<String> {
     None
 }
 
-/// Runs the simulation of `config` on the particle file in its output folder.
+/// Makes the backend of a run from the config and its particles; also returns a warning for the
+/// user, if any.
+pub type BackendFactory<'a> =
+    &'a dyn Fn(&PipelineConfig, &ParticleSet) -> Result<(Box<dyn Backend>, Option<String>), BackendError>;
+
+/// Runs the simulation of `config` on the particle file in its output folder, on the backend
+/// `options.backend` (or the config's `sim.backend`) chooses.
 pub fn run(config: &PipelineConfig, options: RunOptions, progress: &dyn Progress) -> Result<RunReport, RunError> {
+    let choice = options.backend.unwrap_or(config.sim.backend);
+    run_with(config, options, progress, &|config, particles| create_backend(config, particles, choice))
+}
+
+/// [`run`] on the backend `make` builds (tests: a GPU context of their own choosing).
+/// `options.backend` is ignored.
+pub fn run_with(
+    config: &PipelineConfig,
+    options: RunOptions,
+    progress: &dyn Progress,
+    make: BackendFactory,
+) -> Result<RunReport, RunError> {
     let started = Instant::now();
     let output = config.output_dir();
     let particles_path = output.join(PARTICLES_FILE);
     let (particles, particles_checksum) = ParticleSet::read_with_checksum(&particles_path)?;
-    let mut simulation = Simulation::from_config(config, &particles)?;
+    let (mut simulation, fallback) = make(config, &particles)?;
 
-    let mut warnings = Vec::new();
+    let mut warnings: Vec<String> = fallback.into_iter().collect();
     let stable_dt_s = simulation.stable_dt_s();
     if config.sim.dt_s > stable_dt_s {
         if !options.allow_unstable_dt {
@@ -241,17 +283,26 @@ pub fn run(config: &PipelineConfig, options: RunOptions, progress: &dyn Progress
         if meta.frame > total_frames {
             return Err(mismatch("the checkpoint is past sim.frames"));
         }
+        let kind = |name: &str| name.split([':', ' ']).next().unwrap_or_default().to_string();
+        if !meta.backend.is_empty() && kind(&meta.backend) != kind(&simulation.describe()) {
+            warnings.push(format!(
+                "the checkpoint was written by {}, this run uses {}: the frames will differ from an uninterrupted \
+                 run by rounding",
+                meta.backend,
+                simulation.describe()
+            ));
+        }
         let log = BreakLog::open_at(&log_path, meta.break_log_bytes)?;
         let mut broken: Vec<u64> =
             BreakLog::read(&log_path)?.iter().flat_map(|block| block.events.iter().map(|e| e.bond)).collect();
         broken.sort_unstable();
-        simulation.restore(dynamics, &broken);
+        simulation.restore(dynamics, &broken)?;
         (log, meta.frame, meta.broken_bonds, meta.initial_energy_j)
     } else {
         remove_old_frames(&frames_dir)?;
         let _ = std::fs::remove_file(&checkpoint_path);
         let log = BreakLog::create(&log_path)?;
-        write_frame(&simulation, &frames_dir, 1)?;
+        write_frame(simulation.as_ref(), &frames_dir, 1)?;
         (log, 1, 0, simulation.energy().total_j())
     };
 
@@ -262,13 +313,11 @@ pub fn run(config: &PipelineConfig, options: RunOptions, progress: &dyn Progress
     for frame in start_frame + 1..=total_frames {
         for batch in 0..steps_per_frame.div_ceil(50) {
             let count = (steps_per_frame - batch * 50).min(50);
-            for _ in 0..count {
-                simulation.step();
-            }
+            simulation.advance(count)?;
             steps += count;
             progress.advance(count);
         }
-        let events = simulation.take_breaks();
+        let events = simulation.finish_frame()?;
         broken_bonds += events.len() as u64;
         let energy = simulation.energy();
         let dynamics = simulation.dynamics();
@@ -286,7 +335,7 @@ pub fn run(config: &PipelineConfig, options: RunOptions, progress: &dyn Progress
             progress.finish();
             return Err(RunError::Unstable { frame, step: dynamics.step, what, last_good: frame - 1 });
         }
-        write_frame(&simulation, &frames_dir, frame)?;
+        write_frame(simulation.as_ref(), &frames_dir, frame)?;
         log.append(frame, &events)?;
         if frame % config.sim.checkpoint_every_frames == 0 || frame == total_frames {
             let meta = CheckpointMeta {
@@ -298,6 +347,7 @@ pub fn run(config: &PipelineConfig, options: RunOptions, progress: &dyn Progress
                 particles_checksum,
                 external_work_j: dynamics.external_work_j,
                 initial_energy_j,
+                backend: simulation.describe(),
             };
             write_checkpoint(&checkpoint_path, &meta, dynamics)?;
         }
@@ -308,6 +358,7 @@ pub fn run(config: &PipelineConfig, options: RunOptions, progress: &dyn Progress
     }
     progress.finish();
     Ok(RunReport {
+        backend: simulation.describe(),
         particles: simulation.len(),
         started_at_frame: start_frame,
         frames: total_frames,
@@ -320,7 +371,7 @@ pub fn run(config: &PipelineConfig, options: RunOptions, progress: &dyn Progress
     })
 }
 
-fn write_frame(simulation: &Simulation, frames_dir: &Path, frame: u32) -> Result<(), FrameFileError> {
+fn write_frame(simulation: &dyn Backend, frames_dir: &Path, frame: u32) -> Result<(), FrameFileError> {
     let dynamics = simulation.dynamics();
     PointFrame {
         frame,
@@ -348,4 +399,46 @@ fn remove_old_frames(frames_dir: &Path) -> Result<(), FrameFileError> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use shatter_core::random::SplitMix64;
+
+    #[test]
+    fn a_checkpoint_restores_its_scalars_bit_for_bit() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join(CHECKPOINT_FILE);
+        let mut rng = SplitMix64::new(11);
+        for _ in 0..200 {
+            // work sums have all 53 bits of mantissa in use; a best-effort JSON float parser
+            // rounds some of them to a neighbour, and a resumed run then differs in the last bit
+            let work_j = rng.next_f64() * 10.0_f64.powi((rng.next_f64() * 12.0) as i32 - 6);
+            let meta = CheckpointMeta {
+                frame: 3,
+                step: 120,
+                break_log_bytes: 64,
+                broken_bonds: 7,
+                settings_hash: 1,
+                particles_checksum: 2,
+                external_work_j: work_j,
+                initial_energy_j: work_j * std::f64::consts::PI,
+                backend: "CPU (2 threads)".to_owned(),
+            };
+            let dynamics = Dynamics {
+                step: 120,
+                disp: [vec![1.0], vec![2.0], vec![3.0]],
+                vel: [vec![0.5], vec![0.25], vec![0.125]],
+                force: [vec![0.0], vec![-1.0], vec![1.0]],
+                boost: vec![0.0],
+                external_work_j: work_j,
+            };
+            write_checkpoint(&path, &meta, &dynamics).expect("write");
+            let (read_meta, read_dynamics) = read_checkpoint(&path, 1).expect("read");
+            assert_eq!(read_meta.external_work_j.to_bits(), work_j.to_bits());
+            assert_eq!(read_meta, meta);
+            assert_eq!(read_dynamics, dynamics);
+        }
+    }
 }

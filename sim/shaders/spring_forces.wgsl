@@ -1,0 +1,189 @@
+// Spring forces fused with body forces (the paper's springforces and bodyforces), one particle
+// per invocation, for the particles of one bond range. For each of its bonds, in row order:
+// skip it if broken; else the stretch from the displacement difference,
+// s = (2 xi.eta + eta.eta) / (L (|xi + eta| + L)); if s exceeds the bond's threshold plus the
+// larger (or smaller) compression boost of its two particles the bond breaks (its bit is set in
+// the particle's own bit words, so no atomics; both ends compute the same s and decide alike);
+// else the force k s (xi + eta) / |xi + eta| is added and the smallest stretch kept. Then the
+// contact force from `collisions`, then gravity, projectiles and indenters at the current
+// positions. Writes the force, the next compression boost -alpha min(0, s_min), the particle's
+// broken-bond count, break events (by the lower particle of a bond), and the workgroup's
+// applied power (a fixed-order tree sum) for power_sum.
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<uniform> range: Range;
+@group(0) @binding(2) var<storage, read> body: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> vel: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read_write> force: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read_write> boost_next: array<f32>;
+@group(0) @binding(6) var<storage, read> rows: array<vec4<u32>>;
+@group(0) @binding(7) var<storage, read_write> broken_count: array<u32>;
+@group(0) @binding(8) var<storage, read> contact_count: array<u32>;
+@group(0) @binding(9) var<storage, read> contact_force: array<vec4<f32>>;
+@group(0) @binding(10) var<storage, read> neighbor: array<u32>;
+@group(0) @binding(11) var<storage, read> stiffness: array<f32>;
+@group(0) @binding(12) var<storage, read> threshold: array<f32>;
+@group(0) @binding(13) var<storage, read_write> bits: array<u32>;
+@group(0) @binding(14) var<storage, read_write> power: array<f32>;
+@group(0) @binding(15) var<storage, read_write> status: Status;
+@group(0) @binding(16) var<storage, read> spheres: array<vec4<f32>>;
+@group(0) @binding(17) var<storage, read_write> events: array<vec2<u32>>;
+
+var<workgroup> partial: array<f32, 64>;
+
+// The cube root of x >= 0: pow, then one Newton step (WGSL has no cbrt).
+fn cube_root(x: f32) -> f32 {
+    if (x <= 0.0) {
+        return 0.0;
+    }
+    let c = pow(x, 1.0 / 3.0);
+    return c - (c * c * c - x) / (3.0 * c * c);
+}
+
+// The paper's eq. 7 on a particle at p from sphere s (centre c).
+fn projectile_force(s: u32, c: vec3<f32>, p: vec3<f32>) -> vec3<f32> {
+    let heading = spheres[2u * s];
+    let radius = heading.w;
+    let stiffness_s = spheres[2u * s + 1u].x;
+    let d = p - c;
+    let r = sqrt(dot3(d, d));
+    if (!(r >= 0.75 * radius && r <= 1.5 * radius)) {
+        return vec3<f32>(0.0);
+    }
+    let shape = 16.0 * (r - 0.75 * radius) * (r - 1.5 * radius) * (r - 1.5 * radius);
+    let root = cube_root(shape);
+    let magnitude = stiffness_s * root * root;
+    let away = d / r;
+    var direction = away + heading.xyz;
+    let norm = sqrt(dot3(direction, direction));
+    if (norm > 1e-6) {
+        direction = direction / norm;
+    } else {
+        direction = away;
+    }
+    return direction * magnitude;
+}
+
+// A spherical indenter's K (R - r)^2 outwards.
+fn indenter_force(s: u32, c: vec3<f32>, p: vec3<f32>) -> vec3<f32> {
+    let radius = spheres[2u * s].w;
+    let stiffness_s = spheres[2u * s + 1u].x;
+    let d = p - c;
+    let r = sqrt(dot3(d, d));
+    if (r >= radius || r == 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let gap = radius - r;
+    let scale = stiffness_s * gap * gap / r;
+    return d * scale;
+}
+
+// All forces on particle i; returns the applied power F_ext . v.
+fn particle(i: u32) -> f32 {
+    let own = body[2u * i];
+    let record = body[2u * i + 1u];
+    let row = rows[i];
+    let step = status.step;
+    var f = vec3<f32>(0.0);
+    var smallest = 0.0;
+    var broke = 0u;
+    var word = 0u;
+    var changed = false;
+    for (var k = 0u; k < row.z; k = k + 1u) {
+        let bit = k & 31u;
+        let w = row.y + (k >> 5u) * SLICE;
+        if (bit == 0u) {
+            word = bits[w];
+            changed = false;
+        }
+        if ((word & (1u << bit)) == 0u) {
+            let e = row.x + k * SLICE;
+            let j = neighbor[e];
+            let other = body[2u * j];
+            let other_record = body[2u * j + 1u];
+            let xi = other.xyz - own.xyz;
+            let eta = other_record.xyz - record.xyz;
+            let y = xi + eta;
+            let length = sqrt(dot3(y, y));
+            let rest = sqrt(dot3(xi, xi));
+            let growth = 2.0 * dot3(xi, eta) + dot3(eta, eta);
+            let denominator = rest * (length + rest) * length;
+            var inverse = 0.0;
+            if (denominator > 0.0) {
+                inverse = 1.0 / denominator;
+            }
+            let k_ij = stiffness[e];
+            var s = 0.0;
+            if (k_ij > 0.0) {
+                s = growth * length * inverse;
+            }
+            var boost = max(record.w, other_record.w);
+            if (params.break_rule != 0u) {
+                boost = min(record.w, other_record.w);
+            }
+            if (s > threshold[e] + boost) {
+                word = word | (1u << bit);
+                changed = true;
+                broke = broke + 1u;
+                if (i < j) {
+                    let slot = atomicAdd(&status.events, 1u);
+                    if (slot < params.event_capacity) {
+                        events[slot] = vec2<u32>(step, row.w + k);
+                    }
+                }
+            } else {
+                f = f + y * (k_ij * growth * inverse);
+                smallest = min(smallest, s);
+            }
+        }
+        if (changed && (bit == 31u || k + 1u == row.z)) {
+            bits[w] = word;
+            changed = false;
+        }
+    }
+    if (broke != 0u) {
+        broken_count[i] = broken_count[i] + broke;
+    }
+    boost_next[i] = smallest * -params.alpha;
+    if (params.contact_enabled != 0u && contact_count[i] != 0u) {
+        f = f + contact_force[i].xyz;
+    }
+    // Body forces at the current position.
+    let p = own.xyz + record.xyz;
+    var applied = vec3<f32>(params.gravity_x, params.gravity_y, params.gravity_z) * own.w;
+    let spheres_now = params.projectiles + params.indenters;
+    let centres = 2u * spheres_now + (step - params.batch_first_step) * spheres_now;
+    for (var s = 0u; s < params.projectiles; s = s + 1u) {
+        applied = applied + projectile_force(s, spheres[centres + s].xyz, p);
+    }
+    for (var s = params.projectiles; s < spheres_now; s = s + 1u) {
+        applied = applied + indenter_force(s, spheres[centres + s].xyz, p);
+    }
+    force[i] = vec4<f32>(f + applied, 0.0);
+    return dot3(applied, vel[i].xyz);
+}
+
+@compute @workgroup_size(64)
+fn spring_forces(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let group = wid.x + wid.y * nwg.x;
+    let local = group * WG + lid;
+    var p = 0.0;
+    if (local < range.count) {
+        p = particle(range.first + local);
+    }
+    partial[lid] = p;
+    workgroupBarrier();
+    for (var stride = 32u; stride > 0u; stride = stride / 2u) {
+        if (lid < stride) {
+            partial[lid] = partial[lid] + partial[lid + stride];
+        }
+        workgroupBarrier();
+    }
+    if (lid == 0u && group < range.workgroups) {
+        power[range.first_workgroup + group] = partial[0];
+    }
+}

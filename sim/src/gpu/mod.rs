@@ -1,0 +1,50 @@
+//! The GPU backend (wgpu, WGSL): the CPU model of [`crate::simulation`] with one particle per
+//! invocation, after section 3 of Levine et al.
+//!
+//! # Kernels
+//!
+//! One entry point per file in `sim/shaders/`, each with a CPU twin of the same name in
+//! [`twins`]. A step is, in one compute pass (and a batch of up to [`BATCH`] steps in one
+//! submission):
+//!
+//! 1. `kick_drift` (position update; from the second step of a batch on, `kick_floor_drift`: the
+//!    previous step's velocity update fused in): v += dt/2 F/m, u += dt v; packs the compression
+//!    boost next to u; flags the contact lists stale when a particle moved half the skin.
+//! 2. Contact (when K_c > 0): `contact_plan` turns the stale flag into indirect dispatch sizes (zero
+//!    when the lists are fresh, so the rebuild costs little); the rebuild `contact_count`,
+//!    `scan_blocks`, `scan_block_sums`, `scan_add`, `contact_scatter`, `contact_rank`,
+//!    `contact_candidates` bins the particles by a deterministic counting sort and lists each
+//!    particle's candidates in increasing index; `collisions` sums eq. 6 over them.
+//! 3. `spring_forces` (fused with the body forces): the bonds (stretch, break, force), the
+//!    contact force, gravity, projectiles and indenters; the next boost; break events; the
+//!    workgroup's external power.
+//! 4. `power_sum`: the step's external power into the work done (two-float sum).
+//! 5. `kick_floor` (velocity update, at the end of a batch).
+//!
+//! `bond_energy` runs at frame boundaries only.
+//!
+//! # Determinism
+//!
+//! No float is ever summed in an order that depends on timing: every particle sums its own
+//! bonds in row order and its contact candidates in index order; the power is a fixed tree.
+//! Atomics only count (bucket sizes, break events) or OR flags; the one order they do produce
+//! (arrival in a hash bucket) is replaced by a ranking by index, and break events are sorted by
+//! (step, bond) when read. So one GPU gives bit-identical results run to run.
+//!
+//! # Readback
+//!
+//! Nothing is read back inside the step loop. At a frame boundary the state, the events and the
+//! counters are read; if a capacity (break events of the frame, contact candidates per particle)
+//! overflowed, the buffers grow and the frame is replayed from a GPU-side snapshot of its start:
+//! the result is the same as with large enough buffers from the start.
+
+pub mod layout;
+pub mod shaders;
+mod simulation;
+pub mod twins;
+pub mod types;
+
+#[cfg(test)]
+mod tests;
+
+pub use simulation::{BATCH, GpuHandle, GpuOptions, GpuSimulation};
