@@ -200,7 +200,8 @@ fn a_failed_run_keeps_the_good_output_and_corruption_is_reported() {
 #[test]
 fn every_sampler_fills_a_box() {
     for (sampler, element) in [("grid", "cube"), ("tet_shell", "tet"), ("voronoi", "trimtope")] {
-        let (dir, _) = scene(&GOOD.replace("\"grid\"", &format!("{sampler:?}")).replace("spacing_m = 0.001", "spacing_m = 0.002"));
+        let (dir, _) =
+            scene(&GOOD.replace("\"grid\"", &format!("{sampler:?}")).replace("spacing_m = 0.001", "spacing_m = 0.002"));
         let output = shatter(&["preprocess"], dir.path());
         assert!(output.status.success(), "{sampler}: {}", stderr(&output));
         let file = dir.path().join("out/particles.shp");

@@ -116,7 +116,9 @@ fn a_new_camera_renders_again_and_nothing_else() {
     let dir = tempfile::tempdir().expect("tempdir");
     std::fs::write(dir.path().join("pipeline.toml"), SCENE.replace("frames = 16", "frames = 3")).expect("config");
     assert!(shatter(&["run"], dir.path()).status.success());
-    let moved = SCENE.replace("frames = 16", "frames = 3").replace("position_m = [0.02, 0.015, 0.05]", "position_m = [-0.02, 0.015, 0.05]");
+    let moved = SCENE
+        .replace("frames = 16", "frames = 3")
+        .replace("position_m = [0.02, 0.015, 0.05]", "position_m = [-0.02, 0.015, 0.05]");
     std::fs::write(dir.path().join("pipeline.toml"), moved).expect("config");
     let output = shatter(&["run"], dir.path());
     let stdout = String::from_utf8_lossy(&output.stdout);
