@@ -1,5 +1,6 @@
 // Collisions (the paper's kernel): each particle of a bond range is pushed away from every
 // candidate closer than d_c that it has no intact bond with, by eq. 6, K_c (d_c - r)^2 d / r,
+// d_c capped at the pair's rest distance (a broken bond's particles do not repel where they sat),
 // summed over the candidates in increasing index. Bonds are looked up in the particle's own
 // row (binary search; rows are sorted) and its own broken bits, as they were after the last
 // force pass: a bond that breaks in this step's force pass still counts, as on the CPU.
@@ -48,18 +49,20 @@ fn collisions(
         return;
     }
     let row = rows[i];
-    let p = body[2u * i].xyz + body[2u * i + 1u].xyz;
-    let distance = params.contact_distance;
+    let x = body[2u * i].xyz;
+    let p = x + body[2u * i + 1u].xyz;
     var sum = vec3<f32>(0.0);
     for (var m = 0u; m < count; m = m + 1u) {
         let j = contact_list[i * params.contact_cap + m];
         let d = p - (body[2u * j].xyz + body[2u * j + 1u].xyz);
         let r2 = dot3(d, d);
-        if (r2 >= distance * distance || r2 == 0.0 || bonded(row, j)) {
+        let xi = x - body[2u * j].xyz;
+        let reach = min(params.contact_distance, sqrt(dot3(xi, xi)));
+        if (r2 >= reach * reach || r2 == 0.0 || bonded(row, j)) {
             continue;
         }
         let r = sqrt(r2);
-        let gap = distance - r;
+        let gap = reach - r;
         let scale = params.contact_stiffness * gap * gap / r;
         sum = sum + d * scale;
     }

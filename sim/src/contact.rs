@@ -178,6 +178,16 @@ impl ContactList {
     }
 }
 
+/// The distance below which two unbonded particles repel: the contact distance d_c, or their
+/// rest distance |X_i - X_j| (`rest_distance2` is its square) where that is shorter. Particles
+/// that sat closer than d_c at rest (the small tets of a shell, for one) were bonded there; when
+/// that bond breaks, eq. 6 with the full d_c would push them apart from where they stand and
+/// make energy from nothing. Pairs that were never bonded sit farther than the horizon, beyond
+/// d_c, and feel eq. 6 unchanged.
+pub fn contact_reach(distance: f32, rest_distance2: f32) -> f32 {
+    distance.min(rest_distance2.sqrt())
+}
+
 /// The paper's eq. 6: the force on i from j at offset `d = x_i - x_j` of length `r`, pushing
 /// them apart when r < distance: K_c (distance - r)^2 d / r.
 pub fn repulsion(stiffness: f32, distance: f32, d: [f32; 3], r: f32) -> [f32; 3] {

@@ -8,7 +8,7 @@
 use shatter_core::config::sim::BreakRule;
 
 use crate::bond_table::BondChunk;
-use crate::contact::{ContactList, repulsion};
+use crate::contact::{ContactList, contact_reach, repulsion};
 use crate::model::Floor;
 
 /// One chunk's outputs of the force pass.
@@ -228,11 +228,13 @@ pub trait BondLookup: Sync {
 }
 
 /// Collisions (the paper's `collisions`): each particle of the chunk is pushed away from every
-/// particle it is not bonded to that is closer than the contact distance.
+/// particle it is not bonded to that is closer than the contact distance, or than their rest
+/// distance where that is shorter (see [`contact_reach`]).
 #[allow(clippy::too_many_arguments)]
 pub fn collisions(
     first: usize,
     position: [&[f32]; 3],
+    rest: [&[f32]; 3],
     contacts: &ContactList,
     bonds: &impl BondLookup,
     stiffness: f32,
@@ -247,15 +249,18 @@ pub fn collisions(
             continue;
         }
         let p = [position[0][i], position[1][i], position[2][i]];
+        let x = [rest[0][i], rest[1][i], rest[2][i]];
         let mut sum = [0.0f32; 3];
         for &j in candidates {
             let j = j as usize;
             let d = [p[0] - position[0][j], p[1] - position[1][j], p[2] - position[2][j]];
             let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-            if r2 >= distance * distance || r2 == 0.0 || bonds.intact(i, j) {
+            let xi = [x[0] - rest[0][j], x[1] - rest[1][j], x[2] - rest[2][j]];
+            let reach = contact_reach(distance, xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]);
+            if r2 >= reach * reach || r2 == 0.0 || bonds.intact(i, j) {
                 continue;
             }
-            let f = repulsion(stiffness, distance, d, r2.sqrt());
+            let f = repulsion(stiffness, reach, d, r2.sqrt());
             sum = [sum[0] + f[0], sum[1] + f[1], sum[2] + f[2]];
         }
         for axis in 0..3 {

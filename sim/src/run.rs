@@ -302,6 +302,10 @@ pub fn run_with(
         remove_old_frames(&frames_dir)?;
         let _ = std::fs::remove_file(&checkpoint_path);
         let log = BreakLog::create(&log_path)?;
+        let initial_velocity = config.sim.initial_velocity_m_s.map(|v| v as f32);
+        if initial_velocity != [0.0; 3] {
+            simulation.set_velocity(&|_, _| initial_velocity)?;
+        }
         write_frame(simulation.as_ref(), &frames_dir, 1)?;
         (log, 1, 0, simulation.energy().total_j())
     };

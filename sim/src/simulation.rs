@@ -482,6 +482,7 @@ impl Simulation {
         let (rule, alpha) = (model.break_rule, model.alpha);
         let (contact_stiffness, contact_distance) = (model.contact_stiffness_pa, model.contact_distance_m);
         let contacts = contacts.as_ref();
+        let rest_position = [&rest[0][..], &rest[1][..], &rest[2][..]];
         let lookup = &*index;
         let [fx, fy, fz] = force;
         (
@@ -505,6 +506,7 @@ impl Simulation {
                     kernels::collisions(
                         first,
                         position,
+                        rest_position,
                         contacts,
                         lookup,
                         contact_stiffness,

@@ -163,3 +163,34 @@ fn the_backend_is_the_one_asked_for() {
         }
     }
 }
+
+#[test]
+fn the_initial_velocity_carries_the_body_on_both_backends() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut config = scene(dir.path());
+    config.sim.frames = 4;
+    config.sim.projectile.clear();
+    config.sim.gravity_m_s2 = [0.0; 3];
+    let velocity = [1.5f32, -4.0, 0.25];
+    config.sim.initial_velocity_m_s = velocity.map(f64::from);
+    let particles = ParticleSet::read(&config.output_dir().join(PARTICLES_FILE)).expect("particles");
+    let last = shatter_sim::run::frame_path(&config.output_dir().join("frames"), 4);
+    let options = RunOptions { backend: Some(BackendChoice::Cpu), ..RunOptions::default() };
+    let cpu = shatter_sim::run::run(&config, options, &NoProgress).expect("cpu run");
+    let on_cpu = shatter_sim::frames::PointFrame::read(&last).expect("cpu frame");
+    let gpu = run_with(&config, RunOptions::default(), &NoProgress, &on_gpu).expect("gpu run");
+    let on_gpu = shatter_sim::frames::PointFrame::read(&last).expect("gpu frame");
+    assert!(cpu.backend.starts_with("CPU") && gpu.backend.starts_with("GPU"));
+    // a free body in uniform motion: every particle moved by v t and still moves at v
+    let t = on_cpu.time_s as f32;
+    assert!(t > 0.0);
+    for frame in [&on_cpu, &on_gpu] {
+        for axis in 0..3 {
+            for (i, rest) in particles.rest_position_m.iter().enumerate() {
+                let moved = frame.position[axis][i] - rest[axis];
+                assert!((moved - velocity[axis] * t).abs() < 1e-7, "particle {i} axis {axis}: moved {moved}");
+                assert!((frame.velocity[axis][i] - velocity[axis]).abs() < 1e-4, "particle {i} axis {axis}");
+            }
+        }
+    }
+}

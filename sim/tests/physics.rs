@@ -275,3 +275,22 @@ fn results_are_bit_identical_for_any_thread_count() {
     assert!(one == two, "1 and 2 threads differ");
     assert!(run(3).0 == one, "1 and 3 threads differ");
 }
+
+#[test]
+fn broken_neighbours_closer_than_the_contact_distance_repel_only_when_pushed_closer() {
+    // d_c = 2.5 lambda: every neighbour within it was bonded; break all the bonds at rest
+    let (config, particles) = block([4, 4, 4], 3.0, "", "[sim.contact]\nstiffness_pa = 1e12\ndistance_m = 0.0025");
+    let mut sim = simulation(&config, &particles);
+    let every_bond: Vec<u64> = (0..particles.bonds.neighbor.len() as u64).collect();
+    let at_rest = sim.dynamics().clone();
+    sim.restore(at_rest.clone(), &every_bond);
+    sim.step();
+    assert_eq!(max_force(&sim), 0.0, "a broken bond's particles stay where they sat, unpushed");
+
+    // pushed a tenth of lambda toward its neighbour, a particle is pushed back
+    let mut pushed = at_rest;
+    pushed.disp[0][0] = 1e-4;
+    sim.restore(pushed, &every_bond);
+    sim.step();
+    assert!(sim.dynamics().force[0][0] < 0.0, "pushed back: {}", sim.dynamics().force[0][0]);
+}

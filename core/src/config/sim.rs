@@ -32,6 +32,9 @@ pub struct SimConfig {
     pub runaway_energy_factor: f64,
     /// Gravitational acceleration, m/s^2 (Y is up).
     pub gravity_m_s2: [f64; 3],
+    /// Velocity every particle starts with, m/s: a body dropped from high up starts just above
+    /// the floor at its impact speed instead of falling for a million steps.
+    pub initial_velocity_m_s: [f64; 3],
     /// `[sim.contact]`: repulsion between particles that are not bonded.
     pub contact: ContactConfig,
     /// `[sim.floor]`: a floor plane y = height; absent, there is no floor.
@@ -60,6 +63,7 @@ impl Default for SimConfig {
             checkpoint_every_frames: 1,
             runaway_energy_factor: 2.0,
             gravity_m_s2: [0.0, -9.81, 0.0],
+            initial_velocity_m_s: [0.0; 3],
             contact: ContactConfig::default(),
             floor: None,
             projectile: Vec::new(),
@@ -265,6 +269,7 @@ impl SimConfig {
             "must be a finite number greater than 1".into()
         })?;
         check.finite_array("sim.gravity_m_s2", &self.gravity_m_s2)?;
+        check.finite_array("sim.initial_velocity_m_s", &self.initial_velocity_m_s)?;
         check.non_negative("sim.contact.stiffness_pa", self.contact.stiffness_pa, "Pa")?;
         if let Some(distance) = self.contact.distance_m {
             check.positive("sim.contact.distance_m", distance, "metres")?;

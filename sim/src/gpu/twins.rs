@@ -337,18 +337,20 @@ pub fn collisions(
             continue;
         }
         let row = rows[i];
-        let p = add(xyz(body[2 * i]), xyz(body[2 * i + 1]));
-        let distance = params.contact_distance;
+        let x = xyz(body[2 * i]);
+        let p = add(x, xyz(body[2 * i + 1]));
         let mut sum = [0.0f32; 3];
         for m in 0..count {
             let j = contact_list[i * params.contact_cap as usize + m];
             let d = sub(p, add(xyz(body[2 * j as usize]), xyz(body[2 * j as usize + 1])));
             let r2 = dot3(d, d);
-            if r2 >= distance * distance || r2 == 0.0 || bonded(row, j, neighbor, bits) {
+            let xi = sub(x, xyz(body[2 * j as usize]));
+            let reach = params.contact_distance.min(dot3(xi, xi).sqrt());
+            if r2 >= reach * reach || r2 == 0.0 || bonded(row, j, neighbor, bits) {
                 continue;
             }
             let r = r2.sqrt();
-            let gap = distance - r;
+            let gap = reach - r;
             let s = params.contact_stiffness * gap * gap / r;
             sum = add(sum, scale(d, s));
         }

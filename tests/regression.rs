@@ -1,0 +1,199 @@
+//! Regression image tests: each shot's small preset (assets/scenes/*_small.toml), simulated on the
+//! CPU up to its key frames, post-processed and rendered small; the PNG previews of the key
+//! frames are compared with the golden images in tests/golden by NVIDIA FLIP.
+//!
+//! Thresholds, per image: mean FLIP error at most [`MAX_MEAN`] and 99th-percentile error at most
+//! [`MAX_P99`]. On the machine the goldens were made on the images match exactly; the margin
+//! admits a few pixels' rounding elsewhere, not another crack pattern (a test checks that two key
+//! frames of one shot differ by more than the thresholds).
+//!
+//! `SHATTER_BLESS=1 cargo test --test regression` rewrites the goldens. A failing comparison
+//! writes the rendered image and a FLIP difference image (magma: black is no difference) to
+//! `target/regression/` and names them.
+
+use std::path::{Path, PathBuf};
+
+use shatter_core::config::sim::Backend;
+use shatter_core::{NoProgress, PipelineConfig};
+use shatter_render::run::{RENDER_DIR, frame_file};
+use shatter_sim::run::{PARTICLES_FILE, RunOptions};
+
+/// Largest mean FLIP error allowed.
+const MAX_MEAN: f32 = 0.01;
+/// Largest 99th-percentile FLIP error allowed.
+const MAX_P99: f32 = 0.2;
+/// Size of the test renders.
+const RESOLUTION: [u32; 2] = [192, 108];
+
+/// A shot: its scene file and key frames (the last key frame is as far as it is simulated).
+struct Shot {
+    scene: &'static str,
+    key_frames: &'static [u32],
+}
+
+const GLASS_PLATE: Shot = Shot { scene: "glass_plate_small", key_frames: &[1, 12, 24] };
+const VASE: Shot = Shot { scene: "vase_small", key_frames: &[1, 6, 12] };
+const DRAGON: Shot = Shot { scene: "dragon_small", key_frames: &[1, 16, 32] };
+
+fn repository() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn golden_path(scene: &str, frame: u32) -> PathBuf {
+    repository().join("tests/golden").join(format!("{scene}.{frame:04}.png"))
+}
+
+fn failure_dir() -> PathBuf {
+    repository().join("target/regression")
+}
+
+/// Runs the shot's scene up to its last key frame in `output` and returns the key frames'
+/// previews as 8-bit RGB.
+fn render_key_frames(shot: &Shot, output: &Path) -> Vec<(u32, image::RgbImage)> {
+    let mut config =
+        PipelineConfig::load(&repository().join("assets/scenes").join(format!("{}.toml", shot.scene))).expect("scene");
+    let last = *shot.key_frames.last().expect("key frames");
+    assert!(last <= config.sim.frames, "{}: key frame {last} is past the scene's frames", shot.scene);
+    config.scene.output_dir = output.to_path_buf();
+    config.sim.frames = last;
+    config.sim.backend = Backend::Cpu;
+    config.render.backend = Backend::Cpu;
+    config.render.resolution = RESOLUTION;
+    config.render.samples_per_pixel = 2;
+    config.render.previews = true;
+
+    let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
+    std::fs::create_dir_all(output).expect("output folder");
+    particles.write(&output.join(PARTICLES_FILE)).expect("particle file");
+    let options = RunOptions { backend: Some(Backend::Cpu), ..RunOptions::default() };
+    shatter_sim::run::run(&config, options, &NoProgress).expect("sim");
+    shatter_render::post::run(&config, &NoProgress).expect("post");
+    shatter_render::run::run(&config, Some(shot.key_frames), Some(Backend::Cpu), &NoProgress, &mut |_| Ok(()))
+        .expect("render");
+    let render_dir = output.join(RENDER_DIR);
+    shot.key_frames
+        .iter()
+        .map(|&frame| {
+            let path = frame_file(&render_dir, &config.scene.name, frame, "png");
+            (frame, image::open(&path).expect("preview").to_rgb8())
+        })
+        .collect()
+}
+
+/// FLIP of `test` against `reference`: the error map, its mean and 99th percentile.
+fn flip(reference: &image::RgbImage, test: &image::RgbImage) -> (nv_flip::FlipImageFloat, f32, f32) {
+    let (width, height) = reference.dimensions();
+    let reference = nv_flip::FlipImageRgb8::with_data(width, height, reference.as_raw());
+    let test = nv_flip::FlipImageRgb8::with_data(width, height, test.as_raw());
+    let error = nv_flip::flip(reference, test, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
+    let mut pool = nv_flip::FlipPool::from_image(&error);
+    let (mean, p99) = (pool.mean(), pool.get_percentile(0.99, false));
+    (error, mean, p99)
+}
+
+/// Compares `image` with the golden of `scene`'s `frame`: `None` when it is within the
+/// thresholds, otherwise what is wrong. A render outside the thresholds is written to
+/// `failure_dir` with its FLIP difference image (magma: black is no difference).
+fn compare_with_golden(scene: &str, frame: u32, image: &image::RgbImage, failure_dir: &Path) -> Option<String> {
+    let golden = golden_path(scene, frame);
+    let Ok(reference) = image::open(&golden).map(|image| image.to_rgb8()) else {
+        return Some(format!("{}: no golden image (SHATTER_BLESS=1 makes it)", golden.display()));
+    };
+    if reference.dimensions() != image.dimensions() {
+        return Some(format!(
+            "{}: golden is {:?}, the render {:?} (SHATTER_BLESS=1 remakes it)",
+            golden.display(),
+            reference.dimensions(),
+            image.dimensions()
+        ));
+    }
+    let (error, mean, p99) = flip(&reference, image);
+    eprintln!("{scene} frame {frame}: FLIP mean {mean:.5}, 99th percentile {p99:.5}");
+    if mean <= MAX_MEAN && p99 <= MAX_P99 {
+        return None;
+    }
+    std::fs::create_dir_all(failure_dir).expect("failure folder");
+    let rendered_path = failure_dir.join(format!("{scene}.{frame:04}.png"));
+    let diff_path = failure_dir.join(format!("{scene}.{frame:04}.flip.png"));
+    image.save(&rendered_path).expect("write the render");
+    let colored = error.apply_color_lut(&nv_flip::magma_lut());
+    let (width, height) = image.dimensions();
+    image::RgbImage::from_raw(width, height, colored.to_vec())
+        .expect("difference image")
+        .save(&diff_path)
+        .expect("write the difference");
+    Some(format!(
+        "{scene} frame {frame}: FLIP mean {mean:.4} (max {MAX_MEAN}), 99th percentile {p99:.4} (max {MAX_P99}); \
+         render: {}, difference: {}",
+        rendered_path.display(),
+        diff_path.display()
+    ))
+}
+
+/// Renders the shot and compares each key frame with its golden (or rewrites the goldens when
+/// SHATTER_BLESS=1).
+fn check(shot: &Shot) {
+    let output = tempfile::tempdir().expect("tempdir");
+    let rendered = render_key_frames(shot, output.path());
+    let bless = std::env::var("SHATTER_BLESS").is_ok_and(|value| value == "1");
+    let mut failures = Vec::new();
+    for (frame, image) in rendered {
+        if bless {
+            let golden = golden_path(shot.scene, frame);
+            std::fs::create_dir_all(golden.parent().expect("folder")).expect("golden folder");
+            image.save(&golden).expect("write golden");
+            eprintln!("blessed {}", golden.display());
+        } else if let Some(failure) = compare_with_golden(shot.scene, frame, &image, &failure_dir()) {
+            failures.push(failure);
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn glass_plate_key_frames_match_their_goldens() {
+    check(&GLASS_PLATE);
+}
+
+#[test]
+fn vase_key_frames_match_their_goldens() {
+    check(&VASE);
+}
+
+#[test]
+fn dragon_key_frames_match_their_goldens() {
+    check(&DRAGON);
+}
+
+/// The thresholds catch a real change: a shot's first and last key frames (the same scene, the
+/// body broken in one) are far apart by them.
+#[test]
+fn the_thresholds_tell_a_broken_body_from_an_intact_one() {
+    for shot in [&GLASS_PLATE, &VASE, &DRAGON] {
+        let last = *shot.key_frames.last().expect("key frames");
+        let (Ok(first), Ok(broken)) =
+            (image::open(golden_path(shot.scene, 1)), image::open(golden_path(shot.scene, last)))
+        else {
+            panic!("{}: goldens missing (SHATTER_BLESS=1 makes them)", shot.scene);
+        };
+        let (_, mean, p99) = flip(&first.to_rgb8(), &broken.to_rgb8());
+        assert!(mean > MAX_MEAN && p99 > MAX_P99, "{}: frames 1 and {last}: mean {mean}, p99 {p99}", shot.scene);
+    }
+}
+
+/// A render outside the thresholds is reported, and its render and difference image are written.
+#[test]
+fn a_mismatch_writes_the_render_and_its_difference_image() {
+    let shot = &GLASS_PLATE;
+    let last = *shot.key_frames.last().expect("key frames");
+    let broken = image::open(golden_path(shot.scene, last)).expect("golden").to_rgb8();
+    let folder = tempfile::tempdir().expect("tempdir");
+    let failure = compare_with_golden(shot.scene, 1, &broken, folder.path()).expect("a mismatch");
+    assert!(failure.contains("FLIP mean"), "{failure}");
+    let render = folder.path().join(format!("{}.0001.png", shot.scene));
+    let difference = folder.path().join(format!("{}.0001.flip.png", shot.scene));
+    assert_eq!(image::open(&render).expect("render").to_rgb8(), broken);
+    assert_eq!(image::open(&difference).expect("difference").to_rgb8().dimensions(), broken.dimensions());
+    let same = image::open(golden_path(shot.scene, 1)).expect("golden").to_rgb8();
+    assert_eq!(compare_with_golden(shot.scene, 1, &same, folder.path()), None);
+}
