@@ -222,19 +222,7 @@ fn grid_particles(config: &PipelineConfig, sample: &GridSample, progress: &dyn P
     let bonds = build_bonds(&points, &rest_position_m, &params, progress);
     let n = points.len();
     ParticleSet {
-        meta: ParticleMeta {
-            scene_name: config.scene.name.clone(),
-            source: config.geometry.source.to_string(),
-            sampler: config.geometry.sampler.name().to_string(),
-            lambda_m: lambda,
-            horizon_factor: config.geometry.horizon_factor,
-            delta_m: delta,
-            density_kg_m3: config.material.density_kg_m3,
-            bulk_modulus_pa: config.material.bulk_modulus_pa,
-            mean_critical_stretch: mean_threshold,
-            threshold_jitter: config.material.threshold_jitter,
-            seed: config.scene.seed,
-        },
+        meta: particle_meta(config, lambda, delta, mean_threshold),
         rest_position_m,
         volume_m3: vec![volume as f32; n],
         mass_kg: vec![(volume * config.material.density_kg_m3) as f32; n],

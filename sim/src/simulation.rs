@@ -45,6 +45,28 @@ impl Energy {
     }
 }
 
+/// 1/2 sum m v^2 in f64, summed per chunk of `chunk_size` particles in particle order and then
+/// over chunks, so that it does not depend on the thread count.
+pub(crate) fn kinetic_energy_j(mass: &[f32], vel: &[Vec<f32>; 3], chunk_size: usize) -> f64 {
+    mass.par_chunks(chunk_size)
+        .enumerate()
+        .map(|(c, masses)| {
+            let first = c * chunk_size;
+            masses
+                .iter()
+                .enumerate()
+                .map(|(local, m)| {
+                    let i = first + local;
+                    let v2: f64 = (0..3).map(|a| f64::from(vel[a][i]).powi(2)).sum();
+                    0.5 * f64::from(*m) * v2
+                })
+                .sum::<f64>()
+        })
+        .collect::<Vec<f64>>()
+        .iter()
+        .sum()
+}
+
 /// Bond lookups for contact: "are i and j bonded and intact?", from the particle file's CSR and
 /// a bitset of broken bond ids.
 #[derive(Debug, Clone)]
@@ -276,27 +298,7 @@ impl Simulation {
 
     /// Kinetic and bond energy, summed per chunk in particle order (deterministic).
     pub fn energy(&self) -> Energy {
-        let size = self.table.chunk_size;
-        let vel = &self.dynamics.vel;
-        let kinetic_j = self
-            .mass
-            .par_chunks(size)
-            .enumerate()
-            .map(|(c, masses)| {
-                let first = c * size;
-                masses
-                    .iter()
-                    .enumerate()
-                    .map(|(local, m)| {
-                        let i = first + local;
-                        let v2: f64 = (0..3).map(|a| f64::from(vel[a][i]).powi(2)).sum();
-                        0.5 * f64::from(*m) * v2
-                    })
-                    .sum::<f64>()
-            })
-            .collect::<Vec<f64>>()
-            .iter()
-            .sum();
+        let kinetic_j = kinetic_energy_j(&self.mass, &self.dynamics.vel, self.table.chunk_size);
         let bond_j = self.bond_energy_per_particle().iter().sum();
         Energy { kinetic_j, bond_j }
     }

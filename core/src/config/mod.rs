@@ -6,7 +6,7 @@
 //! valid. The schema is documented for users in `docs/CONFIG.md`.
 
 use std::fmt;
-use std::path::{Path, PathBuf};
+use std::path::{Component, Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
@@ -385,13 +385,9 @@ impl PipelineConfig {
 
     fn resolve_paths(&mut self) {
         let base = self.base_dir().to_path_buf();
-        if self.scene.output_dir.is_relative() {
-            self.scene.output_dir = base.join(&self.scene.output_dir);
-        }
+        resolve_path(&base, &mut self.scene.output_dir);
         if let GeometrySource::Mesh(mesh) = &mut self.geometry.source {
-            if mesh.is_relative() {
-                *mesh = base.join(&*mesh);
-            }
+            resolve_path(&base, mesh);
         }
         self.sim.resolve_paths(&base);
         self.render.resolve_paths(&base);
@@ -570,6 +566,30 @@ impl Checker<'_> {
     }
 }
 
+/// Makes a relative `path` relative to `base` (the config file's folder) and folds away its `.`
+/// and `..` components as text, so that messages name `out/vase` rather than
+/// `assets/scenes/../../out/vase` (like a shell's `cd`, not like following links).
+pub(crate) fn resolve_path(base: &Path, path: &mut PathBuf) {
+    if path.is_absolute() {
+        return;
+    }
+    let mut resolved = PathBuf::new();
+    for component in base.join(&*path).components() {
+        match component {
+            Component::CurDir => {}
+            Component::ParentDir if matches!(resolved.components().next_back(), Some(Component::Normal(_))) => {
+                resolved.pop();
+            }
+            Component::ParentDir if resolved.has_root() => {}
+            other => resolved.push(other),
+        }
+    }
+    if resolved.as_os_str().is_empty() {
+        resolved.push(".");
+    }
+    *path = resolved;
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -623,5 +643,24 @@ bulk_modulus_pa = 14.9e9
             .replace("[material]", "[geometry.transform]\nrotate_deg = [0, inf, 0]\n[material]");
         let error = PipelineConfig::from_toml_str(&text, Path::new("p.toml")).expect_err("inf");
         assert!(error.to_string().contains("geometry.transform.rotate_deg"), "{error}");
+    }
+
+    #[test]
+    fn relative_paths_start_at_the_config_folder_with_dot_dots_folded() {
+        let cases = [
+            ("/work/assets/scenes", "../../out/vase", "/work/out/vase"),
+            ("/work/assets/scenes", "./../meshes/./vase.obj", "/work/assets/meshes/vase.obj"),
+            ("assets/scenes", "../../out", "out"),
+            ("assets", "../../out", "../out"),
+            ("", "../out", "../out"),
+            ("assets", "..", "."),
+            ("/", "../../x", "/x"),
+            ("/work", "/abs/../kept", "/abs/../kept"),
+        ];
+        for (base, path, expected) in cases {
+            let mut resolved = PathBuf::from(path);
+            resolve_path(Path::new(base), &mut resolved);
+            assert_eq!(resolved, PathBuf::from(expected), "{base} + {path}");
+        }
     }
 }

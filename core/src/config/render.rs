@@ -129,11 +129,7 @@ impl Default for RenderFloorConfig {
 
 impl RenderConfig {
     pub(super) fn resolve_paths(&mut self, base: &Path) {
-        let resolve = |path: &mut PathBuf| {
-            if path.is_relative() {
-                *path = base.join(&*path);
-            }
-        };
+        let resolve = |path: &mut PathBuf| super::resolve_path(base, path);
         if let Some(path) = &mut self.environment {
             resolve(path);
         }

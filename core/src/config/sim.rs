@@ -250,9 +250,7 @@ impl SimConfig {
     pub(super) fn resolve_paths(&mut self, base: &std::path::Path) {
         for seam in &mut self.seam {
             if let Some(mesh) = &mut seam.mesh {
-                if mesh.is_relative() {
-                    *mesh = base.join(&*mesh);
-                }
+                super::resolve_path(base, mesh);
             }
         }
     }

@@ -940,26 +940,7 @@ impl Backend for GpuSimulation {
 
     fn energy(&self) -> Energy {
         let size = crate::bond_table::chunk_size(self.len());
-        let vel = &self.dynamics.vel;
-        let kinetic_j = self
-            .mass
-            .par_chunks(size)
-            .enumerate()
-            .map(|(c, masses)| {
-                let first = c * size;
-                masses
-                    .iter()
-                    .enumerate()
-                    .map(|(local, m)| {
-                        let i = first + local;
-                        let v2: f64 = (0..3).map(|a| f64::from(vel[a][i]).powi(2)).sum();
-                        0.5 * f64::from(*m) * v2
-                    })
-                    .sum::<f64>()
-            })
-            .collect::<Vec<f64>>()
-            .iter()
-            .sum();
+        let kinetic_j = crate::simulation::kinetic_energy_j(&self.mass, &self.dynamics.vel, size);
         Energy { kinetic_j, bond_j: self.bond_energy.iter().sum() }
     }
 
