@@ -50,6 +50,9 @@ struct PixelOut {
 @group(0) @binding(9) var<storage, read> environment: array<vec4<f32>>;
 @group(0) @binding(10) var<storage, read> floor_texels: array<vec4<f32>>;
 @group(0) @binding(11) var<storage, read_write> pixels: array<PixelOut>;
+@group(0) @binding(12) var<storage, read> triangle_group_offsets: array<u32>;
+// per group of TRIANGLE_GROUP triangles (a constant the host prepends): min, then max corner
+@group(0) @binding(13) var<storage, read> triangle_groups: array<vec4<f32>>;
 
 fn infinity() -> f32 {
     return bitcast<f32>(0x7f800000u);
@@ -183,42 +186,69 @@ fn trimtope_hit(e: u32, origin: vec3<f32>, direction: vec3<f32>, t_min: f32) -> 
     if (t_in > t_out) {
         return miss();
     }
-    var first_t = infinity();
-    var first_front = false;
-    var first_index = NONE;
-    for (var k = triangle_offsets[e]; k < triangle_offsets[e + 1u]; k++) {
-        let hit = triangle_hit(origin, direction, k);
-        if (hit.hit && hit.t >= t_in && hit.t <= t_out && (first_index == NONE || hit.t < first_t)) {
-            first_t = hit.t;
-            first_front = hit.front;
-            first_index = k;
-        }
-    }
-    if (first_index != NONE) {
-        if (first_front) {
-            let a = triangles[3u * first_index].xyz;
-            let n = cross3(triangles[3u * first_index + 1u].xyz - a, triangles[3u * first_index + 2u].xyz - a);
-            return Hit(first_t, e, n / sqrt(dot3(n, n)));
+    let first = first_triangle(e, origin, direction, t_in, t_out);
+    if (first.index != NONE) {
+        if (first.front) {
+            let k = first.index;
+            let a = triangles[3u * k].xyz;
+            let n = cross3(triangles[3u * k + 1u].xyz - a, triangles[3u * k + 2u].xyz - a);
+            return Hit(first.t, e, n / sqrt(dot3(n, n)));
         }
         return Hit(t_in, e, plane_normal(e, span.plane_in));
     }
     let entry = origin + t_in * direction;
-    let to_site = sites[e].xyz - entry;
-    var nearest_t = infinity();
-    var nearest_front = false;
-    var found = false;
-    for (var k = triangle_offsets[e]; k < triangle_offsets[e + 1u]; k++) {
-        let hit = triangle_hit(entry, to_site, k);
-        if (hit.hit && hit.t >= 0.0 && hit.t <= 1.0 && (!found || hit.t < nearest_t)) {
-            nearest_t = hit.t;
-            nearest_front = hit.front;
-            found = true;
-        }
-    }
-    if (found && nearest_front) {
+    let nearest = first_triangle(e, entry, sites[e].xyz - entry, 0.0, 1.0);
+    if (nearest.index != NONE && nearest.front) {
         return miss();
     }
     return Hit(t_in, e, plane_normal(e, span.plane_in));
+}
+
+struct FirstTriangle {
+    t: f32,
+    front: bool,
+    index: u32,
+}
+
+// geometry.rs first_triangle (index: into the whole triangle array; NONE when none is met)
+fn first_triangle(e: u32, origin: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -> FirstTriangle {
+    var first = FirstTriangle(infinity(), false, NONE);
+    let start = triangle_offsets[e];
+    let end = triangle_offsets[e + 1u];
+    let groups = triangle_group_offsets[e];
+    for (var g = groups; g < triangle_group_offsets[e + 1u]; g++) {
+        if (!segment_meets_box(origin, direction, t0, t1, triangle_groups[2u * g].xyz, triangle_groups[2u * g + 1u].xyz)) {
+            continue;
+        }
+        let group_start = start + (g - groups) * TRIANGLE_GROUP;
+        for (var k = group_start; k < min(group_start + TRIANGLE_GROUP, end); k++) {
+            let hit = triangle_hit(origin, direction, k);
+            if (hit.hit && hit.t >= t0 && hit.t <= t1 && (first.index == NONE || hit.t < first.t)) {
+                first = FirstTriangle(hit.t, hit.front, k);
+            }
+        }
+    }
+    return first;
+}
+
+// geometry.rs segment_meets_box
+fn segment_meets_box(origin: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32, lo: vec3<f32>, hi: vec3<f32>) -> bool {
+    var near = t0;
+    var far = t1;
+    for (var axis = 0u; axis < 3u; axis++) {
+        if (direction[axis] == 0.0) {
+            if (origin[axis] < lo[axis] || origin[axis] > hi[axis]) {
+                return false;
+            }
+            continue;
+        }
+        let inverse = 1.0 / direction[axis];
+        let a = (lo[axis] - origin[axis]) * inverse;
+        let b = (hi[axis] - origin[axis]) * inverse;
+        near = max(near, min(a, b));
+        far = min(far, max(a, b));
+    }
+    return near <= far;
 }
 
 // trace.rs element_hit

@@ -3,6 +3,8 @@
 //! Fig. 4 for cells with embedded surface triangles. Written as plain functions of plain data to
 //! read like their twins in `shaders/trace.wgsl`.
 
+use crate::kdtree::Aabb;
+
 /// A plane [nx, ny, nz, d] with unit outward normal n: inside where n . x <= d.
 pub type Plane = [f32; 4];
 
@@ -157,14 +159,17 @@ pub enum TrimtopeHit {
 }
 
 /// The rules of Levine et al.'s Fig. 4 for a ray meeting a Voronoi cell (`planes`, site `site`)
-/// with embedded triangles, starting no earlier than `t_min`. Within the cell, the first
-/// triangle the ray meets decides: front side first (it enters the surface there) is a surface
-/// hit (C); back side first (it was inside already) is a hit on the entry face (D). Meeting no
-/// triangle, a secondary ray from the entry point to the site decides: a front side on the way
-/// means the entry point is outside the surface, a miss (A); otherwise a hit on the entry face (B).
+/// with embedded triangles (and their [`triangle_groups`]), starting no earlier than `t_min`.
+/// Within the cell, the first triangle the ray meets decides: front side first (it enters the
+/// surface there) is a surface hit (C); back side first (it was inside already) is a hit on the
+/// entry face (D). Meeting no triangle, a secondary ray from the entry point to the site decides:
+/// a front side on the way means the entry point is outside the surface, a miss (A); otherwise a
+/// hit on the entry face (B).
+#[allow(clippy::too_many_arguments)]
 pub fn trimtope_hit(
     planes: &[Plane],
     triangles: &[[[f32; 3]; 3]],
+    groups: &[Aabb],
     site: [f32; 3],
     slack: f32,
     origin: [f32; 3],
@@ -180,34 +185,115 @@ pub fn trimtope_hit(
     if t_in > t_out {
         return TrimtopeHit::Miss;
     }
-    let mut first: Option<(f32, bool, u32)> = None;
-    for (index, triangle) in triangles.iter().enumerate() {
-        if let Some((t, front)) = triangle_hit(origin, direction, triangle) {
-            if t >= t_in && t <= t_out && first.is_none_or(|(best, _, _)| t < best) {
-                first = Some((t, front, index as u32));
-            }
-        }
-    }
-    match first {
+    match first_triangle(triangles, groups, origin, direction, t_in, t_out) {
         Some((t, true, triangle)) => TrimtopeHit::Surface { t, triangle },
         Some((_, false, _)) => TrimtopeHit::Face { t: t_in, plane: span.plane_in },
         None => {
             let entry = along(origin, direction, t_in);
             let to_site = sub(site, entry);
-            let mut nearest: Option<(f32, bool)> = None;
-            for triangle in triangles {
-                if let Some((t, front)) = triangle_hit(entry, to_site, triangle) {
-                    if (0.0..=1.0).contains(&t) && nearest.is_none_or(|(best, _)| t < best) {
-                        nearest = Some((t, front));
-                    }
-                }
-            }
-            match nearest {
-                Some((_, true)) => TrimtopeHit::Miss,
+            match first_triangle(triangles, groups, entry, to_site, 0.0, 1.0) {
+                Some((_, true, _)) => TrimtopeHit::Miss,
                 _ => TrimtopeHit::Face { t: t_in, plane: span.plane_in },
             }
         }
     }
+}
+
+/// The first of `triangles` the ray meets with a parameter in [t0, t1]: its parameter, whether
+/// it was met from the front, and its index (the lowest index among equal parameters). Groups of
+/// triangles whose bounds the segment misses are skipped.
+fn first_triangle(
+    triangles: &[[[f32; 3]; 3]],
+    groups: &[Aabb],
+    origin: [f32; 3],
+    direction: [f32; 3],
+    t0: f32,
+    t1: f32,
+) -> Option<(f32, bool, u32)> {
+    let mut first: Option<(f32, bool, u32)> = None;
+    for (group, bounds) in groups.iter().enumerate() {
+        if !segment_meets_box(origin, direction, t0, t1, bounds) {
+            continue;
+        }
+        let start = group * TRIANGLE_GROUP;
+        let members = triangles[start..].iter().take(TRIANGLE_GROUP);
+        for (index, triangle) in (start..).zip(members) {
+            if let Some((t, front)) = triangle_hit(origin, direction, triangle) {
+                if t >= t0 && t <= t1 && first.is_none_or(|(best, _, _)| t < best) {
+                    first = Some((t, front, index as u32));
+                }
+            }
+        }
+    }
+    first
+}
+
+/// A trimtope's surface triangles are tested in groups of this many consecutive ones, each
+/// behind a bounding box: a ray through a cell that carries hundreds of triangles tests the few
+/// groups near its path.
+pub const TRIANGLE_GROUP: usize = 16;
+
+/// Orders `triangles` along a Z-order curve of their centroids, so that the groups of
+/// [`TRIANGLE_GROUP`] consecutive triangles are compact.
+pub fn sort_triangles_spatially(triangles: &mut [[[f32; 3]; 3]]) {
+    if triangles.len() <= TRIANGLE_GROUP {
+        return;
+    }
+    let centroid = |t: &[[f32; 3]; 3]| [0, 1, 2].map(|a| (t[0][a] + t[1][a] + t[2][a]) / 3.0);
+    let bounds = triangles.iter().fold(Aabb::EMPTY, |b, t| {
+        let c = centroid(t);
+        b.union(&Aabb { min: c, max: c })
+    });
+    let code = |t: &[[f32; 3]; 3]| {
+        let c = centroid(t);
+        let cell = [0, 1, 2].map(|a| {
+            let extent = bounds.max[a] - bounds.min[a];
+            let unit = if extent > 0.0 { (c[a] - bounds.min[a]) / extent } else { 0.0 };
+            (unit * 1023.0) as u32
+        });
+        (0..10).fold(0u32, |code, bit| {
+            code | ((cell[0] >> bit & 1) << (3 * bit))
+                | ((cell[1] >> bit & 1) << (3 * bit + 1))
+                | ((cell[2] >> bit & 1) << (3 * bit + 2))
+        })
+    };
+    triangles.sort_by_cached_key(code);
+}
+
+/// Bounds of each group of [`TRIANGLE_GROUP`] consecutive `triangles`, widened by 1e-3 of the
+/// group's size and 1e-6 of its distance from the origin, so that rounding in the ray tests never
+/// skips a group holding a hit.
+pub fn triangle_groups(triangles: &[[[f32; 3]; 3]]) -> Vec<Aabb> {
+    triangles
+        .chunks(TRIANGLE_GROUP)
+        .map(|group| {
+            let b = group.iter().flatten().fold(Aabb::EMPTY, |b, v| b.union(&Aabb { min: *v, max: *v }));
+            let size = (0..3).map(|a| b.max[a] - b.min[a]).fold(0.0f32, f32::max);
+            let far = b.min.iter().chain(&b.max).fold(0.0f32, |m, v| m.max(v.abs()));
+            let pad = 1e-3 * size + 1e-6 * far;
+            Aabb { min: b.min.map(|v| v - pad), max: b.max.map(|v| v + pad) }
+        })
+        .collect()
+}
+
+/// Whether the segment `origin + t direction`, t in [t0, t1], meets the box (slab test; an axis
+/// the direction does not move along needs the origin within the slab).
+pub fn segment_meets_box(origin: [f32; 3], direction: [f32; 3], t0: f32, t1: f32, bounds: &Aabb) -> bool {
+    let (mut near, mut far) = (t0, t1);
+    for axis in 0..3 {
+        if direction[axis] == 0.0 {
+            if origin[axis] < bounds.min[axis] || origin[axis] > bounds.max[axis] {
+                return false;
+            }
+            continue;
+        }
+        let inverse = 1.0 / direction[axis];
+        let a = (bounds.min[axis] - origin[axis]) * inverse;
+        let b = (bounds.max[axis] - origin[axis]) * inverse;
+        near = near.max(a.min(b));
+        far = far.min(a.max(b));
+    }
+    near <= far
 }
 
 #[cfg(test)]
@@ -252,7 +338,7 @@ mod tests {
     fn the_four_cases_of_fig_4() {
         let (planes, triangles, site) = cell();
         let hit = |origin: [f32; 3], direction: [f32; 3]| {
-            trimtope_hit(&planes, &triangles, site, 0.0, origin, direction, 0.0)
+            trimtope_hit(&planes, &triangles, &triangle_groups(&triangles), site, 0.0, origin, direction, 0.0)
         };
         // A: enters and leaves above the surface (outside the solid), no triangle on the way:
         // the secondary ray to the site crosses the surface's front: a miss
@@ -265,5 +351,55 @@ mod tests {
         // D: comes up from below: meets the surface's back first, so the entry face is the hit
         let d = hit([0.1, 0.1, -2.0], [0.0, 0.0, 1.0]);
         assert_eq!(d, TrimtopeHit::Face { t: 1.5, plane: 5 });
+    }
+
+    /// Grouping only skips work: against a cell carrying hundreds of random triangles, random
+    /// rays get the same answer with the groups' bounds as with bounds that skip nothing.
+    #[test]
+    fn triangle_groups_change_no_answer() {
+        let mut state = 7u64;
+        let mut r = move || {
+            state = shatter_core::random::splitmix64(state);
+            (state >> 40) as f32 / (1u64 << 24) as f32 - 0.5
+        };
+        let planes = cube_planes([0.0; 3], 0.5, AXES);
+        let mut triangles: Vec<[[f32; 3]; 3]> = (0..300)
+            .map(|_| {
+                let centre = [r(), r(), r()];
+                [0, 1, 2].map(|_| [0, 1, 2].map(|a| centre[a] + 0.1 * r()))
+            })
+            .collect();
+        sort_triangles_spatially(&mut triangles);
+        let groups = triangle_groups(&triangles);
+        assert_eq!(groups.len(), 300usize.div_ceil(TRIANGLE_GROUP));
+        let everywhere = vec![Aabb { min: [f32::NEG_INFINITY; 3], max: [f32::INFINITY; 3] }; groups.len()];
+        let mut kinds = [0usize; 3];
+        for _ in 0..4000 {
+            let origin = [4.0 * r(), 4.0 * r(), 4.0 * r()];
+            let target = [r(), r(), r()];
+            let direction = [0, 1, 2].map(|a| target[a] - origin[a]);
+            let site = [0.02 * r(), 0.02 * r(), 0.02 * r()];
+            let grouped = trimtope_hit(&planes, &triangles, &groups, site, 0.0, origin, direction, 0.0);
+            let brute = trimtope_hit(&planes, &triangles, &everywhere, site, 0.0, origin, direction, 0.0);
+            assert_eq!(grouped, brute);
+            kinds[match grouped {
+                TrimtopeHit::Miss => 0,
+                TrimtopeHit::Face { .. } => 1,
+                TrimtopeHit::Surface { .. } => 2,
+            }] += 1;
+        }
+        assert!(kinds.iter().all(|&k| k > 100), "every kind of answer is exercised: {kinds:?}");
+    }
+
+    #[test]
+    fn a_segment_meets_a_box_only_within_its_parameter_range() {
+        let unit = Aabb { min: [0.0; 3], max: [1.0; 3] };
+        let (origin, direction) = ([-1.0, 0.5, 0.5], [1.0, 0.0, 0.0]);
+        assert!(segment_meets_box(origin, direction, 0.0, 10.0, &unit));
+        assert!(segment_meets_box(origin, direction, 1.5, 1.6, &unit));
+        assert!(!segment_meets_box(origin, direction, 0.0, 0.9, &unit));
+        assert!(!segment_meets_box(origin, direction, 2.1, 3.0, &unit));
+        assert!(!segment_meets_box([-1.0, 1.5, 0.5], direction, 0.0, 10.0, &unit), "parallel, outside the slab");
+        assert!(segment_meets_box([0.5, 0.5, 3.0], [0.0, 0.0, -1.0], 2.0, 2.5, &unit));
     }
 }

@@ -6,6 +6,7 @@ use bytemuck::{Pod, Zeroable};
 use shatter_core::particles::ElementType;
 use shatter_gpu::{ComputeKernel, GpuContext, GpuError, wgpu};
 
+use crate::geometry::TRIANGLE_GROUP;
 use crate::scene::{Camera, SceneGeometry};
 use crate::trace::{Look, Pixel};
 
@@ -55,7 +56,8 @@ pub struct GpuTracer {
 impl GpuTracer {
     /// Compiles the tracer for `ctx`.
     pub fn new(ctx: &GpuContext) -> Result<GpuTracer, GpuError> {
-        Ok(GpuTracer { kernel: ComputeKernel::new(ctx, "trace.wgsl", SHADER)? })
+        let source = format!("const TRIANGLE_GROUP: u32 = {TRIANGLE_GROUP}u;\n{SHADER}");
+        Ok(GpuTracer { kernel: ComputeKernel::new(ctx, "trace.wgsl", &source)? })
     }
 
     /// Traces every pixel of `camera`'s image with `samples` samples each, like
@@ -79,6 +81,11 @@ impl GpuTracer {
         let triangle_offsets = ctx.create_storage_buffer("triangle offsets", &scene.triangle_offsets)?;
         let triangles: Vec<[f32; 4]> = scene.triangles.iter().flat_map(|t| t.map(|v| vec4(v, 0.0))).collect();
         let triangles = ctx.create_storage_buffer("triangles", &non_empty(triangles))?;
+        let triangle_group_offsets =
+            ctx.create_storage_buffer("triangle group offsets", &scene.triangle_group_offsets)?;
+        let triangle_groups: Vec<[f32; 4]> =
+            scene.triangle_groups.iter().flat_map(|b| [vec4(b.min, 0.0), vec4(b.max, 0.0)]).collect();
+        let triangle_groups = ctx.create_storage_buffer("triangle groups", &non_empty(triangle_groups))?;
         let sites: Vec<[f32; 4]> = scene.sites.iter().map(|s| vec4(*s, 0.0)).collect();
         let sites = ctx.create_storage_buffer("sites", &non_empty(sites))?;
         let fragments = ctx.create_storage_buffer(
@@ -156,6 +163,8 @@ impl GpuTracer {
                     environment.as_entire_binding(),
                     floor_texels.as_entire_binding(),
                     output_slice,
+                    triangle_group_offsets.as_entire_binding(),
+                    triangle_groups.as_entire_binding(),
                 ],
             )?;
             self.kernel.dispatch_invocations(ctx, &[&group], u64::from(count))?;

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 use shatter_core::fragments::FragmentFrame;
 use shatter_core::particles::{ElementType, Elements, ParticleSet};
 
-use crate::geometry::{Plane, WIDEN, cube_planes, tet_planes};
+use crate::geometry::{Plane, WIDEN, cube_planes, sort_triangles_spatially, tet_planes, triangle_groups};
 use crate::kdtree::{Aabb, KdTree};
 
 /// One element's planes, triangles, site and bounds.
@@ -24,8 +24,12 @@ pub struct SceneGeometry {
     pub planes: Vec<Plane>,
     /// Offsets into `triangles` (trimtopes; all zero otherwise).
     pub triangle_offsets: Vec<u32>,
-    /// Embedded surface triangles of trimtopes, outward winding.
+    /// Embedded surface triangles of trimtopes, outward winding, each element's in Z order.
     pub triangles: Vec<[[f32; 3]; 3]>,
+    /// Offsets into `triangle_groups`, one more than there are elements.
+    pub triangle_group_offsets: Vec<u32>,
+    /// Bounds of each element's groups of [`crate::geometry::TRIANGLE_GROUP`] consecutive triangles.
+    pub triangle_groups: Vec<Aabb>,
     /// A point inside each element (a trimtope's Voronoi site).
     pub sites: Vec<[f32; 3]>,
     /// The fragment of each element.
@@ -55,6 +59,11 @@ impl SceneGeometry {
     /// Element `e`'s surface triangles.
     pub fn triangles_of(&self, e: usize) -> &[[[f32; 3]; 3]] {
         &self.triangles[self.triangle_offsets[e] as usize..self.triangle_offsets[e + 1] as usize]
+    }
+
+    /// Bounds of element `e`'s groups of surface triangles.
+    pub fn triangle_groups_of(&self, e: usize) -> &[Aabb] {
+        &self.triangle_groups[self.triangle_group_offsets[e] as usize..self.triangle_group_offsets[e + 1] as usize]
     }
 
     /// The scene of `particles` moved by `fragments` (the rest state when None).
@@ -108,11 +117,12 @@ impl SceneGeometry {
                                 [n.x, n.y, n.z, p[3] + n.dot(t)]
                             })
                             .collect();
-                        let triangles: Vec<[[f32; 3]; 3]> = triangles_m
+                        let mut triangles: Vec<[[f32; 3]; 3]> = triangles_m
                             [triangle_offsets[e] as usize..triangle_offsets[e + 1] as usize]
                             .iter()
                             .map(|tri| tri.map(place))
                             .collect();
+                        sort_triangles_spatially(&mut triangles);
                         let bounds = polytope_bounds(&moved_planes, site);
                         (moved_planes, triangles, site, bounds)
                     }
@@ -126,6 +136,8 @@ impl SceneGeometry {
             planes: Vec::new(),
             triangle_offsets: Vec::with_capacity(n + 1),
             triangles: Vec::new(),
+            triangle_group_offsets: Vec::with_capacity(n + 1),
+            triangle_groups: Vec::new(),
             sites: Vec::with_capacity(n),
             fragment,
             tree: KdTree::build(&[]),
@@ -133,11 +145,14 @@ impl SceneGeometry {
         };
         scene.plane_offsets.push(0);
         scene.triangle_offsets.push(0);
+        scene.triangle_group_offsets.push(0);
         let slack = scene.slack;
         let mut bounds = Vec::with_capacity(n);
         for (planes, triangles, site, b) in per_element {
             scene.planes.extend(planes);
             scene.plane_offsets.push(scene.planes.len() as u32);
+            scene.triangle_groups.extend(triangle_groups(&triangles));
+            scene.triangle_group_offsets.push(scene.triangle_groups.len() as u32);
             scene.triangles.extend(triangles);
             scene.triangle_offsets.push(scene.triangles.len() as u32);
             scene.sites.push(site);

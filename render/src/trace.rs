@@ -40,7 +40,8 @@ impl Hit {
 pub fn element_hit(scene: &SceneGeometry, e: usize, origin: [f32; 3], direction: [f32; 3], t_min: f32) -> Hit {
     let planes = scene.planes_of(e);
     if scene.element_type == ElementType::Trimtope {
-        let hit = trimtope_hit(planes, scene.triangles_of(e), scene.sites[e], scene.slack, origin, direction, t_min);
+        let (triangles, groups) = (scene.triangles_of(e), scene.triangle_groups_of(e));
+        let hit = trimtope_hit(planes, triangles, groups, scene.sites[e], scene.slack, origin, direction, t_min);
         return match hit {
             TrimtopeHit::Miss => Hit::MISS,
             TrimtopeHit::Face { t, plane } => {

@@ -161,6 +161,13 @@ fn clip(polygon: &[[f32; 3]], plane: [f32; 4]) -> Vec<[f32; 3]> {
     out
 }
 
+/// The four triangles of `t` cut at its edges' midpoints, wound as `t`.
+fn split_in_four(t: [[f32; 3]; 3]) -> [[[f32; 3]; 3]; 4] {
+    let mid = |a: [f32; 3], b: [f32; 3]| [0, 1, 2].map(|k| 0.5 * (a[k] + b[k]));
+    let (ab, bc, ca) = (mid(t[0], t[1]), mid(t[1], t[2]), mid(t[2], t[0]));
+    [[t[0], ab, ca], [ab, t[1], bc], [ca, bc, t[2]], [ab, bc, ca]]
+}
+
 #[test]
 fn gpu_and_cpu_agree_on_trimtopes_with_an_embedded_surface() {
     // Cube cells on a lattice under a tilted surface z = 0.3 x + 0.02 (outward +z): cells whose
@@ -210,7 +217,8 @@ fn gpu_and_cpu_agree_on_trimtopes_with_an_embedded_surface() {
                     if n[0] * normal[0] + n[2] * normal[2] < 0.0 {
                         t.swap(1, 2);
                     }
-                    triangles.push(t);
+                    // split in 16, so cells carry several groups of triangles
+                    triangles.extend(split_in_four(t).into_iter().flat_map(split_in_four));
                 }
                 sites.push(c);
                 planes.extend(cell);
