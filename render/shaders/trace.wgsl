@@ -248,7 +248,7 @@ fn segment_meets_box(origin: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32, 
         near = max(near, min(a, b));
         far = min(far, max(a, b));
     }
-    return near <= far;
+    return near <= far + 1e-5 * abs(far);
 }
 
 // trace.rs element_hit

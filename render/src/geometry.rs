@@ -277,7 +277,8 @@ pub fn triangle_groups(triangles: &[[[f32; 3]; 3]]) -> Vec<Aabb> {
 }
 
 /// Whether the segment `origin + t direction`, t in [t0, t1], meets the box (slab test; an axis
-/// the direction does not move along needs the origin within the slab).
+/// the direction does not move along needs the origin within the slab), with a margin of 1e-5
+/// of the exit parameter.
 pub fn segment_meets_box(origin: [f32; 3], direction: [f32; 3], t0: f32, t1: f32, bounds: &Aabb) -> bool {
     let (mut near, mut far) = (t0, t1);
     for axis in 0..3 {
@@ -293,7 +294,8 @@ pub fn segment_meets_box(origin: [f32; 3], direction: [f32; 3], t0: f32, t1: f32
         near = near.max(a.min(b));
         far = far.min(a.max(b));
     }
-    near <= far
+    // the relative margin covers rounding that grows with the distance from the ray's origin
+    near <= far + 1e-5 * far.abs()
 }
 
 #[cfg(test)]

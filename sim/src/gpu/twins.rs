@@ -345,7 +345,7 @@ pub fn collisions(
             let d = sub(p, add(xyz(body[2 * j as usize]), xyz(body[2 * j as usize + 1])));
             let r2 = dot3(d, d);
             let xi = sub(x, xyz(body[2 * j as usize]));
-            let reach = params.contact_distance.min(dot3(xi, xi).sqrt());
+            let reach = crate::contact::contact_reach(params.contact_distance, dot3(xi, xi));
             if r2 >= reach * reach || r2 == 0.0 || bonded(row, j, neighbor, bits) {
                 continue;
             }
