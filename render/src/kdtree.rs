@@ -69,40 +69,11 @@ impl KdTree {
             tree.nodes.push([LEAF, 0]);
             return tree;
         }
-        let max_depth = (8.0 + 1.3 * (bounds.len() as f32).log2()) as usize;
         let all: Vec<u32> = (0..bounds.len() as u32).collect();
-        tree.build_node(bounds, all, scene, max_depth);
+        let (nodes, items) = build_subtree(bounds, all, scene, max_depth(bounds.len()));
+        tree.nodes = nodes;
+        tree.items = items;
         tree
-    }
-
-    fn build_node(&mut self, bounds: &[Aabb], items: Vec<u32>, node_box: Aabb, depth_left: usize) {
-        let here = self.nodes.len();
-        let split =
-            if items.len() <= LEAF_SIZE || depth_left == 0 { None } else { best_split(bounds, &items, &node_box) };
-        let Some((axis, position)) = split else {
-            self.nodes.push([((self.items.len() as u32) << 2) | LEAF, items.len() as u32]);
-            self.items.extend_from_slice(&items);
-            return;
-        };
-        let (mut left, mut right) = (Vec::new(), Vec::new());
-        for &item in &items {
-            let b = &bounds[item as usize];
-            if b.min[axis] < position || (b.min[axis] == position && b.max[axis] == position) {
-                left.push(item);
-            }
-            if b.max[axis] > position {
-                right.push(item);
-            }
-        }
-        drop(items);
-        let (mut left_box, mut right_box) = (node_box, node_box);
-        left_box.max[axis] = position;
-        right_box.min[axis] = position;
-        self.nodes.push([0, position.to_bits()]);
-        self.build_node(bounds, left, left_box, depth_left - 1);
-        let far = self.nodes.len() as u32;
-        self.build_node(bounds, right, right_box, depth_left - 1);
-        self.nodes[here][0] = (far << 2) | axis as u32;
     }
 
     /// Traverses the tree front to back along the ray `origin + t direction`, t in
@@ -228,6 +199,106 @@ fn clip(bounds: &Aabb, origin: [f32; 3], inverse: [f32; 3], t_start: f32, t_end:
     (near <= far).then_some((near, far))
 }
 
+/// The deepest a tree over `count` primitives goes (pbrt's rule).
+fn max_depth(count: usize) -> usize {
+    (8.0 + 1.3 * (count as f32).log2()) as usize
+}
+
+/// Subtrees with at least this many items are built in parallel with their sibling.
+const PARALLEL_ITEMS: usize = 4096;
+
+/// Builds the subtree over `items` within `node_box`: its nodes (depth first, child links and
+/// leaf offsets relative to the subtree's own arrays) and leaf item lists. The two children of a
+/// large node are built in parallel and spliced, left then right, so the result is the same as
+/// a sequential depth-first build whatever the thread count.
+fn build_subtree(bounds: &[Aabb], items: Vec<u32>, node_box: Aabb, depth_left: usize) -> (Vec<[u32; 2]>, Vec<u32>) {
+    let (mut nodes, mut leaf_items) = (Vec::new(), Vec::new());
+    if items.len() < PARALLEL_ITEMS {
+        build_into(&mut nodes, &mut leaf_items, bounds, items, node_box, depth_left);
+        return (nodes, leaf_items);
+    }
+    let ((axis, position), (left, left_box), (right, right_box)) = match split_node(bounds, items, node_box, depth_left)
+    {
+        Ok(split) => split,
+        Err(items) => return (vec![[LEAF, items.len() as u32]], items),
+    };
+    let ((left_nodes, left_items), (right_nodes, right_items)) = rayon::join(
+        || build_subtree(bounds, left, left_box, depth_left - 1),
+        || build_subtree(bounds, right, right_box, depth_left - 1),
+    );
+    let far = 1 + left_nodes.len() as u32;
+    nodes.reserve(1 + left_nodes.len() + right_nodes.len());
+    nodes.push([(far << 2) | axis as u32, position.to_bits()]);
+    nodes.extend(left_nodes.iter().map(|node| relocate(*node, 1, 0)));
+    nodes.extend(right_nodes.iter().map(|node| relocate(*node, far, left_items.len() as u32)));
+    leaf_items = left_items;
+    leaf_items.extend(right_items);
+    (nodes, leaf_items)
+}
+
+/// Appends the subtree over `items` within `node_box` to `nodes` and `leaf_items`, depth first.
+fn build_into(
+    nodes: &mut Vec<[u32; 2]>,
+    leaf_items: &mut Vec<u32>,
+    bounds: &[Aabb],
+    items: Vec<u32>,
+    node_box: Aabb,
+    depth_left: usize,
+) {
+    let here = nodes.len();
+    match split_node(bounds, items, node_box, depth_left) {
+        Err(items) => {
+            nodes.push([((leaf_items.len() as u32) << 2) | LEAF, items.len() as u32]);
+            leaf_items.extend_from_slice(&items);
+        }
+        Ok(((axis, position), (left, left_box), (right, right_box))) => {
+            nodes.push([0, position.to_bits()]);
+            build_into(nodes, leaf_items, bounds, left, left_box, depth_left - 1);
+            let far = nodes.len() as u32;
+            build_into(nodes, leaf_items, bounds, right, right_box, depth_left - 1);
+            nodes[here][0] = (far << 2) | axis as u32;
+        }
+    }
+}
+
+/// One side of a split: its items and box.
+type Side = (Vec<u32>, Aabb);
+
+/// The SAH split of a node, if splitting pays: (axis, position) and the two sides' items (an
+/// item straddling the plane goes to both) and boxes; else the items back, for a leaf.
+#[allow(clippy::type_complexity)]
+fn split_node(
+    bounds: &[Aabb],
+    items: Vec<u32>,
+    node_box: Aabb,
+    depth_left: usize,
+) -> Result<((usize, f32), Side, Side), Vec<u32>> {
+    let split = if items.len() <= LEAF_SIZE || depth_left == 0 { None } else { best_split(bounds, &items, &node_box) };
+    let Some((axis, position)) = split else {
+        return Err(items);
+    };
+    let (mut left, mut right) = (Vec::new(), Vec::new());
+    for &item in &items {
+        let b = &bounds[item as usize];
+        if b.min[axis] < position || (b.min[axis] == position && b.max[axis] == position) {
+            left.push(item);
+        }
+        if b.max[axis] > position {
+            right.push(item);
+        }
+    }
+    let (mut left_box, mut right_box) = (node_box, node_box);
+    left_box.max[axis] = position;
+    right_box.min[axis] = position;
+    Ok(((axis, position), (left, left_box), (right, right_box)))
+}
+
+/// `node` moved into a larger tree whose node array holds it `node_offset` further on and whose
+/// item array holds its leaf's items `item_offset` further on.
+fn relocate([a, b]: [u32; 2], node_offset: u32, item_offset: u32) -> [u32; 2] {
+    if a & 3 == LEAF { [a + (item_offset << 2), b] } else { [a + (node_offset << 2), b] }
+}
+
 /// The SAH-best split of `items` in `node_box`, if any beats making a leaf.
 fn best_split(bounds: &[Aabb], items: &[u32], node_box: &Aabb) -> Option<(usize, f32)> {
     let area = node_box.area();
@@ -235,34 +306,39 @@ fn best_split(bounds: &[Aabb], items: &[u32], node_box: &Aabb) -> Option<(usize,
         return None;
     }
     let leaf_cost = INTERSECTION_COST * items.len() as f32;
+    let lo = node_box.min;
+    let width = [0, 1, 2].map(|axis| (node_box.max[axis] - lo[axis]) / BINS as f32);
+    let bin = |x: f32, axis: usize| (((x - lo[axis]) / width[axis]) as isize).clamp(0, BINS as isize - 1) as usize;
+    // Counts of items starting and ending in each bin, all three axes in one pass over the items.
+    let mut starts = [[0u32; BINS]; 3];
+    let mut ends = [[0u32; BINS]; 3];
+    for &item in items {
+        let b = &bounds[item as usize];
+        for axis in 0..3 {
+            starts[axis][bin(b.min[axis], axis)] += 1;
+            ends[axis][bin(b.max[axis], axis)] += 1;
+        }
+    }
     let mut best: Option<(f32, usize, f32)> = None;
     for axis in 0..3 {
-        let (lo, hi) = (node_box.min[axis], node_box.max[axis]);
-        if hi <= lo {
+        if node_box.max[axis] <= lo[axis] {
             continue;
         }
-        let width = (hi - lo) / BINS as f32;
-        // Counts of items starting and ending in each bin.
-        let mut starts = [0u32; BINS];
-        let mut ends = [0u32; BINS];
-        let bin = |x: f32| (((x - lo) / width) as isize).clamp(0, BINS as isize - 1) as usize;
-        for &item in items {
-            let b = &bounds[item as usize];
-            starts[bin(b.min[axis])] += 1;
-            ends[bin(b.max[axis])] += 1;
-        }
+        // A child of extent e along the axis has area 2 (d1 d2 + e (d1 + d2)), with d1 and d2
+        // the node's other two extents: cross_area + perimeter * e.
+        let hi = node_box.max[axis];
+        let [d1, d2] = [(axis + 1) % 3, (axis + 2) % 3].map(|a| (node_box.max[a] - node_box.min[a]).max(0.0));
+        let (cross_area, perimeter) = (2.0 * d1 * d2, 2.0 * (d1 + d2));
         let total = items.len() as u32;
         let (mut left_count, mut right_count) = (0u32, total);
         for plane in 1..BINS {
-            left_count += starts[plane - 1];
-            right_count -= ends[plane - 1];
-            let position = lo + plane as f32 * width;
-            let (mut left_box, mut right_box) = (*node_box, *node_box);
-            left_box.max[axis] = position;
-            right_box.min[axis] = position;
+            left_count += starts[axis][plane - 1];
+            right_count -= ends[axis][plane - 1];
+            let position = lo[axis] + plane as f32 * width[axis];
+            let (left_area, right_area) =
+                (cross_area + perimeter * (position - lo[axis]), cross_area + perimeter * (hi - position));
             let cost = TRAVERSAL_COST
-                + INTERSECTION_COST * (left_box.area() * left_count as f32 + right_box.area() * right_count as f32)
-                    / area;
+                + INTERSECTION_COST * (left_area * left_count as f32 + right_area * right_count as f32) / area;
             if best.is_none_or(|(c, _, _)| cost < c) {
                 best = Some((cost, axis, position));
             }
@@ -298,7 +374,7 @@ mod tests {
 
     #[test]
     fn traversal_finds_the_nearest_box_like_brute_force() {
-        let bounds = boxes(1, 2000);
+        let bounds = boxes(1, 12_000);
         let tree = KdTree::build(&bounds);
         let mut rng = shatter_core::random::SplitMix64::new(2);
         let mut r = move || rng.next_f64() as f32;
@@ -344,5 +420,18 @@ mod tests {
             0.0
         });
         assert_eq!(calls, 0);
+    }
+
+    /// The parallel build splices its subtrees into exactly the sequential depth-first layout.
+    #[test]
+    fn the_parallel_build_lays_the_tree_out_as_the_sequential_one() {
+        let bounds = boxes(5, 20_000);
+        let tree = KdTree::build(&bounds);
+        let (mut nodes, mut items) = (Vec::new(), Vec::new());
+        let all = (0..bounds.len() as u32).collect();
+        build_into(&mut nodes, &mut items, &bounds, all, tree.bounds, max_depth(bounds.len()));
+        assert!(nodes.len() > 1000, "a deep tree: {} nodes", nodes.len());
+        assert_eq!(tree.nodes, nodes);
+        assert_eq!(tree.items, items);
     }
 }
