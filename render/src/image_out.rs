@@ -5,8 +5,8 @@ use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
 use exr::prelude::{
-    AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, SmallVec, Text, WritableImage, f16,
-    read_all_flat_layers_from_file,
+    AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, LineOrder, SmallVec, Text,
+    WritableImage, f16, read_all_flat_layers_from_file,
 };
 
 use crate::trace::Pixel;
@@ -58,7 +58,10 @@ pub fn write_exr(path: &Path, width: usize, height: usize, pixels: &[Pixel], com
         software_name: Some(Text::from("shatter")),
         ..LayerAttributes::default()
     };
-    let layer = Layer::new((width, height), attributes, Encoding::FAST_LOSSLESS, channels);
+    // Increasing line order: blocks compressed in parallel are still written in order, so the
+    // same pixels always make the same bytes (FAST_LOSSLESS alone leaves the order unspecified).
+    let encoding = Encoding { line_order: LineOrder::Increasing, ..Encoding::FAST_LOSSLESS };
+    let layer = Layer::new((width, height), attributes, encoding, channels);
     let mut bytes = Cursor::new(Vec::new());
     Image::from_layer(layer)
         .write()
@@ -171,5 +174,31 @@ mod tests {
         let png = dir.path().join("shot.0001.png");
         write_png(&png, 4, 3, &pixels, 0.0).expect("png");
         assert_eq!(image::open(&png).expect("png reads").width(), 4);
+    }
+
+    /// Blocks are compressed in parallel; the file's bytes must not depend on which finished
+    /// first (render farms and `shatter run` compare frames byte for byte).
+    #[test]
+    fn the_same_pixels_always_make_the_same_exr_bytes() {
+        let (width, height) = (96, 200);
+        let pixels: Vec<Pixel> = (0..width * height)
+            .map(|i| Pixel {
+                color: [(i % 97) as f32 * 0.01, (i % 13) as f32, 0.25],
+                alpha: 1.0,
+                depth: 1.0 + (i % 31) as f32,
+                normal: [0.0, 0.0, 1.0],
+                fragment: (i / 500) as u32,
+                element: NONE,
+            })
+            .collect();
+        let dir = tempfile::tempdir().expect("tempdir");
+        let bytes: Vec<Vec<u8>> = (0..6)
+            .map(|k| {
+                let path = dir.path().join(format!("shot.{k:04}.exr"));
+                write_exr(&path, width, height, &pixels, "frame").expect("write");
+                std::fs::read(&path).expect("read")
+            })
+            .collect();
+        assert!(bytes.windows(2).all(|pair| pair[0] == pair[1]));
     }
 }
