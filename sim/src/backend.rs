@@ -48,8 +48,21 @@ pub trait Backend {
     fn mass(&self) -> &[f32];
     /// Rest positions, metres.
     fn rest(&self) -> [&[f32]; 3];
-    /// Linear momentum (kg m/s) and angular momentum about the origin (kg m^2/s).
-    fn momentum(&self) -> (DVec3, DVec3);
+    /// Linear momentum (kg m/s) and angular momentum about the origin (kg m^2/s), summed in f64
+    /// in particle order.
+    fn momentum(&self) -> (DVec3, DVec3) {
+        let (mass, rest, dynamics) = (self.mass(), self.rest(), self.dynamics());
+        let mut linear = DVec3::ZERO;
+        let mut angular = DVec3::ZERO;
+        for (i, &m) in mass.iter().enumerate() {
+            let m = f64::from(m);
+            let v = DVec3::from_array([0, 1, 2].map(|a| f64::from(dynamics.vel[a][i])));
+            let x = DVec3::from_array([0, 1, 2].map(|a| f64::from(rest[a][i]) + f64::from(dynamics.disp[a][i])));
+            linear += m * v;
+            angular += m * x.cross(v);
+        }
+        (linear, angular)
+    }
     /// Simulated time, seconds.
     fn time_s(&self) -> f64 {
         self.dynamics().step as f64 * self.model().dt_s
@@ -114,10 +127,6 @@ impl Backend for Simulation {
 
     fn rest(&self) -> [&[f32]; 3] {
         Simulation::rest(self)
-    }
-
-    fn momentum(&self) -> (DVec3, DVec3) {
-        Simulation::momentum(self)
     }
 
     fn time_s(&self) -> f64 {

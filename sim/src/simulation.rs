@@ -334,21 +334,6 @@ impl Simulation {
         energy
     }
 
-    /// Linear momentum (kg m/s) and angular momentum about the origin (kg m^2/s).
-    pub fn momentum(&self) -> (DVec3, DVec3) {
-        let mut linear = DVec3::ZERO;
-        let mut angular = DVec3::ZERO;
-        for i in 0..self.len() {
-            let m = f64::from(self.mass[i]);
-            let v = DVec3::from_array([0, 1, 2].map(|a| f64::from(self.dynamics.vel[a][i])));
-            let x =
-                DVec3::from_array([0, 1, 2].map(|a| f64::from(self.rest[a][i]) + f64::from(self.dynamics.disp[a][i])));
-            linear += m * v;
-            angular += m * x.cross(v);
-        }
-        (linear, angular)
-    }
-
     /// The largest stable time step of the linearised PMB model (Silling and Askari 2005):
     /// min over particles of sqrt(2 m_i / sum_j k_ij / L_ij), seconds.
     pub fn stable_dt_s(&self) -> f64 {

@@ -6,7 +6,7 @@ use std::path::Path;
 use shatter_core::NoProgress;
 use shatter_core::config::PipelineConfig;
 use shatter_core::particles::ParticleSet;
-use shatter_sim::Simulation;
+use shatter_sim::{Backend, Simulation};
 
 const K: f64 = 14.9e9;
 const RHO: f64 = 2200.0;

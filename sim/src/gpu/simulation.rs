@@ -968,20 +968,6 @@ impl Backend for GpuSimulation {
         [&self.rest[0], &self.rest[1], &self.rest[2]]
     }
 
-    fn momentum(&self) -> (DVec3, DVec3) {
-        let mut linear = DVec3::ZERO;
-        let mut angular = DVec3::ZERO;
-        for i in 0..self.len() {
-            let m = f64::from(self.mass[i]);
-            let v = DVec3::from_array([0, 1, 2].map(|a| f64::from(self.dynamics.vel[a][i])));
-            let x =
-                DVec3::from_array([0, 1, 2].map(|a| f64::from(self.rest[a][i]) + f64::from(self.dynamics.disp[a][i])));
-            linear += m * v;
-            angular += m * x.cross(v);
-        }
-        (linear, angular)
-    }
-
     fn stable_dt_s(&self) -> f64 {
         self.stable_dt_s
     }
