@@ -123,7 +123,22 @@ impl ComputeKernel {
     /// [`GpuError::ShaderCompile`] for WGSL errors, [`GpuError::KernelShape`] unless the module has exactly one
     /// entry point and it is `@compute`, [`GpuError::Operation`] if pipeline creation fails.
     pub fn new(ctx: &GpuContext, name: &str, source: &str) -> Result<ComputeKernel, GpuError> {
-        Self::build(ctx, name, source, None)
+        Self::build(ctx, name, source, None, &[])
+    }
+
+    /// As [`ComputeKernel::new`], with values for the shader's pipeline-overridable constants
+    /// (`override NAME: type = default;`; a bool takes 0.0 or 1.0), so one source serves as
+    /// several kernels.
+    ///
+    /// # Errors
+    /// As [`ComputeKernel::new`]; [`GpuError::Operation`] also for a constant the shader lacks.
+    pub fn with_constants(
+        ctx: &GpuContext,
+        name: &str,
+        source: &str,
+        constants: &[(&str, f64)],
+    ) -> Result<ComputeKernel, GpuError> {
+        Self::build(ctx, name, source, None, constants)
     }
 
     /// As [`ComputeKernel::new`], with explicit bind group layouts (group `i` = `layouts[i]`), so bind groups
@@ -137,7 +152,7 @@ impl ComputeKernel {
         source: &str,
         layouts: &[&wgpu::BindGroupLayout],
     ) -> Result<ComputeKernel, GpuError> {
-        Self::build(ctx, name, source, Some(layouts))
+        Self::build(ctx, name, source, Some(layouts), &[])
     }
 
     fn build(
@@ -145,6 +160,7 @@ impl ComputeKernel {
         name: &str,
         source: &str,
         layouts: Option<&[&wgpu::BindGroupLayout]>,
+        constants: &[(&str, f64)],
     ) -> Result<ComputeKernel, GpuError> {
         let compiled = compile(ctx, name, source)?;
         let shape_error = |message: String| GpuError::KernelShape { shader: name.to_owned(), message };
@@ -185,7 +201,10 @@ impl ComputeKernel {
                     layout: pipeline_layout.as_ref(),
                     module: &compiled.module,
                     entry_point: Some(&entry_point),
-                    compilation_options: wgpu::PipelineCompilationOptions::default(),
+                    compilation_options: wgpu::PipelineCompilationOptions {
+                        constants,
+                        ..wgpu::PipelineCompilationOptions::default()
+                    },
                     cache: None,
                 })
             },

@@ -2,6 +2,11 @@
 // per invocation. Also packs the compression boost of the last force pass next to the
 // displacement (the record the spring kernel gathers), advances the clock, and flags the
 // contact lists stale when the particle has moved more than half the skin since their build.
+//
+// With LAND_FIRST (inside a batch of steps) the previous step's velocity update comes first,
+// the same operations as kick_floor: one pass over the particles instead of two.
+
+override LAND_FIRST: bool = false;
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read_write> body: array<vec4<f32>>;
@@ -25,9 +30,22 @@ fn kick_drift(
     workgroupBarrier();
     let i = linear_index(wid, nwg, lid);
     if (i < params.n) {
-        let v = half_kick(vel[i], force[i], params.half_dt);
+        let f = force[i];
         let rest = body[2u * i];
-        let u = body[2u * i + 1u].xyz + params.dt * v.xyz;
+        let record = body[2u * i + 1u];
+        var v = vel[i];
+        if (LAND_FIRST) {
+            v = floor_bounce(
+                half_kick(v, f, params.half_dt),
+                rest.y,
+                record.y,
+                params.floor_enabled,
+                params.floor_height,
+                params.restitution,
+            );
+        }
+        v = half_kick(v, f, params.half_dt);
+        let u = record.xyz + params.dt * v.xyz;
         vel[i] = v;
         body[2u * i + 1u] = vec4<f32>(u, boost_next[i]);
         let d = rest.xyz + u - built_at[i].xyz;

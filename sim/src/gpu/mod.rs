@@ -7,8 +7,8 @@
 //! [`twins`]. A step is, in one compute pass (and a batch of up to [`BATCH`] steps in one
 //! submission):
 //!
-//! 1. `kick_drift` (position update; from the second step of a batch on, `kick_floor_drift`: the
-//!    previous step's velocity update fused in): v += dt/2 F/m, u += dt v; packs the compression
+//! 1. `kick_drift` (position update; from the second step of a batch on, compiled with
+//!    `LAND_FIRST`: the previous step's velocity update fused in): v += dt/2 F/m, u += dt v; packs the compression
 //!    boost next to u; flags the contact lists stale when a particle moved half the skin.
 //! 2. Contact (when K_c > 0): `contact_plan` turns the stale flag into indirect dispatch sizes (zero
 //!    when the lists are fresh, so the rebuild costs little); the rebuild `contact_count`,

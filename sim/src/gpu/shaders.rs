@@ -6,10 +6,9 @@ use shatter_gpu::{ComputeKernel, GpuContext, GpuError};
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
 
 /// Every kernel: (file name, source). One `@compute` entry point per file, named like the file.
-pub const KERNELS: [(&str, &str); 15] = [
+pub const KERNELS: [(&str, &str); 14] = [
     ("kick_drift.wgsl", include_str!("../../shaders/kick_drift.wgsl")),
     ("kick_floor.wgsl", include_str!("../../shaders/kick_floor.wgsl")),
-    ("kick_floor_drift.wgsl", include_str!("../../shaders/kick_floor_drift.wgsl")),
     ("contact_plan.wgsl", include_str!("../../shaders/contact_plan.wgsl")),
     ("contact_count.wgsl", include_str!("../../shaders/contact_count.wgsl")),
     ("scan_blocks.wgsl", include_str!("../../shaders/scan_blocks.wgsl")),
@@ -31,11 +30,16 @@ pub fn source(name: &str) -> Option<String> {
 
 /// Compiles kernel `name`.
 pub fn compile(ctx: &GpuContext, name: &str) -> Result<ComputeKernel, GpuError> {
+    compile_with(ctx, name, &[])
+}
+
+/// Compiles kernel `name` with values for its pipeline-overridable constants.
+pub fn compile_with(ctx: &GpuContext, name: &str, constants: &[(&str, f64)]) -> Result<ComputeKernel, GpuError> {
     let source = source(name).ok_or_else(|| GpuError::KernelShape {
         shader: name.to_owned(),
         message: "no such simulation kernel".to_owned(),
     })?;
-    ComputeKernel::new(ctx, name, &source)
+    ComputeKernel::with_constants(ctx, name, &source, constants)
 }
 
 /// All kernels, compiled.
@@ -45,7 +49,7 @@ pub struct Kernels {
     pub kick_drift: ComputeKernel,
     /// `kick_floor.wgsl`.
     pub kick_floor: ComputeKernel,
-    /// `kick_floor_drift.wgsl`.
+    /// `kick_drift.wgsl` with `LAND_FIRST`: the previous step's velocity update fused in.
     pub kick_floor_drift: ComputeKernel,
     /// `contact_plan.wgsl`.
     pub contact_plan: ComputeKernel,
@@ -79,7 +83,7 @@ impl Kernels {
         Ok(Kernels {
             kick_drift: compile(ctx, "kick_drift.wgsl")?,
             kick_floor: compile(ctx, "kick_floor.wgsl")?,
-            kick_floor_drift: compile(ctx, "kick_floor_drift.wgsl")?,
+            kick_floor_drift: compile_with(ctx, "kick_drift.wgsl", &[("LAND_FIRST", 1.0)])?,
             contact_plan: compile(ctx, "contact_plan.wgsl")?,
             contact_count: compile(ctx, "contact_count.wgsl")?,
             scan_blocks: compile(ctx, "scan_blocks.wgsl")?,

@@ -72,9 +72,11 @@ fn floor_bounce(v: V4, rest_y: f32, disp_y: f32, enabled: u32, height: f32, rest
     out
 }
 
-/// Twin of `kick_drift.wgsl`.
+/// Twin of `kick_drift.wgsl`, with its `LAND_FIRST` constant as `land_first`.
+#[allow(clippy::too_many_arguments)]
 pub fn kick_drift(
     params: &Params,
+    land_first: bool,
     body: &mut [V4],
     vel: &mut [V4],
     force: &[V4],
@@ -84,9 +86,22 @@ pub fn kick_drift(
 ) {
     let mut moved = false;
     for i in 0..params.n as usize {
-        let v = half_kick(vel[i], force[i], params.half_dt);
+        let f = force[i];
         let rest = body[2 * i];
-        let u = add(xyz(body[2 * i + 1]), scale(xyz(v), params.dt));
+        let record = body[2 * i + 1];
+        let mut v = vel[i];
+        if land_first {
+            v = floor_bounce(
+                half_kick(v, f, params.half_dt),
+                rest[1],
+                record[1],
+                params.floor_enabled,
+                params.floor_height,
+                params.restitution,
+            );
+        }
+        v = half_kick(v, f, params.half_dt);
+        let u = add(xyz(record), scale(xyz(v), params.dt));
         vel[i] = v;
         body[2 * i + 1] = [u[0], u[1], u[2], boost_next[i]];
         let d = sub(add(xyz(rest), u), xyz(built_at[i]));
@@ -109,46 +124,6 @@ pub fn kick_floor(params: &Params, body: &[V4], vel: &mut [V4], force: &[V4]) {
         let rest_y = body[2 * i][1];
         let disp_y = body[2 * i + 1][1];
         vel[i] = floor_bounce(v, rest_y, disp_y, params.floor_enabled, params.floor_height, params.restitution);
-    }
-}
-
-/// Twin of `kick_floor_drift.wgsl`.
-pub fn kick_floor_drift(
-    params: &Params,
-    body: &mut [V4],
-    vel: &mut [V4],
-    force: &[V4],
-    boost_next: &[f32],
-    built_at: &[V4],
-    status: &mut Status,
-) {
-    let mut moved = false;
-    for i in 0..params.n as usize {
-        let f = force[i];
-        let rest = body[2 * i];
-        let record = body[2 * i + 1];
-        let landed = floor_bounce(
-            half_kick(vel[i], f, params.half_dt),
-            rest[1],
-            record[1],
-            params.floor_enabled,
-            params.floor_height,
-            params.restitution,
-        );
-        let v = half_kick(landed, f, params.half_dt);
-        let u = add(xyz(record), scale(xyz(v), params.dt));
-        vel[i] = v;
-        body[2 * i + 1] = [u[0], u[1], u[2], boost_next[i]];
-        let d = sub(add(xyz(rest), u), xyz(built_at[i]));
-        if !(dot3(d, d) <= params.skin_limit) {
-            moved = true;
-        }
-        if i == 0 {
-            status.step += 1;
-        }
-    }
-    if moved {
-        status.rebuild |= 1;
     }
 }
 
