@@ -1,246 +1,45 @@
-//! The CPU simulation against theory: rigid motions, conservation laws, energy density, wave
-//! speed, the breaking stretch, determinism.
+//! The physics tests against theory (`scenarios`) on the CPU backend, and what only the CPU
+//! promises: results independent of the thread count; contact between broken neighbours.
 
-use std::path::Path;
+mod scenarios;
 
-use shatter_core::NoProgress;
+use scenarios::{block, max_force};
 use shatter_core::config::PipelineConfig;
 use shatter_core::particles::ParticleSet;
 use shatter_sim::{Backend, Simulation};
-
-const K: f64 = 14.9e9;
-const RHO: f64 = 2200.0;
-const LAMBDA: f64 = 0.001;
-
-/// A box of `counts` cubes of 1 mm at horizon factor `n`, with extra `[sim]` keys.
-fn block(counts: [usize; 3], n: f64, material: &str, sim: &str) -> (PipelineConfig, ParticleSet) {
-    let size = counts.map(|c| c as f64 * LAMBDA);
-    let text = format!(
-        r#"
-[scene]
-name = "t"
-output_dir = "out"
-seed = 4
-[geometry]
-source = "box"
-box_size_m = {size:?}
-sampler = "grid"
-spacing_m = {LAMBDA}
-horizon_factor = {n}
-[material]
-density_kg_m3 = {RHO}
-bulk_modulus_pa = {K}
-{material}
-[sim]
-gravity_m_s2 = [0.0, 0.0, 0.0]
-{sim}
-"#
-    );
-    let config = PipelineConfig::from_toml_str(&text, Path::new("/nonexistent/pipeline.toml")).expect("valid config");
-    let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
-    (config, particles)
-}
 
 fn simulation(config: &PipelineConfig, particles: &ParticleSet) -> Simulation {
     Simulation::from_config(config, particles).expect("simulation")
 }
 
-fn max_force(sim: &Simulation) -> f64 {
-    let force = &sim.dynamics().force;
-    (0..sim.len()).map(|i| (0..3).map(|a| f64::from(force[a][i]).powi(2)).sum::<f64>().sqrt()).fold(0.0, f64::max)
-}
-
-fn centre(particles: &ParticleSet) -> [f32; 3] {
-    let n = particles.len() as f64;
-    [0, 1, 2].map(|a| (particles.rest_position_m.iter().map(|p| f64::from(p[a])).sum::<f64>() / n) as f32)
+fn cpu(config: &PipelineConfig, particles: &ParticleSet) -> Box<dyn Backend> {
+    Box::new(simulation(config, particles))
 }
 
 #[test]
 fn rigid_motions_cause_no_internal_force() {
-    let (config, particles) = block([8, 7, 6], 3.0, "", "");
-    let mut sim = simulation(&config, &particles);
-    sim.set_displacement(|_, _| [0.013, -0.021, 0.0047]);
-    assert_eq!(max_force(&sim), 0.0, "a translation stretches nothing");
-
-    let c = centre(&particles);
-    let strain = 1e-4f32;
-    sim.set_displacement(|_, x| [0, 1, 2].map(|a| strain * (x[a] - c[a])));
-    let dilation_force = max_force(&sim);
-    assert!(dilation_force > 0.0);
-
-    let rotation = glam::Quat::from_axis_angle(glam::Vec3::new(1.0, 2.0, 3.0).normalize(), 0.6);
-    let c3 = glam::Vec3::from_array(c);
-    sim.set_displacement(|_, x| {
-        let x = glam::Vec3::from_array(x);
-        (rotation * (x - c3) + c3 + glam::Vec3::new(0.01, 0.0, -0.02) - x).to_array()
-    });
-    let residual = max_force(&sim);
-    // Express the residual as the strain that would cause it: f32 rounding is about 1e-7.
-    let equivalent_strain = residual / dilation_force * f64::from(strain);
-    assert!(equivalent_strain < 1e-6, "rotation leaves forces of a {equivalent_strain:e} strain");
-    assert!(sim.take_breaks().is_empty());
-}
-
-/// A bar along x in its first longitudinal mode u_x = A cos(pi x / L), released from rest.
-fn vibrating_bar(length: usize, section: [usize; 2], amplitude: f32, sim_keys: &str) -> (Simulation, ParticleSet) {
-    let (config, particles) = block([length, section[0], section[1]], 3.0, "critical_stretch = 0.01", sim_keys);
-    let mut sim = simulation(&config, &particles);
-    let half_length = length as f32 * LAMBDA as f32 / 2.0;
-    let c = centre(&particles);
-    sim.set_displacement(|_, x| {
-        let phase = std::f32::consts::PI * (x[0] - c[0] + half_length) / (2.0 * half_length);
-        [amplitude * phase.cos(), 0.0, 0.0]
-    });
-    (sim, particles)
+    scenarios::rigid_motions_cause_no_internal_force(&cpu);
 }
 
 #[test]
 fn momentum_and_energy_are_conserved_in_an_elastic_vibration() {
-    let (mut sim, _) = vibrating_bar(24, [4, 4], 2e-6, "contact = { stiffness_pa = 0.0 }");
-    sim.set_velocity(|i, _| {
-        let spin = (i % 7) as f32 * 0.01;
-        [0.02 + spin, -0.01, 0.03 - spin]
-    });
-    let (p0, l0) = sim.momentum();
-    let scale: f64 = sim.mass().iter().map(|m| f64::from(*m)).sum::<f64>() * 0.05;
-    // Velocity Verlet's energy oscillates about a constant (here by about 0.5%: the bar's
-    // lateral breathing modes run at omega dt ~ 0.3); drift is the change of its mean, taken
-    // over the first and the last 1,000 steps of 20,000.
-    let mut energies = Vec::new();
-    for step in 0..20_000 {
-        sim.step();
-        if step % 10 == 0 {
-            energies.push(sim.energy().total_j());
-        }
-        if step % 500 == 0 {
-            let (p, _) = sim.momentum();
-            assert!((p - p0).length() < 1e-5 * scale, "linear momentum drifted by {}", (p - p0).length());
-        }
-    }
-    let (_, l) = sim.momentum();
-    let lever = 0.012; // half the bar
-    assert!((l - l0).length() < 1e-4 * scale * lever, "angular momentum drifted by {}", (l - l0).length());
-    assert!(sim.take_breaks().is_empty(), "no fracture in this test");
-    let mean = |values: &[f64]| values.iter().sum::<f64>() / values.len() as f64;
-    let (first, last) = (mean(&energies[..100]), mean(&energies[energies.len() - 100..]));
-    let drift = (last - first).abs() / first;
-    let swing = energies.iter().map(|e| (e - first).abs() / first).fold(0.0, f64::max);
-    eprintln!("energy drift {:.4}% over 20,000 steps (largest swing {:.3}%)", drift * 100.0, swing * 100.0);
-    assert!(drift < 0.005, "energy drifted by {:.3}% over 20,000 steps", drift * 100.0);
-    assert!(swing < 0.02, "energy swings by {:.3}%", swing * 100.0);
+    scenarios::momentum_and_energy_are_conserved_in_an_elastic_vibration(&cpu);
 }
 
 #[test]
 fn uniform_dilation_stores_the_continuum_energy_density_at_n3() {
-    let s = 1e-4f32;
-    for (correction, tolerance) in [("energy", 0.03), ("none", 0.15)] {
-        let (config, particles) = block([13, 13, 13], 3.0, "", &format!("stiffness_correction = \"{correction}\""));
-        let mut sim = simulation(&config, &particles);
-        let c = centre(&particles);
-        sim.set_displacement(|_, x| [0, 1, 2].map(|a| s * (x[a] - c[a])));
-        let energy = sim.bond_energy_per_particle();
-        let middle = (0..particles.len())
-            .min_by(|a, b| {
-                let d = |i: usize| (0..3).map(|k| (particles.rest_position_m[i][k] - c[k]).powi(2)).sum::<f32>();
-                d(*a).total_cmp(&d(*b))
-            })
-            .expect("particles");
-        let density = energy[middle] / f64::from(particles.volume_m3[middle]);
-        let theory = 4.5 * K * f64::from(s).powi(2);
-        let error = density / theory - 1.0;
-        eprintln!("stiffness_correction = {correction}: interior energy density off by {:.2}%", error * 100.0);
-        assert!(error.abs() < tolerance, "{correction}: {:.2}% off", error * 100.0);
-    }
-}
-
-/// Times between upward zero crossings of `samples` (taken every `dt`).
-fn period(samples: &[f64], dt: f64) -> f64 {
-    let crossings: Vec<f64> = samples
-        .windows(2)
-        .enumerate()
-        .filter(|(_, w)| w[0] < 0.0 && w[1] >= 0.0)
-        .map(|(k, w)| (k as f64 + w[0] / (w[0] - w[1])) * dt)
-        .collect();
-    assert!(crossings.len() >= 2, "not enough oscillation: {crossings:?}");
-    (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64
+    scenarios::uniform_dilation_stores_the_continuum_energy_density_at_n3(&cpu);
 }
 
 #[test]
 fn a_longitudinal_wave_in_a_bar_travels_at_the_bar_speed() {
-    // 8 x 8 particles across: the stiffness correction leaves the thinnest bars a little stiff
-    // (4 x 4: +14%, 6 x 6: +7%, 8 x 8: +3.7%); without it they are soft (-17%, -12%, -9%).
-    let length = 160;
-    let (mut sim, particles) = vibrating_bar(length, [8, 8], 1e-6, "");
-    let dt = sim.model().dt_s;
-    let c = centre(&particles);
-    let end: Vec<usize> = (0..particles.len()).filter(|&i| particles.rest_position_m[i][0] > c[0] + 0.075).collect();
-    let mut samples = Vec::new();
-    for _ in 0..2400 {
-        sim.step();
-        let u = &sim.dynamics().disp[0];
-        samples.push(end.iter().map(|&i| f64::from(u[i])).sum::<f64>() / end.len() as f64);
-    }
-    let speed = 2.0 * length as f64 * LAMBDA / period(&samples, dt);
-    let theory = (1.5 * K / RHO).sqrt();
-    let error = speed / theory - 1.0;
-    eprintln!("bar wave speed {speed:.1} m/s, theory {theory:.1} m/s ({:+.2}%)", error * 100.0);
-    assert!(error.abs() < 0.05, "wave speed off by {:.2}%", error * 100.0);
+    // 160 particles long, 2,400 steps (about 3 periods of the first mode), every step sampled.
+    scenarios::a_longitudinal_wave_in_a_bar_travels_at_the_bar_speed(&cpu, 160, 2400, 1);
 }
 
 #[test]
 fn a_bar_pulled_apart_breaks_first_where_and_when_its_thresholds_say() {
-    // A seam across the middle halves the thresholds of the bonds crossing it.
-    let (config, particles) = block(
-        [30, 3, 3],
-        3.0,
-        "",
-        "[[sim.seam]]\npoint_m = [0.0, 0.0, 0.0]\nnormal = [1.0, 0.0, 0.0]\nthreshold_factor = 0.5",
-    );
-    let c = centre(&particles);
-    let bonds = &particles.bonds;
-    let x = |i: usize| particles.rest_position_m[i].map(f64::from);
-    // Under u = e (x - c) x_hat a bond stretches to |(xi_x (1 + e), xi_y, xi_z)| / L - 1: it
-    // breaks at e = sqrt(((1 + tau) L)^2 - xi_y^2 - xi_z^2) / |xi_x| - 1.
-    let mut predicted = (f64::INFINITY, 0u64);
-    for i in 0..particles.len() {
-        for k in bonds.row(i) {
-            let j = bonds.neighbor[k] as usize;
-            let xi = [0, 1, 2].map(|a| x(j)[a] - x(i)[a]);
-            if j < i || xi[0] == 0.0 {
-                continue;
-            }
-            let crosses = (x(i)[0] - f64::from(c[0])) * (x(j)[0] - f64::from(c[0])) < 0.0;
-            let tau = f64::from(bonds.threshold[k]) * if crosses { 0.5 } else { 1.0 };
-            let length = f64::from(bonds.rest_length_m[k]);
-            let e = (((1.0 + tau) * length).powi(2) - xi[1].powi(2) - xi[2].powi(2)).sqrt() / xi[0].abs() - 1.0;
-            if e < predicted.0 {
-                predicted = (e, k as u64);
-            }
-        }
-    }
-    let (e_star, first_bond) = predicted;
-    let mut sim = simulation(&config, &particles);
-    let increment = 2e-4 * e_star;
-    let mut e = 0.99 * e_star;
-    let breaks = loop {
-        sim.set_displacement(|_, p| [e as f32 * (p[0] - c[0]), 0.0, 0.0]);
-        let breaks = sim.take_breaks();
-        if !breaks.is_empty() {
-            break breaks;
-        }
-        e += increment;
-        assert!(e < 1.1 * e_star, "nothing broke by 1.1 x the predicted stretch");
-    };
-    assert!(
-        e >= e_star * (1.0 - 1e-5) && e <= e_star + increment * 1.01,
-        "first break at e = {e:e}, predicted {e_star:e}"
-    );
-    assert!(breaks.iter().any(|b| b.bond == first_bond), "bond {first_bond} should break first: {breaks:?}");
-    for event in &breaks {
-        let i = bonds.offsets.partition_point(|o| *o <= event.bond) - 1;
-        let j = bonds.neighbor[event.bond as usize] as usize;
-        assert!((x(i)[0] - f64::from(c[0])) * (x(j)[0] - f64::from(c[0])) < 0.0, "bond {i}-{j} is not on the seam");
-    }
+    scenarios::a_bar_pulled_apart_breaks_first_where_and_when_its_thresholds_say(&cpu);
 }
 
 /// A plate struck by a projectile: contact, fracture and body forces all in play.
