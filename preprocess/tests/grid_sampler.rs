@@ -1,18 +1,15 @@
 //! The grid sampler end to end: bond counts, symmetry and volumes on boxes; real meshes filled to
 //! their enclosed volume, the Welsh dragon's defects included.
 
-use std::path::{Path, PathBuf};
-
 use shatter_core::NoProgress;
 use shatter_core::config::PipelineConfig;
 use shatter_core::particles::{Elements, ParticleSet};
 use shatter_preprocess::mesh::TriangleMesh;
 use shatter_preprocess::repair::repair;
 use shatter_preprocess::{PreprocessError, preprocess};
+use support::assets;
 
-fn assets() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes")
-}
+mod support;
 
 fn config(geometry: &str) -> PipelineConfig {
     let text = format!(

@@ -6,7 +6,6 @@
 //! Run with `--nocapture` to see the measured figures.
 
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use glam::DVec3;
@@ -21,43 +20,15 @@ use shatter_preprocess::kdtree::KdTree;
 use shatter_preprocess::lattice::Lattice;
 use shatter_preprocess::mesh::TriangleMesh;
 use shatter_preprocess::mesh_query::MeshQuery;
-use shatter_preprocess::repair::repair;
 use shatter_preprocess::tet_shell::{CORE, ShellParams, shell_points};
 use shatter_preprocess::{Preprocessed, preprocess};
+use support::load;
 
-fn assets() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes")
-}
+mod support;
 
 /// A tet_shell scene of `mesh` with extra `[geometry]` lines and `[geometry.tet_shell]` lines.
 fn config(mesh: &str, spacing: f64, horizon: f64, geometry: &str, shell: &str) -> PipelineConfig {
-    let text = format!(
-        r#"
-[scene]
-name = "test"
-output_dir = "out"
-seed = 7
-[geometry]
-source = "meshes/{mesh}"
-sampler = "tet_shell"
-spacing_m = {spacing}
-horizon_factor = {horizon}
-{geometry}
-[geometry.tet_shell]
-{shell}
-[material]
-density_kg_m3 = 2000.0
-bulk_modulus_pa = 2.94e9
-"#
-    );
-    PipelineConfig::from_toml_str(&text, &assets().join("../pipeline.toml")).expect("test config is valid")
-}
-
-/// The mesh as the sampler sees it: scaled (not recentred) and repaired.
-fn load(name: &str, scale: f64) -> TriangleMesh {
-    let (mut mesh, stats) = TriangleMesh::load_obj(&assets().join(name)).expect("test mesh loads");
-    mesh.map_positions(|p| p * scale);
-    repair(&mesh, stats, 1e-3).0
+    support::mesh_config("tet_shell", mesh, spacing, horizon, 7, geometry, shell)
 }
 
 fn coord(p: [f32; 3]) -> Coord3D<f64> {

@@ -6,7 +6,6 @@
 //!
 //! Run with `--nocapture` to see the measured figures.
 
-use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use glam::DVec3;
@@ -16,43 +15,15 @@ use shatter_core::config::PipelineConfig;
 use shatter_core::particles::{Elements, ParticleSet};
 use shatter_preprocess::kdtree::KdTree;
 use shatter_preprocess::mesh::TriangleMesh;
-use shatter_preprocess::repair::repair;
 use shatter_preprocess::{PreprocessError, preprocess};
+use support::{load, polytope_vertices};
 
-fn assets() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes")
-}
+mod support;
 
 /// A voronoi scene of `mesh` with extra `[geometry]` lines (a transform) and `[geometry.voronoi]`
 /// lines.
 fn config(mesh: &str, spacing: f64, horizon: f64, geometry: &str, voronoi: &str) -> PipelineConfig {
-    let text = format!(
-        r#"
-[scene]
-name = "test"
-output_dir = "out"
-seed = 11
-[geometry]
-source = "meshes/{mesh}"
-sampler = "voronoi"
-spacing_m = {spacing}
-horizon_factor = {horizon}
-{geometry}
-[geometry.voronoi]
-{voronoi}
-[material]
-density_kg_m3 = 2000.0
-bulk_modulus_pa = 2.94e9
-"#
-    );
-    PipelineConfig::from_toml_str(&text, &assets().join("../pipeline.toml")).expect("test config is valid")
-}
-
-/// The mesh as the sampler sees it: scaled (not recentred) and repaired.
-fn load(name: &str, scale: f64) -> TriangleMesh {
-    let (mut mesh, stats) = TriangleMesh::load_obj(&assets().join(name)).expect("test mesh loads");
-    mesh.map_positions(|p| p * scale);
-    repair(&mesh, stats, 1e-3).0
+    support::mesh_config("voronoi", mesh, spacing, horizon, 11, geometry, voronoi)
 }
 
 fn vec(p: [f32; 3]) -> DVec3 {
@@ -61,28 +32,6 @@ fn vec(p: [f32; 3]) -> DVec3 {
 
 fn plane_normal(plane: &[f32; 4]) -> DVec3 {
     DVec3::new(plane[0] as f64, plane[1] as f64, plane[2] as f64)
-}
-
-/// The vertices of {x : n.x <= d for every plane}: every feasible intersection of three planes.
-fn polytope_vertices(planes: &[[f64; 4]], tolerance: f64) -> Vec<DVec3> {
-    let normal = |p: &[f64; 4]| DVec3::new(p[0], p[1], p[2]);
-    let mut vertices = Vec::new();
-    for i in 0..planes.len() {
-        for j in i + 1..planes.len() {
-            for k in j + 1..planes.len() {
-                let (a, b, c) = (normal(&planes[i]), normal(&planes[j]), normal(&planes[k]));
-                let det = a.dot(b.cross(c));
-                if det.abs() < 1e-9 {
-                    continue;
-                }
-                let x = (b.cross(c) * planes[i][3] + c.cross(a) * planes[j][3] + a.cross(b) * planes[k][3]) / det;
-                if planes.iter().all(|p| normal(p).dot(x) <= p[3] + tolerance) {
-                    vertices.push(x);
-                }
-            }
-        }
-    }
-    vertices
 }
 
 /// Everything the stored set promises; returns (volume error, area error, stored triangles).

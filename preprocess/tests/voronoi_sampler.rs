@@ -4,7 +4,6 @@
 //!
 //! Run with `--nocapture` to see the measured figures.
 
-use std::path::Path;
 use std::time::Instant;
 
 use glam::DVec3;
@@ -12,17 +11,16 @@ use shatter_preprocess::blue_noise::poisson_disk_with_count;
 use shatter_preprocess::kdtree::KdTree;
 use shatter_preprocess::mesh::TriangleMesh;
 use shatter_preprocess::mesh_query::MeshQuery;
-use shatter_preprocess::repair::repair;
 use shatter_preprocess::voronoi::{ClippedVoronoi, bisector, clipped_voronoi};
+use support::polytope_vertices;
 
-/// Loads a mesh from the assets folder, dropping bodies under 0.1% of the largest's volume.
+mod support;
+
 fn load(name: &str) -> TriangleMesh {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes").join(name);
-    let (mesh, stats) = TriangleMesh::load_obj(&path).expect("test mesh loads");
-    repair(&mesh, stats, 1e-3).0
+    support::load(name, 1.0)
 }
 
-/// Samples about `count` sites into `mesh`, clips their cells and checks everything.
+/// Loads a mesh from the assets folder, dropping bodies under 0.1% of the largest's volume.
 fn check_mesh(name: &str, count: usize, independent_checks: usize) {
     let started = Instant::now();
     let mesh = load(name);
@@ -115,28 +113,6 @@ fn winding_number(mesh: &TriangleMesh, p: DVec3) -> f64 {
         })
         .sum();
     solid_angle / (4.0 * std::f64::consts::PI)
-}
-
-/// The vertices of {x : n.x <= d for every plane}: every feasible intersection of three planes.
-fn polytope_vertices(planes: &[[f64; 4]], tolerance: f64) -> Vec<DVec3> {
-    let normal = |p: &[f64; 4]| DVec3::new(p[0], p[1], p[2]);
-    let mut vertices = Vec::new();
-    for i in 0..planes.len() {
-        for j in i + 1..planes.len() {
-            for k in j + 1..planes.len() {
-                let (a, b, c) = (normal(&planes[i]), normal(&planes[j]), normal(&planes[k]));
-                let det = a.dot(b.cross(c));
-                if det.abs() < 1e-9 {
-                    continue;
-                }
-                let x = (b.cross(c) * planes[i][3] + c.cross(a) * planes[j][3] + a.cross(b) * planes[k][3]) / det;
-                if planes.iter().all(|p| normal(p).dot(x) <= p[3] + tolerance) {
-                    vertices.push(x);
-                }
-            }
-        }
-    }
-    vertices
 }
 
 /// Points among `vertices` on a plane.
