@@ -11,9 +11,9 @@ use shatter_core::config::sim::StiffnessCorrection;
 use shatter_core::particles::ParticleSet;
 
 /// Particles per chunk for `n` particles: large enough that most bonds stay inside a chunk,
-/// small enough for dozens of chunks to share out among threads.
+/// small enough for 16 or more chunks to share out among threads.
 pub fn chunk_size(n: usize) -> usize {
-    (n / 32).next_power_of_two().clamp(1024, 16384)
+    (n / 16).next_power_of_two().clamp(1024, 16384)
 }
 
 /// One chunk's bonds.

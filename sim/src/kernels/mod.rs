@@ -1,0 +1,217 @@
+//! The step's kernels on the CPU, one function per kernel of the paper's GPU structure
+//! (position update, spring forces, collisions, body forces, velocity update). Each works on one
+//! chunk of particles and writes only that chunk's outputs.
+
+// Indexed loops mirror the shaders these kernels are twins of.
+#![allow(clippy::needless_range_loop)]
+
+mod springs;
+#[cfg(target_arch = "x86_64")]
+mod springs_avx2;
+
+pub use springs::{ChunkForces, ParticleRecord, spring_forces, stretch};
+
+use crate::contact::{ContactList, contact_reach, repulsion};
+use crate::model::Floor;
+
+/// Checks whether particles i and j are joined by an intact bond.
+pub trait BondLookup: Sync {
+    /// True when i and j share a bond that has not broken.
+    fn intact(&self, i: usize, j: usize) -> bool;
+}
+
+/// Collisions (the paper's `collisions`): each particle of the chunk is pushed away from every
+/// particle it is not bonded to that is closer than the contact distance, or than their rest
+/// distance where that is shorter (see [`contact_reach`]).
+#[allow(clippy::too_many_arguments)]
+pub fn collisions(
+    first: usize,
+    position: [&[f32]; 3],
+    rest: [&[f32]; 3],
+    contacts: &ContactList,
+    bonds: &impl BondLookup,
+    stiffness: f32,
+    distance: f32,
+    force: &mut [&mut [f32]; 3],
+) {
+    let len = force[0].len();
+    for local in 0..len {
+        let i = first + local;
+        let candidates = contacts.candidates(i);
+        if candidates.is_empty() {
+            continue;
+        }
+        let p = [position[0][i], position[1][i], position[2][i]];
+        let x = [rest[0][i], rest[1][i], rest[2][i]];
+        let mut sum = [0.0f32; 3];
+        for &j in candidates {
+            let j = j as usize;
+            let d = [p[0] - position[0][j], p[1] - position[1][j], p[2] - position[2][j]];
+            let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            let xi = [x[0] - rest[0][j], x[1] - rest[1][j], x[2] - rest[2][j]];
+            let reach = contact_reach(distance, xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]);
+            if r2 >= reach * reach || r2 == 0.0 || bonds.intact(i, j) {
+                continue;
+            }
+            let f = repulsion(stiffness, reach, d, r2.sqrt());
+            sum = [sum[0] + f[0], sum[1] + f[1], sum[2] + f[2]];
+        }
+        for axis in 0..3 {
+            force[axis][local] += sum[axis];
+        }
+    }
+}
+
+/// A kinematic sphere's state during one step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SphereNow {
+    /// Centre, metres.
+    pub center: [f32; 3],
+    /// Unit direction of travel (zero when at rest).
+    pub heading: [f32; 3],
+    /// Radius, metres.
+    pub radius: f32,
+    /// Force constant.
+    pub stiffness: f32,
+}
+
+/// The paper's eq. 7 projectile force on a particle at `p`.
+pub fn projectile_force(sphere: &SphereNow, p: [f32; 3]) -> [f32; 3] {
+    let d = [p[0] - sphere.center[0], p[1] - sphere.center[1], p[2] - sphere.center[2]];
+    let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let radius = sphere.radius;
+    if !(r >= 0.75 * radius && r <= 1.5 * radius) {
+        return [0.0; 3];
+    }
+    let shape = 16.0 * (r - 0.75 * radius) * (r - 1.5 * radius) * (r - 1.5 * radius);
+    let magnitude = sphere.stiffness * shape.cbrt() * shape.cbrt();
+    let away = d.map(|c| c / r);
+    let mut direction = [away[0] + sphere.heading[0], away[1] + sphere.heading[1], away[2] + sphere.heading[2]];
+    let norm = (direction[0] * direction[0] + direction[1] * direction[1] + direction[2] * direction[2]).sqrt();
+    if norm > 1e-6 {
+        direction = direction.map(|c| c / norm);
+    } else {
+        direction = away;
+    }
+    direction.map(|c| c * magnitude)
+}
+
+/// A spherical indenter's force K (R - r)^2 on a particle at `p`, pushing it out.
+pub fn indenter_force(sphere: &SphereNow, p: [f32; 3]) -> [f32; 3] {
+    let d = [p[0] - sphere.center[0], p[1] - sphere.center[1], p[2] - sphere.center[2]];
+    let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    if r >= sphere.radius || r == 0.0 {
+        return [0.0; 3];
+    }
+    let gap = sphere.radius - r;
+    let scale = sphere.stiffness * gap * gap / r;
+    d.map(|c| c * scale)
+}
+
+/// External forces acting this step.
+#[derive(Debug, Clone, Copy)]
+pub struct BodyForces<'a> {
+    /// Gravity, m/s^2.
+    pub gravity: [f32; 3],
+    /// Projectiles now.
+    pub projectiles: &'a [SphereNow],
+    /// Indenters now.
+    pub indenters: &'a [SphereNow],
+}
+
+/// Body forces (the paper's `bodyforces`): gravity, projectiles and indenters, added to the
+/// chunk's forces. Returns the power they deliver, sum of F . v, watts (f64, in particle order).
+pub fn body_forces(
+    first: usize,
+    position: [&[f32]; 3],
+    velocity: [&[f32]; 3],
+    mass: &[f32],
+    forces: &BodyForces,
+    force: &mut [&mut [f32]; 3],
+) -> f64 {
+    let mut power = 0.0f64;
+    for local in 0..force[0].len() {
+        let i = first + local;
+        let p = [position[0][i], position[1][i], position[2][i]];
+        let mut f = forces.gravity.map(|g| g * mass[i]);
+        for sphere in forces.projectiles {
+            let push = projectile_force(sphere, p);
+            f = [f[0] + push[0], f[1] + push[1], f[2] + push[2]];
+        }
+        for sphere in forces.indenters {
+            let push = indenter_force(sphere, p);
+            f = [f[0] + push[0], f[1] + push[1], f[2] + push[2]];
+        }
+        for axis in 0..3 {
+            force[axis][local] += f[axis];
+            power += f64::from(f[axis]) * f64::from(velocity[axis][i]);
+        }
+    }
+    power
+}
+
+/// Position update (first half of velocity Verlet): v += dt/2 F/m, then u += dt v.
+pub fn kick_drift(dt: f32, inverse_mass: &[f32], force: [&[f32]; 3], velocity: [&mut [f32]; 3], disp: [&mut [f32]; 3]) {
+    let half = 0.5 * dt;
+    for (axis, (v, u)) in velocity.into_iter().zip(disp).enumerate() {
+        for i in 0..v.len() {
+            v[i] += half * force[axis][i] * inverse_mass[i];
+            u[i] += dt * v[i];
+        }
+    }
+}
+
+/// Velocity update (second half of velocity Verlet): v += dt/2 F/m; a particle below the floor
+/// that moves down has its vertical velocity reflected and scaled by the restitution.
+pub fn kick_floor(
+    dt: f32,
+    inverse_mass: &[f32],
+    force: [&[f32]; 3],
+    height: (&[f32], &[f32]),
+    floor: Option<Floor>,
+    velocity: [&mut [f32]; 3],
+) {
+    let half = 0.5 * dt;
+    for (axis, v) in velocity.into_iter().enumerate() {
+        for i in 0..v.len() {
+            v[i] += half * force[axis][i] * inverse_mass[i];
+            if axis == 1 {
+                if let Some(floor) = floor {
+                    if height.0[i] + height.1[i] < floor.height_m && v[i] < 0.0 {
+                        v[i] *= -floor.restitution;
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stretch_from_displacement_is_exact_where_subtraction_is_not() {
+        // Far from the origin a stretch of 1e-6 is below f32 resolution of positions; from the
+        // displacement difference it is still exact to f32 rounding of the stretch itself.
+        let xi = [1e-3, 0.0, 0.0];
+        let eta = [1e-9, 0.0, 0.0];
+        let (s, _, _) = stretch(xi, eta, 1e-3);
+        assert!((s - 1e-6).abs() < 1e-12, "{s}");
+        let (s, _, _) = stretch(xi, [0.0; 3], 1e-3);
+        assert_eq!(s, 0.0);
+    }
+
+    #[test]
+    fn projectile_force_peaks_at_the_radius_with_k_r_squared() {
+        let sphere = SphereNow { center: [0.0; 3], heading: [0.0; 3], radius: 0.01, stiffness: 1e6 };
+        let f = projectile_force(&sphere, [0.01, 0.0, 0.0]);
+        assert!((f[0] - 1e6 * 1e-4).abs() < 1e-3 * 1e2, "{f:?}");
+        assert_eq!(projectile_force(&sphere, [0.007, 0.0, 0.0]), [0.0; 3]);
+        assert_eq!(projectile_force(&sphere, [0.016, 0.0, 0.0]), [0.0; 3]);
+        // halfway between travel and repulsion
+        let moving = SphereNow { heading: [0.0, 1.0, 0.0], ..sphere };
+        let f = projectile_force(&moving, [0.01, 0.0, 0.0]);
+        assert!((f[0] - f[1]).abs() < 1e-3 && f[0] > 0.0, "{f:?}");
+    }
+}

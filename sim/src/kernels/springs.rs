@@ -1,0 +1,383 @@
+//! The spring kernel (the paper's `springforces`): the row loop shared by every instruction set,
+//! the portable block of bonds, and what both block kernels share (padding, the break test).
+//! `springs_avx2` holds the same block in explicit AVX2 instructions; both give the same bits.
+
+// Indexed loops mirror the shader this kernel is the twin of.
+#![allow(clippy::needless_range_loop)]
+
+use std::ops::Range;
+
+use shatter_core::config::sim::BreakRule;
+
+use crate::bond_table::BondChunk;
+
+/// One chunk's outputs of the force pass.
+pub struct ChunkForces<'a> {
+    /// Force accumulators, newtons.
+    pub force: [&'a mut [f32]; 3],
+    /// Smallest stretch over each particle's intact bonds (never above 0).
+    pub min_stretch: &'a mut [f32],
+    /// Broken bonds per particle (running count).
+    pub broken: &'a mut [u32],
+}
+
+/// Bond stretch s = |xi + eta| / |xi| - 1 computed from the displacement difference eta, as
+/// (2 xi . eta + eta . eta) / (L (|xi + eta| + L)): no cancellation, so strains of 1e-7 stay
+/// exact in f32 wherever the body is. Returns (s, y = xi + eta, |y|).
+#[inline(always)]
+pub fn stretch(xi: [f32; 3], eta: [f32; 3], rest_length: f32) -> (f32, [f32; 3], f32) {
+    let y = [xi[0] + eta[0], xi[1] + eta[1], xi[2] + eta[2]];
+    let length = (y[0] * y[0] + y[1] * y[1] + y[2] * y[2]).sqrt();
+    let growth = 2.0 * (xi[0] * eta[0] + xi[1] * eta[1] + xi[2] * eta[2])
+        + (eta[0] * eta[0] + eta[1] * eta[1] + eta[2] * eta[2]);
+    (growth / (rest_length * (length + rest_length)), y, length)
+}
+
+/// The threshold a bond's stretch is compared with: its own plus the larger (or smaller) of its
+/// particles' compression boosts.
+#[inline(always)]
+fn effective_threshold(rule: BreakRule, threshold: f32, boost_i: f32, boost_j: f32) -> f32 {
+    match rule {
+        BreakRule::Max => threshold + boost_i.max(boost_j),
+        BreakRule::Min => threshold + boost_i.min(boost_j),
+    }
+}
+
+/// What the spring kernel gathers of a bond partner, packed into 16 bytes so that one load
+/// serves it: displacement and compression boost.
+#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C, align(16))]
+pub struct ParticleRecord {
+    /// Displacement u, metres.
+    pub disp: [f32; 3],
+    /// Compression boost of the particle's thresholds (from the previous step).
+    pub boost: f32,
+}
+
+/// Bonds processed together: eight lanes, one 256-bit register of f32.
+pub(super) const LANES: usize = 8;
+
+/// `values` in the first lanes, `fill` in the rest.
+#[inline(always)]
+pub(super) fn lanes(values: &[f32], fill: f32) -> [f32; LANES] {
+    match <[f32; LANES]>::try_from(values) {
+        Ok(full) => full,
+        Err(_) => {
+            let mut out = [fill; LANES];
+            for (lane, value) in values.iter().enumerate() {
+                out[lane] = *value;
+            }
+            out
+        }
+    }
+}
+
+/// One particle's running sums over the lanes.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct LaneSums {
+    /// Force, newtons, per axis and lane.
+    pub force: [[f32; LANES]; 3],
+    /// Smallest stretch per lane.
+    pub min_stretch: [f32; LANES],
+}
+
+/// What a block kernel reads and writes besides its entries.
+pub(super) struct BlockContext<'a> {
+    /// The gather records of all particles.
+    pub records: &'a [ParticleRecord],
+    /// The break rule.
+    pub rule: BreakRule,
+    /// The chunk's per-particle sums (force x, y, z and smallest stretch) that internal bonds'
+    /// reactions are scattered into.
+    pub totals: &'a mut [[f32; 4]],
+    /// Broken bonds per particle of the chunk.
+    pub broken: &'a mut [u32],
+}
+
+/// Spring forces (the paper's `springforces`): for every intact bond of the chunk, the stretch,
+/// the break test against the effective threshold, and the PMB force k s (xi + eta) / |xi + eta|.
+/// Internal bonds are computed once and applied to both ends; external bonds to this end only.
+/// Bonds that break are recorded in `chunk.breaks` (external ones by their lower particle only).
+/// Each particle's bonds are summed lane by lane (entry k of its row in lane k mod 8), the lanes
+/// then in order: a fixed order, whatever the thread count and the instruction set (AVX2 where
+/// the CPU has it, else portable code; the two agree bit for bit).
+pub fn spring_forces(chunk: &mut BondChunk, records: &[ParticleRecord], rule: BreakRule, out: &mut ChunkForces) {
+    #[cfg(target_arch = "x86_64")]
+    if super::springs_avx2::available() {
+        super::springs_avx2::spring_forces(chunk, records, rule, out);
+        return;
+    }
+    spring_rows(chunk, records, rule, out, bond_block);
+}
+
+/// The row loop of [`spring_forces`] around a block kernel, which takes a block of up to
+/// [`LANES`] consecutive entries of one particle's row, all internal or all external:
+/// `(chunk, context, local particle, entries, internal, sums)`. Inlined into each caller, so that
+/// it is compiled for the caller's instruction set.
+#[inline(always)]
+pub(super) fn spring_rows(
+    chunk: &mut BondChunk,
+    records: &[ParticleRecord],
+    rule: BreakRule,
+    out: &mut ChunkForces,
+    mut block: impl FnMut(&mut BondChunk, &mut BlockContext, usize, Range<usize>, bool, &mut LaneSums),
+) {
+    chunk.breaks.clear();
+    let mut totals = std::mem::take(&mut chunk.totals);
+    totals.clear();
+    totals.resize(chunk.len, [0.0; 4]);
+    let mut context = BlockContext { records, rule, totals: &mut totals, broken: out.broken };
+    for local in 0..chunk.len {
+        let mut sums = LaneSums { force: [[0.0; LANES]; 3], min_stretch: [0.0; LANES] };
+        let row = chunk.row_start[local] as usize..chunk.row_start[local + 1] as usize;
+        let internal_end = chunk.internal_end[local] as usize;
+        let mut start = row.start;
+        while start < internal_end {
+            let end = (start + LANES).min(internal_end);
+            block(chunk, &mut context, local, start..end, true, &mut sums);
+            start = end;
+        }
+        while start < row.end {
+            let end = (start + LANES).min(row.end);
+            block(chunk, &mut context, local, start..end, false, &mut sums);
+            start = end;
+        }
+        let total = &mut context.totals[local];
+        for axis in 0..3 {
+            total[axis] += sums.force[axis].iter().sum::<f32>();
+        }
+        total[3] = sums.min_stretch.iter().fold(total[3], |a, b| a.min(*b));
+    }
+    for (local, total) in totals.iter().enumerate() {
+        for axis in 0..3 {
+            out.force[axis][local] = total[axis];
+        }
+        out.min_stretch[local] = total[3];
+    }
+    chunk.totals = totals;
+}
+
+/// The block's partner indices, padded with the particle itself (`me`).
+#[inline(always)]
+pub(super) fn partner_lanes(neighbors: &[u32], me: usize) -> [usize; LANES] {
+    match <[u32; LANES]>::try_from(neighbors) {
+        Ok(full) => full.map(|j| j as usize),
+        Err(_) => {
+            let mut partner = [me; LANES];
+            for (lane, &j) in neighbors.iter().enumerate() {
+                partner[lane] = j as usize;
+            }
+            partner
+        }
+    }
+}
+
+/// The break test of a block whose stretches passed the cheap bound: breaks the bonds whose
+/// stretch exceeds their effective threshold (zero stiffness, infinite threshold, counted, logged
+/// once) and zeroes their lanes' stretch and force scale.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn break_lanes(
+    chunk: &mut BondChunk,
+    context: &mut BlockContext,
+    local: usize,
+    entries: Range<usize>,
+    internal: bool,
+    partner: &[usize; LANES],
+    stretch: &mut [f32; LANES],
+    scale: &mut [f32; LANES],
+) {
+    let first = chunk.first;
+    let i = first + local;
+    let boost = context.records[i].boost;
+    let threshold = lanes(&chunk.threshold[entries.clone()], f32::INFINITY);
+    for lane in 0..entries.len() {
+        let j = partner[lane];
+        if stretch[lane] > effective_threshold(context.rule, threshold[lane], boost, context.records[j].boost) {
+            let k = entries.start + lane;
+            chunk.threshold[k] = f32::INFINITY;
+            chunk.stiffness[k] = 0.0;
+            context.broken[local] += 1;
+            if internal {
+                context.broken[j - first] += 1;
+            }
+            if i < j {
+                chunk.breaks.push(chunk.bond_id[k]);
+            }
+            stretch[lane] = 0.0;
+            scale[lane] = 0.0;
+        }
+    }
+}
+
+/// The smallest threshold a stretch is compared with before the partner's boost is looked up:
+/// the bond's own plus this particle's boost (max rule) or its own (min rule).
+#[inline(always)]
+pub(super) fn break_bound(rule: BreakRule, boost: f32) -> f32 {
+    match rule {
+        BreakRule::Max => boost,
+        BreakRule::Min => 0.0,
+    }
+}
+
+/// The portable block kernel: the arithmetic runs lane by lane over fixed-size arrays, which the
+/// compiler turns into SIMD instructions where it can; gathers and the rare breaks stay scalar.
+/// Unused lanes hold a unit bond of no stiffness to the particle itself: finite and inert.
+pub(super) fn bond_block(
+    chunk: &mut BondChunk,
+    context: &mut BlockContext,
+    local: usize,
+    entries: Range<usize>,
+    internal: bool,
+    sums: &mut LaneSums,
+) {
+    let first = chunk.first;
+    let i = first + local;
+    let records = context.records;
+    let me = records[i];
+    let count = entries.len();
+    let xi = [
+        lanes(&chunk.rest_vector[0][entries.clone()], 1.0),
+        lanes(&chunk.rest_vector[1][entries.clone()], 0.0),
+        lanes(&chunk.rest_vector[2][entries.clone()], 0.0),
+    ];
+    let stiffness = lanes(&chunk.stiffness[entries.clone()], 0.0);
+    let threshold = lanes(&chunk.threshold[entries.clone()], f32::INFINITY);
+    let rest_length = lanes(&chunk.rest_length_m[entries.clone()], 1.0);
+    let partner = partner_lanes(&chunk.neighbor[entries.clone()], i);
+    let mut eta = [[0.0f32; LANES]; 3];
+    for lane in 0..count {
+        let other = records[partner[lane]];
+        for axis in 0..3 {
+            eta[axis][lane] = other.disp[axis] - me.disp[axis];
+        }
+    }
+    // Stretch and force scale, lane by lane (see `stretch`; one division for both).
+    let mut stretch = [0.0f32; LANES];
+    let mut scale = [0.0f32; LANES];
+    let mut y = [[0.0f32; LANES]; 3];
+    for lane in 0..LANES {
+        for axis in 0..3 {
+            y[axis][lane] = xi[axis][lane] + eta[axis][lane];
+        }
+        let length = (y[0][lane] * y[0][lane] + y[1][lane] * y[1][lane] + y[2][lane] * y[2][lane]).sqrt();
+        let growth = 2.0 * (xi[0][lane] * eta[0][lane] + xi[1][lane] * eta[1][lane] + xi[2][lane] * eta[2][lane])
+            + (eta[0][lane] * eta[0][lane] + eta[1][lane] * eta[1][lane] + eta[2][lane] * eta[2][lane]);
+        let denominator = rest_length[lane] * (length + rest_length[lane]) * length;
+        let inverse = if denominator > 0.0 { 1.0 / denominator } else { 0.0 };
+        // s = growth / (L (|y| + L)); the force k s y / |y| = k growth / (L (|y| + L) |y|) y
+        stretch[lane] = if stiffness[lane] > 0.0 { growth * length * inverse } else { 0.0 };
+        scale[lane] = stiffness[lane] * growth * inverse;
+    }
+    let bound = break_bound(context.rule, me.boost);
+    let mut suspects = false;
+    for lane in 0..LANES {
+        suspects |= stretch[lane] > threshold[lane] + bound;
+    }
+    if suspects {
+        break_lanes(chunk, context, local, entries, internal, &partner, &mut stretch, &mut scale);
+    }
+    for lane in 0..LANES {
+        for axis in 0..3 {
+            sums.force[axis][lane] += y[axis][lane] * scale[lane];
+        }
+        sums.min_stretch[lane] = sums.min_stretch[lane].min(stretch[lane]);
+    }
+    if internal {
+        for lane in 0..count {
+            let total = &mut context.totals[partner[lane] - first];
+            for axis in 0..3 {
+                total[axis] -= y[axis][lane] * scale[lane];
+            }
+            total[3] = total[3].min(stretch[lane]);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use shatter_core::random::SplitMix64;
+
+    use super::*;
+
+    /// A chunk of 40 particles (from index 100 of 300) with random rows of 0 to 20 bonds, inside
+    /// and outside the chunk, random rest vectors, stiffnesses (some broken) and thresholds set
+    /// so that about a tenth of the bonds break; and random gather records.
+    fn random_chunk(seed: u64) -> (BondChunk, Vec<ParticleRecord>) {
+        let mut random = SplitMix64::new(seed);
+        let mut uniform = |low: f64, high: f64| (low + (high - low) * random.next_f64()) as f32;
+        let (n, first, len) = (300usize, 100usize, 40usize);
+        let records: Vec<ParticleRecord> = (0..n)
+            .map(|_| ParticleRecord {
+                disp: [uniform(-1e-5, 1e-5), uniform(-1e-5, 1e-5), uniform(-1e-5, 1e-5)],
+                boost: uniform(0.0, 1e-3),
+            })
+            .collect();
+        let mut chunk = BondChunk { first, len, row_start: vec![0], ..BondChunk::default() };
+        for local in 0..len {
+            let i = first + local;
+            let internal: Vec<usize> = (i + 1..first + len).filter(|_| uniform(0.0, 1.0) < 0.4).take(12).collect();
+            let external: Vec<usize> =
+                (0..first).chain(first + len..n).filter(|_| uniform(0.0, 1.0) < 0.03).take(9).collect();
+            for (k, &j) in internal.iter().chain(&external).enumerate() {
+                if k == internal.len() {
+                    chunk.internal_end.push(chunk.neighbor.len() as u32);
+                }
+                chunk.neighbor.push(j as u32);
+                let xi = [0; 3].map(|_| uniform(-1e-3, 1e-3));
+                for axis in 0..3 {
+                    chunk.rest_vector[axis].push(xi[axis]);
+                }
+                chunk.rest_length_m.push((xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]).sqrt());
+                chunk.stiffness.push(if uniform(0.0, 1.0) < 0.1 { 0.0 } else { uniform(1e3, 1e4) });
+                chunk.threshold.push(uniform(0.0, 0.3));
+                chunk.bond_id.push((i * 64 + k) as u64);
+            }
+            if chunk.internal_end.len() == local {
+                chunk.internal_end.push(chunk.neighbor.len() as u32);
+            }
+            chunk.row_start.push(chunk.neighbor.len() as u32);
+        }
+        (chunk, records)
+    }
+
+    /// Everything a pass writes: forces, smallest stretches, break counts, the broken bonds'
+    /// ids and the bond table after the pass.
+    type PassResult = ([Vec<f32>; 3], Vec<f32>, Vec<u32>, BondChunk);
+
+    fn run(mut chunk: BondChunk, records: &[ParticleRecord], rule: BreakRule, avx2: bool) -> PassResult {
+        let len = chunk.len;
+        let (mut fx, mut fy, mut fz) = (vec![0.0; len], vec![0.0; len], vec![0.0; len]);
+        let (mut min_stretch, mut broken) = (vec![0.0; len], vec![0; len]);
+        let mut out =
+            ChunkForces { force: [&mut fx, &mut fy, &mut fz], min_stretch: &mut min_stretch, broken: &mut broken };
+        if avx2 {
+            spring_forces(&mut chunk, records, rule, &mut out);
+        } else {
+            spring_rows(&mut chunk, records, rule, &mut out, bond_block);
+        }
+        ([fx, fy, fz], min_stretch, broken, chunk)
+    }
+
+    #[test]
+    fn the_avx2_block_kernel_gives_the_portable_kernels_bits() {
+        let mut breaks = 0;
+        for seed in 0..20 {
+            for rule in [BreakRule::Max, BreakRule::Min] {
+                let (chunk, records) = random_chunk(seed);
+                let portable = run(chunk.clone(), &records, rule, false);
+                let dispatched = run(chunk, &records, rule, true);
+                for axis in 0..3 {
+                    let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&portable.0[axis]), bits(&dispatched.0[axis]), "seed {seed} axis {axis}");
+                }
+                // Equal as numbers: the two may differ in the sign of a zero smallest stretch.
+                assert_eq!(portable.1, dispatched.1, "seed {seed}");
+                assert_eq!(portable.2, dispatched.2, "seed {seed}");
+                assert_eq!(portable.3, dispatched.3, "seed {seed}");
+                breaks += portable.3.breaks.len();
+                assert!(portable.0[0].iter().any(|f| *f != 0.0), "seed {seed}: no forces");
+            }
+        }
+        assert!(breaks > 100, "only {breaks} bonds broke: the break path is not exercised");
+    }
+}

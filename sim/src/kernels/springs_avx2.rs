@@ -1,0 +1,186 @@
+//! The spring kernel's block of bonds in explicit AVX2 instructions: the same operations in the
+//! same order as the portable block in `springs`, so the two give the same bits. What the
+//! compiler cannot do on its own is the data movement: each partner's 16-byte record is loaded
+//! whole and eight of them are transposed into lanes with shuffles, and the reactions of internal
+//! bonds are transposed back and scattered as one 16-byte update per partner.
+//!
+//! The only `unsafe` of the workspace is the call into this module's `#[target_feature]`
+//! function, made after the CPU has been checked for AVX2 (see `docs/DECISIONS.md`).
+
+use std::arch::x86_64::{
+    __m128, __m256, _CMP_GT_OQ, _mm_blend_ps, _mm_min_ps, _mm_sub_ps, _mm256_add_ps, _mm256_and_ps, _mm256_castpd_ps,
+    _mm256_castps_pd, _mm256_castps256_ps128, _mm256_cmp_ps, _mm256_div_ps, _mm256_extractf128_ps, _mm256_min_ps,
+    _mm256_movemask_ps, _mm256_mul_ps, _mm256_set_m128, _mm256_set1_ps, _mm256_sqrt_ps, _mm256_unpackhi_pd,
+    _mm256_unpackhi_ps, _mm256_unpacklo_pd, _mm256_unpacklo_ps,
+};
+use std::ops::Range;
+
+use shatter_core::config::sim::BreakRule;
+
+use super::springs::{
+    BlockContext, ChunkForces, LANES, LaneSums, ParticleRecord, break_bound, break_lanes, lanes, partner_lanes,
+    spring_rows,
+};
+use crate::bond_table::BondChunk;
+
+/// True when this CPU has AVX2 (detected once, then cached by the standard library).
+pub(super) fn available() -> bool {
+    std::arch::is_x86_feature_detected!("avx2")
+}
+
+/// [`super::spring_forces`] with the AVX2 block kernel. The caller checks [`available`] first.
+pub(super) fn spring_forces(chunk: &mut BondChunk, records: &[ParticleRecord], rule: BreakRule, out: &mut ChunkForces) {
+    assert!(available(), "the AVX2 spring kernel needs a CPU with AVX2");
+    // SAFETY: a `#[target_feature]` function's one precondition is that the CPU has the
+    // features it enables; the assertion above checked AVX2 on this CPU.
+    #[allow(unsafe_code)]
+    unsafe {
+        spring_forces_avx2(chunk, records, rule, out);
+    }
+}
+
+#[target_feature(enable = "avx2")]
+fn spring_forces_avx2(chunk: &mut BondChunk, records: &[ParticleRecord], rule: BreakRule, out: &mut ChunkForces) {
+    spring_rows(
+        chunk,
+        records,
+        rule,
+        out,
+        #[inline(always)]
+        |chunk, context, local, entries, internal, sums| bond_block(chunk, context, local, entries, internal, sums),
+    );
+}
+
+/// Eight f32 lanes from a slice of up to eight, padded with `fill`.
+#[inline(always)]
+fn load(values: &[f32], fill: f32) -> __m256 {
+    bytemuck::cast(lanes(values, fill))
+}
+
+/// Transposes eight (x, y, z, w) rows into x, y and z lanes (w is dropped).
+#[target_feature(enable = "avx2")]
+#[inline]
+fn rows_to_lanes(rows: &[__m128; LANES]) -> [__m256; 3] {
+    let a0 = _mm256_set_m128(rows[4], rows[0]);
+    let a1 = _mm256_set_m128(rows[5], rows[1]);
+    let a2 = _mm256_set_m128(rows[6], rows[2]);
+    let a3 = _mm256_set_m128(rows[7], rows[3]);
+    // Per 128-bit half: [x0 x1 y0 y1], [x2 x3 y2 y3], [z0 z1 w0 w1], [z2 z3 w2 w3].
+    let xy01 = _mm256_castps_pd(_mm256_unpacklo_ps(a0, a1));
+    let xy23 = _mm256_castps_pd(_mm256_unpacklo_ps(a2, a3));
+    let zw01 = _mm256_castps_pd(_mm256_unpackhi_ps(a0, a1));
+    let zw23 = _mm256_castps_pd(_mm256_unpackhi_ps(a2, a3));
+    [
+        _mm256_castpd_ps(_mm256_unpacklo_pd(xy01, xy23)),
+        _mm256_castpd_ps(_mm256_unpackhi_pd(xy01, xy23)),
+        _mm256_castpd_ps(_mm256_unpacklo_pd(zw01, zw23)),
+    ]
+}
+
+/// Transposes x, y, z and w lanes into eight (x, y, z, w) rows.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn lanes_to_rows(x: __m256, y: __m256, z: __m256, w: __m256) -> [__m128; LANES] {
+    // Per 128-bit half: [x0 y0 x1 y1], [z0 w0 z1 w1], [x2 y2 x3 y3], [z2 w2 z3 w3].
+    let xy01 = _mm256_castps_pd(_mm256_unpacklo_ps(x, y));
+    let zw01 = _mm256_castps_pd(_mm256_unpacklo_ps(z, w));
+    let xy23 = _mm256_castps_pd(_mm256_unpackhi_ps(x, y));
+    let zw23 = _mm256_castps_pd(_mm256_unpackhi_ps(z, w));
+    let r04 = _mm256_castpd_ps(_mm256_unpacklo_pd(xy01, zw01));
+    let r15 = _mm256_castpd_ps(_mm256_unpackhi_pd(xy01, zw01));
+    let r26 = _mm256_castpd_ps(_mm256_unpacklo_pd(xy23, zw23));
+    let r37 = _mm256_castpd_ps(_mm256_unpackhi_pd(xy23, zw23));
+    [
+        _mm256_castps256_ps128(r04),
+        _mm256_castps256_ps128(r15),
+        _mm256_castps256_ps128(r26),
+        _mm256_castps256_ps128(r37),
+        _mm256_extractf128_ps::<1>(r04),
+        _mm256_extractf128_ps::<1>(r15),
+        _mm256_extractf128_ps::<1>(r26),
+        _mm256_extractf128_ps::<1>(r37),
+    ]
+}
+
+/// The portable `bond_block` of `springs` in AVX2 instructions: same operations, same order.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn bond_block(
+    chunk: &mut BondChunk,
+    context: &mut BlockContext,
+    local: usize,
+    entries: Range<usize>,
+    internal: bool,
+    sums: &mut LaneSums,
+) {
+    let first = chunk.first;
+    let i = first + local;
+    let records = context.records;
+    let me_record = records[i];
+    let me: __m128 = bytemuck::cast(me_record);
+    let count = entries.len();
+    let xi = [
+        load(&chunk.rest_vector[0][entries.clone()], 1.0),
+        load(&chunk.rest_vector[1][entries.clone()], 0.0),
+        load(&chunk.rest_vector[2][entries.clone()], 0.0),
+    ];
+    let stiffness = load(&chunk.stiffness[entries.clone()], 0.0);
+    let threshold = load(&chunk.threshold[entries.clone()], f32::INFINITY);
+    let rest_length = load(&chunk.rest_length_m[entries.clone()], 1.0);
+    // Unused lanes gather the particle itself: eta = u_i - u_i = 0, as in the portable block.
+    let partner = partner_lanes(&chunk.neighbor[entries.clone()], i);
+    let mut rows = [me; LANES];
+    for lane in 0..LANES {
+        rows[lane] = _mm_sub_ps(bytemuck::cast(records[partner[lane]]), me);
+    }
+    let eta = rows_to_lanes(&rows);
+
+    let y = [_mm256_add_ps(xi[0], eta[0]), _mm256_add_ps(xi[1], eta[1]), _mm256_add_ps(xi[2], eta[2])];
+    let squares = |v: &[__m256; 3]| {
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(v[0], v[0]), _mm256_mul_ps(v[1], v[1])), _mm256_mul_ps(v[2], v[2]))
+    };
+    let length = _mm256_sqrt_ps(squares(&y));
+    let dot = _mm256_add_ps(
+        _mm256_add_ps(_mm256_mul_ps(xi[0], eta[0]), _mm256_mul_ps(xi[1], eta[1])),
+        _mm256_mul_ps(xi[2], eta[2]),
+    );
+    let growth = _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(2.0), dot), squares(&eta));
+    let denominator = _mm256_mul_ps(_mm256_mul_ps(rest_length, _mm256_add_ps(length, rest_length)), length);
+    let zero = _mm256_set1_ps(0.0);
+    let inverse =
+        _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(denominator, zero), _mm256_div_ps(_mm256_set1_ps(1.0), denominator));
+    let mut stretch = _mm256_and_ps(
+        _mm256_cmp_ps::<_CMP_GT_OQ>(stiffness, zero),
+        _mm256_mul_ps(_mm256_mul_ps(growth, length), inverse),
+    );
+    let mut scale = _mm256_mul_ps(_mm256_mul_ps(stiffness, growth), inverse);
+
+    let bound = _mm256_set1_ps(break_bound(context.rule, me_record.boost));
+    let suspects = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(stretch, _mm256_add_ps(threshold, bound)));
+    if suspects != 0 {
+        let mut stretch_lanes: [f32; LANES] = bytemuck::cast(stretch);
+        let mut scale_lanes: [f32; LANES] = bytemuck::cast(scale);
+        break_lanes(chunk, context, local, entries, internal, &partner, &mut stretch_lanes, &mut scale_lanes);
+        stretch = bytemuck::cast(stretch_lanes);
+        scale = bytemuck::cast(scale_lanes);
+    }
+
+    let force = [_mm256_mul_ps(y[0], scale), _mm256_mul_ps(y[1], scale), _mm256_mul_ps(y[2], scale)];
+    for axis in 0..3 {
+        let sum: __m256 = bytemuck::cast(sums.force[axis]);
+        sums.force[axis] = bytemuck::cast(_mm256_add_ps(sum, force[axis]));
+    }
+    let smallest: __m256 = bytemuck::cast(sums.min_stretch);
+    sums.min_stretch = bytemuck::cast(_mm256_min_ps(smallest, stretch));
+    if internal {
+        // Each partner's total loses the force (x, y, z) and keeps the smaller stretch (w).
+        let reactions = lanes_to_rows(force[0], force[1], force[2], stretch);
+        for lane in 0..count {
+            let slot = &mut context.totals[partner[lane] - first];
+            let total: __m128 = bytemuck::cast(*slot);
+            let updated =
+                _mm_blend_ps::<0b1000>(_mm_sub_ps(total, reactions[lane]), _mm_min_ps(total, reactions[lane]));
+            *slot = bytemuck::cast(updated);
+        }
+    }
+}
