@@ -107,20 +107,19 @@ pub fn spring_forces(chunk: &mut BondChunk, records: &[ParticleRecord], rule: Br
         super::springs_avx2::spring_forces(chunk, records, rule, out);
         return;
     }
-    spring_rows(chunk, records, rule, out, bond_block);
+    spring_rows(chunk, records, rule, out, bond_row);
 }
 
-/// The row loop of [`spring_forces`] around a block kernel, which takes a block of up to
-/// [`LANES`] consecutive entries of one particle's row, all internal or all external:
-/// `(chunk, context, local particle, entries, internal, sums)`. Inlined into each caller, so that
-/// it is compiled for the caller's instruction set.
+/// The particle loop of [`spring_forces`] around a row kernel, which computes the bonds of one
+/// particle's row (`(chunk, context, local particle)`) and returns their lane sums. Inlined into
+/// each caller, so that it is compiled for the caller's instruction set.
 #[inline(always)]
 pub(super) fn spring_rows(
     chunk: &mut BondChunk,
     records: &[ParticleRecord],
     rule: BreakRule,
     out: &mut ChunkForces,
-    mut block: impl FnMut(&mut BondChunk, &mut BlockContext, usize, Range<usize>, bool, &mut LaneSums),
+    mut row: impl FnMut(&mut BondChunk, &mut BlockContext, usize) -> LaneSums,
 ) {
     chunk.breaks.clear();
     let mut totals = std::mem::take(&mut chunk.totals);
@@ -128,20 +127,7 @@ pub(super) fn spring_rows(
     totals.resize(chunk.len, [0.0; 4]);
     let mut context = BlockContext { records, rule, totals: &mut totals, broken: out.broken };
     for local in 0..chunk.len {
-        let mut sums = LaneSums { force: [[0.0; LANES]; 3], min_stretch: [0.0; LANES] };
-        let row = chunk.row_start[local] as usize..chunk.row_start[local + 1] as usize;
-        let internal_end = chunk.internal_end[local] as usize;
-        let mut start = row.start;
-        while start < internal_end {
-            let end = (start + LANES).min(internal_end);
-            block(chunk, &mut context, local, start..end, true, &mut sums);
-            start = end;
-        }
-        while start < row.end {
-            let end = (start + LANES).min(row.end);
-            block(chunk, &mut context, local, start..end, false, &mut sums);
-            start = end;
-        }
+        let sums = row(chunk, &mut context, local);
         let total = &mut context.totals[local];
         for axis in 0..3 {
             total[axis] += sums.force[axis].iter().sum::<f32>();
@@ -155,6 +141,26 @@ pub(super) fn spring_rows(
         out.min_stretch[local] = total[3];
     }
     chunk.totals = totals;
+}
+
+/// The blocks of particle `local`'s row: up to [`LANES`] consecutive entries each, the internal
+/// ones first (`true`), then the external ones.
+pub(super) fn row_blocks(chunk: &BondChunk, local: usize) -> impl Iterator<Item = (Range<usize>, bool)> + use<> {
+    let (start, middle) = (chunk.row_start[local] as usize, chunk.internal_end[local] as usize);
+    let end = chunk.row_start[local + 1] as usize;
+    let blocks = |from: usize, to: usize, internal: bool| {
+        (from..to).step_by(LANES).map(move |first| (first..(first + LANES).min(to), internal))
+    };
+    blocks(start, middle, true).chain(blocks(middle, end, false))
+}
+
+/// The portable row kernel: [`bond_block`] over the row's blocks.
+fn bond_row(chunk: &mut BondChunk, context: &mut BlockContext, local: usize) -> LaneSums {
+    let mut sums = LaneSums { force: [[0.0; LANES]; 3], min_stretch: [0.0; LANES] };
+    for (entries, internal) in row_blocks(chunk, local) {
+        bond_block(chunk, context, local, entries, internal, &mut sums);
+    }
+    sums
 }
 
 /// The block's partner indices, padded with the particle itself (`me`).
@@ -219,10 +225,12 @@ pub(super) fn break_bound(rule: BreakRule, boost: f32) -> f32 {
     }
 }
 
-/// The portable block kernel: the arithmetic runs lane by lane over fixed-size arrays, which the
+/// The portable block kernel: up to [`LANES`] consecutive entries of particle `local`'s row, all
+/// internal or all external. The arithmetic runs lane by lane over fixed-size arrays, which the
 /// compiler turns into SIMD instructions where it can; gathers and the rare breaks stay scalar.
 /// Unused lanes hold a unit bond of no stiffness to the particle itself: finite and inert.
-pub(super) fn bond_block(
+#[inline(always)]
+fn bond_block(
     chunk: &mut BondChunk,
     context: &mut BlockContext,
     local: usize,
@@ -353,7 +361,7 @@ mod tests {
         if avx2 {
             spring_forces(&mut chunk, records, rule, &mut out);
         } else {
-            spring_rows(&mut chunk, records, rule, &mut out, bond_block);
+            spring_rows(&mut chunk, records, rule, &mut out, bond_row);
         }
         ([fx, fy, fz], min_stretch, broken, chunk)
     }

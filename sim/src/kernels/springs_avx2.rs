@@ -10,16 +10,15 @@
 use std::arch::x86_64::{
     __m128, __m256, _CMP_GT_OQ, _mm_blend_ps, _mm_min_ps, _mm_sub_ps, _mm256_add_ps, _mm256_and_ps, _mm256_castpd_ps,
     _mm256_castps_pd, _mm256_castps256_ps128, _mm256_cmp_ps, _mm256_div_ps, _mm256_extractf128_ps, _mm256_min_ps,
-    _mm256_movemask_ps, _mm256_mul_ps, _mm256_set_m128, _mm256_set1_ps, _mm256_sqrt_ps, _mm256_unpackhi_pd,
-    _mm256_unpackhi_ps, _mm256_unpacklo_pd, _mm256_unpacklo_ps,
+    _mm256_movemask_ps, _mm256_mul_ps, _mm256_set_m128, _mm256_set1_ps, _mm256_sqrt_ps, _mm256_sub_ps,
+    _mm256_unpackhi_pd, _mm256_unpackhi_ps, _mm256_unpacklo_pd, _mm256_unpacklo_ps,
 };
-use std::ops::Range;
 
 use shatter_core::config::sim::BreakRule;
 
 use super::springs::{
     BlockContext, ChunkForces, LANES, LaneSums, ParticleRecord, break_bound, break_lanes, lanes, partner_lanes,
-    spring_rows,
+    row_blocks, spring_rows,
 };
 use crate::bond_table::BondChunk;
 
@@ -47,7 +46,7 @@ fn spring_forces_avx2(chunk: &mut BondChunk, records: &[ParticleRecord], rule: B
         rule,
         out,
         #[inline(always)]
-        |chunk, context, local, entries, internal, sums| bond_block(chunk, context, local, entries, internal, sums),
+        |chunk, context, local| bond_row(chunk, context, local),
     );
 }
 
@@ -102,85 +101,82 @@ fn lanes_to_rows(x: __m256, y: __m256, z: __m256, w: __m256) -> [__m128; LANES] 
     ]
 }
 
-/// The portable `bond_block` of `springs` in AVX2 instructions: same operations, same order.
+/// The portable row kernel of `springs` in AVX2 instructions: same operations, same order, with
+/// the lane sums kept in registers over the row.
 #[target_feature(enable = "avx2")]
-#[inline]
-fn bond_block(
-    chunk: &mut BondChunk,
-    context: &mut BlockContext,
-    local: usize,
-    entries: Range<usize>,
-    internal: bool,
-    sums: &mut LaneSums,
-) {
+fn bond_row(chunk: &mut BondChunk, context: &mut BlockContext, local: usize) -> LaneSums {
     let first = chunk.first;
     let i = first + local;
     let records = context.records;
     let me_record = records[i];
-    let me: __m128 = bytemuck::cast(me_record);
-    let count = entries.len();
-    let xi = [
-        load(&chunk.rest_vector[0][entries.clone()], 1.0),
-        load(&chunk.rest_vector[1][entries.clone()], 0.0),
-        load(&chunk.rest_vector[2][entries.clone()], 0.0),
-    ];
-    let stiffness = load(&chunk.stiffness[entries.clone()], 0.0);
-    let threshold = load(&chunk.threshold[entries.clone()], f32::INFINITY);
-    let rest_length = load(&chunk.rest_length_m[entries.clone()], 1.0);
-    // Unused lanes gather the particle itself: eta = u_i - u_i = 0, as in the portable block.
-    let partner = partner_lanes(&chunk.neighbor[entries.clone()], i);
-    let mut rows = [me; LANES];
-    for lane in 0..LANES {
-        rows[lane] = _mm_sub_ps(bytemuck::cast(records[partner[lane]]), me);
-    }
-    let eta = rows_to_lanes(&rows);
-
-    let y = [_mm256_add_ps(xi[0], eta[0]), _mm256_add_ps(xi[1], eta[1]), _mm256_add_ps(xi[2], eta[2])];
-    let squares = |v: &[__m256; 3]| {
-        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(v[0], v[0]), _mm256_mul_ps(v[1], v[1])), _mm256_mul_ps(v[2], v[2]))
-    };
-    let length = _mm256_sqrt_ps(squares(&y));
-    let dot = _mm256_add_ps(
-        _mm256_add_ps(_mm256_mul_ps(xi[0], eta[0]), _mm256_mul_ps(xi[1], eta[1])),
-        _mm256_mul_ps(xi[2], eta[2]),
-    );
-    let growth = _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(2.0), dot), squares(&eta));
-    let denominator = _mm256_mul_ps(_mm256_mul_ps(rest_length, _mm256_add_ps(length, rest_length)), length);
-    let zero = _mm256_set1_ps(0.0);
-    let inverse =
-        _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(denominator, zero), _mm256_div_ps(_mm256_set1_ps(1.0), denominator));
-    let mut stretch = _mm256_and_ps(
-        _mm256_cmp_ps::<_CMP_GT_OQ>(stiffness, zero),
-        _mm256_mul_ps(_mm256_mul_ps(growth, length), inverse),
-    );
-    let mut scale = _mm256_mul_ps(_mm256_mul_ps(stiffness, growth), inverse);
-
+    let me = me_record.disp.map(|u| _mm256_set1_ps(u));
     let bound = _mm256_set1_ps(break_bound(context.rule, me_record.boost));
-    let suspects = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(stretch, _mm256_add_ps(threshold, bound)));
-    if suspects != 0 {
-        let mut stretch_lanes: [f32; LANES] = bytemuck::cast(stretch);
-        let mut scale_lanes: [f32; LANES] = bytemuck::cast(scale);
-        break_lanes(chunk, context, local, entries, internal, &partner, &mut stretch_lanes, &mut scale_lanes);
-        stretch = bytemuck::cast(stretch_lanes);
-        scale = bytemuck::cast(scale_lanes);
-    }
+    let zero = _mm256_set1_ps(0.0);
+    let mut force_sum = [zero; 3];
+    let mut smallest = zero;
+    for (entries, internal) in row_blocks(chunk, local) {
+        let count = entries.len();
+        let xi = [
+            load(&chunk.rest_vector[0][entries.clone()], 1.0),
+            load(&chunk.rest_vector[1][entries.clone()], 0.0),
+            load(&chunk.rest_vector[2][entries.clone()], 0.0),
+        ];
+        let stiffness = load(&chunk.stiffness[entries.clone()], 0.0);
+        let threshold = load(&chunk.threshold[entries.clone()], f32::INFINITY);
+        let rest_length = load(&chunk.rest_length_m[entries.clone()], 1.0);
+        // Unused lanes gather the particle itself: eta = u_i - u_i = 0, as in the portable block.
+        let partner = partner_lanes(&chunk.neighbor[entries.clone()], i);
+        let rows = partner.map(|j| bytemuck::cast::<ParticleRecord, __m128>(records[j]));
+        let disp = rows_to_lanes(&rows);
+        let eta = [_mm256_sub_ps(disp[0], me[0]), _mm256_sub_ps(disp[1], me[1]), _mm256_sub_ps(disp[2], me[2])];
 
-    let force = [_mm256_mul_ps(y[0], scale), _mm256_mul_ps(y[1], scale), _mm256_mul_ps(y[2], scale)];
-    for axis in 0..3 {
-        let sum: __m256 = bytemuck::cast(sums.force[axis]);
-        sums.force[axis] = bytemuck::cast(_mm256_add_ps(sum, force[axis]));
-    }
-    let smallest: __m256 = bytemuck::cast(sums.min_stretch);
-    sums.min_stretch = bytemuck::cast(_mm256_min_ps(smallest, stretch));
-    if internal {
-        // Each partner's total loses the force (x, y, z) and keeps the smaller stretch (w).
-        let reactions = lanes_to_rows(force[0], force[1], force[2], stretch);
-        for lane in 0..count {
-            let slot = &mut context.totals[partner[lane] - first];
-            let total: __m128 = bytemuck::cast(*slot);
-            let updated =
-                _mm_blend_ps::<0b1000>(_mm_sub_ps(total, reactions[lane]), _mm_min_ps(total, reactions[lane]));
-            *slot = bytemuck::cast(updated);
+        let y = [_mm256_add_ps(xi[0], eta[0]), _mm256_add_ps(xi[1], eta[1]), _mm256_add_ps(xi[2], eta[2])];
+        let length = _mm256_sqrt_ps(sum_of_products(&y, &y));
+        let growth =
+            _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(2.0), sum_of_products(&xi, &eta)), sum_of_products(&eta, &eta));
+        let denominator = _mm256_mul_ps(_mm256_mul_ps(rest_length, _mm256_add_ps(length, rest_length)), length);
+        let inverse = _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_GT_OQ>(denominator, zero),
+            _mm256_div_ps(_mm256_set1_ps(1.0), denominator),
+        );
+        let mut stretch = _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_GT_OQ>(stiffness, zero),
+            _mm256_mul_ps(_mm256_mul_ps(growth, length), inverse),
+        );
+        let mut scale = _mm256_mul_ps(_mm256_mul_ps(stiffness, growth), inverse);
+
+        let suspects = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(stretch, _mm256_add_ps(threshold, bound)));
+        if suspects != 0 {
+            let mut stretch_lanes: [f32; LANES] = bytemuck::cast(stretch);
+            let mut scale_lanes: [f32; LANES] = bytemuck::cast(scale);
+            break_lanes(chunk, context, local, entries, internal, &partner, &mut stretch_lanes, &mut scale_lanes);
+            stretch = bytemuck::cast(stretch_lanes);
+            scale = bytemuck::cast(scale_lanes);
+        }
+
+        let force = [_mm256_mul_ps(y[0], scale), _mm256_mul_ps(y[1], scale), _mm256_mul_ps(y[2], scale)];
+        for axis in 0..3 {
+            force_sum[axis] = _mm256_add_ps(force_sum[axis], force[axis]);
+        }
+        smallest = _mm256_min_ps(smallest, stretch);
+        if internal {
+            // Each partner's total loses the force (x, y, z) and keeps the smaller stretch (w).
+            let reactions = lanes_to_rows(force[0], force[1], force[2], stretch);
+            for lane in 0..count {
+                let slot = &mut context.totals[partner[lane] - first];
+                let total: __m128 = bytemuck::cast(*slot);
+                let updated =
+                    _mm_blend_ps::<0b1000>(_mm_sub_ps(total, reactions[lane]), _mm_min_ps(total, reactions[lane]));
+                *slot = bytemuck::cast(updated);
+            }
         }
     }
+    LaneSums { force: force_sum.map(bytemuck::cast), min_stretch: bytemuck::cast(smallest) }
+}
+
+/// a0 b0 + a1 b1 + a2 b2, lane by lane, summed in that order.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn sum_of_products(a: &[__m256; 3], b: &[__m256; 3]) -> __m256 {
+    _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(a[0], b[0]), _mm256_mul_ps(a[1], b[1])), _mm256_mul_ps(a[2], b[2]))
 }
