@@ -2,7 +2,8 @@
 //!
 //! A bond whose two particles share a chunk is stored once, in the row of the lower index, and
 //! its force is applied to both ends (Newton's third law within the chunk: half the work). A bond
-//! that crosses chunks is stored in both rows and each side computes it. Chunks depend only on
+//! that crosses chunks is stored in both rows and each side computes it. A row is stored in
+//! blocks of eight entries ([`BondBlock`]), its internal entries first. Chunks depend only on
 //! the particle count, never on the thread count, and each chunk is processed in a fixed order,
 //! so every sum happens in the same order on 1 thread or 64.
 
@@ -16,6 +17,45 @@ pub fn chunk_size(n: usize) -> usize {
     (n / 16).next_power_of_two().clamp(1024, 16384)
 }
 
+/// Entries per [`BondBlock`]: one 256-bit register of f32.
+pub const LANES: usize = 8;
+
+/// The bond id of a padding lane.
+pub const PADDING: u64 = u64::MAX;
+
+/// Eight consecutive entries of one particle's row, all internal or all external, stored together
+/// so that the spring kernel reads a block as one contiguous 224 bytes. A row's last internal and
+/// last external block are padded with inert lanes: a unit bond of no stiffness and infinite
+/// threshold to the particle itself, with bond id [`PADDING`]; its force and stretch are zero.
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C, align(32))]
+pub struct BondBlock {
+    /// Partner particle (global index).
+    pub neighbor: [u32; LANES],
+    /// Rest vector xi = X_j - X_i, metres (x, y, z lanes), computed in f32 from the file's
+    /// positions: its length is bit for bit the file's rest length.
+    pub rest_vector: [[f32; LANES]; 3],
+    /// Rest length |xi|, metres (stored: a square root per bond and step saved).
+    pub rest_length_m: [f32; LANES],
+    /// Critical stretch; infinite once broken.
+    pub threshold: [f32; LANES],
+    /// k = c V_i V_j g_ij (N per unit stretch); 0 once broken.
+    pub stiffness: [f32; LANES],
+}
+
+impl BondBlock {
+    /// A block of padding lanes of particle `i`.
+    fn padding(i: usize) -> BondBlock {
+        BondBlock {
+            neighbor: [i as u32; LANES],
+            rest_vector: [[1.0; LANES], [0.0; LANES], [0.0; LANES]],
+            rest_length_m: [1.0; LANES],
+            threshold: [f32::INFINITY; LANES],
+            stiffness: [0.0; LANES],
+        }
+    }
+}
+
 /// One chunk's bonds.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct BondChunk {
@@ -23,28 +63,89 @@ pub struct BondChunk {
     pub first: usize,
     /// Particles in the chunk.
     pub len: usize,
-    /// Entry offsets per local particle (len + 1).
+    /// Block offsets per local particle (len + 1).
     pub row_start: Vec<u32>,
-    /// End of each row's internal entries (partners in this chunk with a higher index); the rest
-    /// of the row holds external entries.
+    /// End of each row's internal blocks (partners in this chunk with a higher index); the rest
+    /// of the row holds external blocks.
     pub internal_end: Vec<u32>,
-    /// Partner particle (global index).
-    pub neighbor: Vec<u32>,
-    /// Rest vector xi = X_j - X_i, metres (x, y, z arrays), computed in f32 from the file's
-    /// positions: its length is bit for bit the file's rest length.
-    pub rest_vector: [Vec<f32>; 3],
-    /// Rest length |xi|, metres (stored: a square root per bond and step saved).
-    pub rest_length_m: Vec<f32>,
-    /// Critical stretch; infinite once broken.
-    pub threshold: Vec<f32>,
-    /// k = c V_i V_j g_ij (N per unit stretch); 0 once broken.
-    pub stiffness: Vec<f32>,
-    /// The bond's id: its entry index in the particle file's CSR, in the lower particle's row.
+    /// The blocks of all rows.
+    pub blocks: Vec<BondBlock>,
+    /// Each lane's bond id (block * 8 + lane): the bond's entry index in the particle file's CSR,
+    /// in the lower particle's row; [`PADDING`] for padding.
     pub bond_id: Vec<u64>,
     /// Ids of bonds this chunk saw break in the current step (scratch, reused).
     pub breaks: Vec<u64>,
     /// Per-particle force and smallest-stretch sums of the current step (scratch, reused).
     pub totals: Vec<[f32; 4]>,
+}
+
+/// One bond as seen from one of its particles, before it is packed into a block.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BondEntry {
+    /// Partner particle (global index).
+    pub neighbor: u32,
+    /// Rest vector xi = X_j - X_i, metres.
+    pub rest_vector: [f32; 3],
+    /// Rest length |xi|, metres.
+    pub rest_length_m: f32,
+    /// Critical stretch.
+    pub threshold: f32,
+    /// Stiffness k, N per unit stretch.
+    pub stiffness: f32,
+    /// The bond's id (see [`BondChunk::bond_id`]).
+    pub bond_id: u64,
+}
+
+impl BondChunk {
+    /// An empty chunk of particles `first..first + len`, to be filled row by row.
+    pub fn new(first: usize, len: usize) -> BondChunk {
+        BondChunk { first, len, row_start: vec![0], ..BondChunk::default() }
+    }
+
+    /// Appends the row of the chunk's next particle: its internal entries, then its external
+    /// ones, each packed into padded blocks.
+    pub fn push_row(&mut self, internal: &[BondEntry], external: &[BondEntry]) {
+        let i = self.first + self.internal_end.len();
+        self.push_blocks(i, internal);
+        self.internal_end.push(self.blocks.len() as u32);
+        self.push_blocks(i, external);
+        self.row_start.push(self.blocks.len() as u32);
+    }
+
+    fn push_blocks(&mut self, i: usize, entries: &[BondEntry]) {
+        for group in entries.chunks(LANES) {
+            let mut block = BondBlock::padding(i);
+            let mut ids = [PADDING; LANES];
+            for (lane, entry) in group.iter().enumerate() {
+                block.neighbor[lane] = entry.neighbor;
+                for axis in 0..3 {
+                    block.rest_vector[axis][lane] = entry.rest_vector[axis];
+                }
+                block.rest_length_m[lane] = entry.rest_length_m;
+                block.threshold[lane] = entry.threshold;
+                block.stiffness[lane] = entry.stiffness;
+                ids[lane] = entry.bond_id;
+            }
+            self.blocks.push(block);
+            self.bond_id.extend(ids);
+        }
+    }
+
+    /// Particle `local`'s blocks (indices into [`BondChunk::blocks`]), each with whether it is
+    /// internal.
+    pub fn row(&self, local: usize) -> impl Iterator<Item = (usize, bool)> + use<> {
+        let (start, middle) = (self.row_start[local] as usize, self.internal_end[local] as usize);
+        (start..self.row_start[local + 1] as usize).map(move |block| (block, block < middle))
+    }
+
+    /// Particle `local`'s bonds (padding skipped): (block, lane, internal).
+    pub fn row_bonds(&self, local: usize) -> impl Iterator<Item = (usize, usize, bool)> + '_ {
+        self.row(local).flat_map(move |(block, internal)| {
+            (0..LANES)
+                .filter(move |lane| self.bond_id[block * LANES + lane] != PADDING)
+                .map(move |lane| (block, lane, internal))
+        })
+    }
 }
 
 /// All chunks.
@@ -77,44 +178,36 @@ impl BondTable {
             .map(|c| {
                 let first = c * size;
                 let end = (first + size).min(n);
-                let mut chunk = BondChunk { first, len: end - first, row_start: vec![0], ..BondChunk::default() };
+                let mut chunk = BondChunk::new(first, end - first);
+                let (mut internal, mut external) = (Vec::new(), Vec::new());
                 for i in first..end {
-                    let row = bonds.row(i);
-                    let internal = row.clone().filter(|k| {
-                        let j = bonds.neighbor[*k] as usize;
-                        j > i && j < end
-                    });
-                    let external = row.clone().filter(|k| {
-                        let j = bonds.neighbor[*k] as usize;
-                        j < first || j >= end
-                    });
-                    let push = |chunk: &mut BondChunk, k: usize| {
+                    internal.clear();
+                    external.clear();
+                    for k in bonds.row(i) {
                         let j = bonds.neighbor[k] as usize;
-                        let factor = factors.map_or(1.0, |f| f64::from(f[k]));
-                        chunk.neighbor.push(j as u32);
-                        let (xi, xj) = (particles.rest_position_m[i], particles.rest_position_m[j]);
-                        for axis in 0..3 {
-                            chunk.rest_vector[axis].push(xj[axis] - xi[axis]);
+                        let inside = (first..end).contains(&j);
+                        if inside && j < i {
+                            continue; // stored in j's row
                         }
-                        chunk.rest_length_m.push(bonds.rest_length_m[k]);
-                        chunk.threshold.push((f64::from(bonds.threshold[k]) * threshold_scale * factor) as f32);
+                        let factor = factors.map_or(1.0, |f| f64::from(f[k]));
+                        let (xi, xj) = (particles.rest_position_m[i], particles.rest_position_m[j]);
                         let g = 0.5 * (correction[i] + correction[j]);
-                        chunk.stiffness.push((bond_constant * f64::from(volume[i]) * f64::from(volume[j]) * g) as f32);
                         let id = if i < j {
                             k
                         } else {
                             bonds.find(j, i as u32).unwrap_or_else(|| unreachable!("validated: bonds are symmetric"))
                         };
-                        chunk.bond_id.push(id as u64);
-                    };
-                    for k in internal {
-                        push(&mut chunk, k);
+                        let entry = BondEntry {
+                            neighbor: j as u32,
+                            rest_vector: [0, 1, 2].map(|axis| xj[axis] - xi[axis]),
+                            rest_length_m: bonds.rest_length_m[k],
+                            threshold: (f64::from(bonds.threshold[k]) * threshold_scale * factor) as f32,
+                            stiffness: (bond_constant * f64::from(volume[i]) * f64::from(volume[j]) * g) as f32,
+                            bond_id: id as u64,
+                        };
+                        if inside { internal.push(entry) } else { external.push(entry) }
                     }
-                    chunk.internal_end.push(chunk.neighbor.len() as u32);
-                    for k in external {
-                        push(&mut chunk, k);
-                    }
-                    chunk.row_start.push(chunk.neighbor.len() as u32);
+                    chunk.push_row(&internal, &external);
                 }
                 chunk
             })
@@ -129,9 +222,10 @@ impl BondTable {
             .map(|chunk| {
                 let mut marked = 0;
                 for k in 0..chunk.bond_id.len() {
-                    if sorted_ids.binary_search(&chunk.bond_id[k]).is_ok() {
-                        chunk.threshold[k] = f32::INFINITY;
-                        chunk.stiffness[k] = 0.0;
+                    if chunk.bond_id[k] != PADDING && sorted_ids.binary_search(&chunk.bond_id[k]).is_ok() {
+                        let block = &mut chunk.blocks[k / LANES];
+                        block.threshold[k % LANES] = f32::INFINITY;
+                        block.stiffness[k % LANES] = 0.0;
                         marked += 1;
                     }
                 }

@@ -201,10 +201,19 @@ impl Simulation {
     /// Bond entries the force pass computes per step: (internal, stored once and applied to
     /// both ends; external, stored and computed on both sides).
     pub fn bond_entries(&self) -> (usize, usize) {
-        self.table.chunks.iter().fold((0, 0), |(internal, external), chunk| {
-            let inside: usize = (0..chunk.len).map(|l| (chunk.internal_end[l] - chunk.row_start[l]) as usize).sum();
-            (internal + inside, external + chunk.neighbor.len() - inside)
-        })
+        let mut counts = (0, 0);
+        for chunk in &self.table.chunks {
+            for local in 0..chunk.len {
+                for (_, _, internal) in chunk.row_bonds(local) {
+                    if internal {
+                        counts.0 += 1;
+                    } else {
+                        counts.1 += 1;
+                    }
+                }
+            }
+        }
+        counts
     }
 
     /// The model.
@@ -312,19 +321,19 @@ impl Simulation {
         (self.table.chunks.par_iter(), energy.par_chunks_mut(size)).into_par_iter().for_each(|(chunk, energy)| {
             for local in 0..chunk.len {
                 let i = chunk.first + local;
-                let internal_end = chunk.internal_end[local] as usize;
-                for k in chunk.row_start[local] as usize..chunk.row_start[local + 1] as usize {
-                    if chunk.stiffness[k] == 0.0 {
+                for (block, lane, internal) in chunk.row_bonds(local) {
+                    let bond = &chunk.blocks[block];
+                    if bond.stiffness[lane] == 0.0 {
                         continue;
                     }
-                    let j = chunk.neighbor[k] as usize;
-                    let xi = [0, 1, 2].map(|a| chunk.rest_vector[a][k]);
+                    let j = bond.neighbor[lane] as usize;
+                    let xi = [0, 1, 2].map(|a| bond.rest_vector[a][lane]);
                     let eta = [0, 1, 2].map(|a| disp[a][j] - disp[a][i]);
-                    let rest_length = chunk.rest_length_m[k];
+                    let rest_length = bond.rest_length_m[lane];
                     let (s, _, _) = kernels::stretch(xi, eta, rest_length);
-                    let half = 0.25 * f64::from(chunk.stiffness[k]) * f64::from(s).powi(2) * f64::from(rest_length);
+                    let half = 0.25 * f64::from(bond.stiffness[lane]) * f64::from(s).powi(2) * f64::from(rest_length);
                     energy[local] += half;
-                    if k < internal_end {
+                    if internal {
                         // stored once: the partner's half too (same chunk)
                         energy[j - chunk.first] += half;
                     }
@@ -341,12 +350,12 @@ impl Simulation {
         for chunk in &self.table.chunks {
             for local in 0..chunk.len {
                 let i = chunk.first + local;
-                let internal_end = chunk.internal_end[local] as usize;
-                for k in chunk.row_start[local] as usize..chunk.row_start[local + 1] as usize {
-                    let spring = f64::from(chunk.stiffness[k]) / f64::from(chunk.rest_length_m[k]);
+                for (block, lane, internal) in chunk.row_bonds(local) {
+                    let bond = &chunk.blocks[block];
+                    let spring = f64::from(bond.stiffness[lane]) / f64::from(bond.rest_length_m[lane]);
                     stiffness[i] += spring;
-                    if k < internal_end {
-                        stiffness[chunk.neighbor[k] as usize] += spring;
+                    if internal {
+                        stiffness[bond.neighbor[lane] as usize] += spring;
                     }
                 }
             }

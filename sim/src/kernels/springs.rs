@@ -5,11 +5,10 @@
 // Indexed loops mirror the shader this kernel is the twin of.
 #![allow(clippy::needless_range_loop)]
 
-use std::ops::Range;
-
 use shatter_core::config::sim::BreakRule;
 
 use crate::bond_table::BondChunk;
+pub(super) use crate::bond_table::LANES;
 
 /// One chunk's outputs of the force pass.
 pub struct ChunkForces<'a> {
@@ -52,24 +51,6 @@ pub struct ParticleRecord {
     pub disp: [f32; 3],
     /// Compression boost of the particle's thresholds (from the previous step).
     pub boost: f32,
-}
-
-/// Bonds processed together: eight lanes, one 256-bit register of f32.
-pub(super) const LANES: usize = 8;
-
-/// `values` in the first lanes, `fill` in the rest.
-#[inline(always)]
-pub(super) fn lanes(values: &[f32], fill: f32) -> [f32; LANES] {
-    match <[f32; LANES]>::try_from(values) {
-        Ok(full) => full,
-        Err(_) => {
-            let mut out = [fill; LANES];
-            for (lane, value) in values.iter().enumerate() {
-                out[lane] = *value;
-            }
-            out
-        }
-    }
 }
 
 /// One particle's running sums over the lanes.
@@ -143,71 +124,42 @@ pub(super) fn spring_rows(
     chunk.totals = totals;
 }
 
-/// The blocks of particle `local`'s row: up to [`LANES`] consecutive entries each, the internal
-/// ones first (`true`), then the external ones.
-pub(super) fn row_blocks(chunk: &BondChunk, local: usize) -> impl Iterator<Item = (Range<usize>, bool)> + use<> {
-    let (start, middle) = (chunk.row_start[local] as usize, chunk.internal_end[local] as usize);
-    let end = chunk.row_start[local + 1] as usize;
-    let blocks = |from: usize, to: usize, internal: bool| {
-        (from..to).step_by(LANES).map(move |first| (first..(first + LANES).min(to), internal))
-    };
-    blocks(start, middle, true).chain(blocks(middle, end, false))
-}
-
 /// The portable row kernel: [`bond_block`] over the row's blocks.
 fn bond_row(chunk: &mut BondChunk, context: &mut BlockContext, local: usize) -> LaneSums {
     let mut sums = LaneSums { force: [[0.0; LANES]; 3], min_stretch: [0.0; LANES] };
-    for (entries, internal) in row_blocks(chunk, local) {
-        bond_block(chunk, context, local, entries, internal, &mut sums);
+    for (block, internal) in chunk.row(local) {
+        bond_block(chunk, context, local, block, internal, &mut sums);
     }
     sums
-}
-
-/// The block's partner indices, padded with the particle itself (`me`).
-#[inline(always)]
-pub(super) fn partner_lanes(neighbors: &[u32], me: usize) -> [usize; LANES] {
-    match <[u32; LANES]>::try_from(neighbors) {
-        Ok(full) => full.map(|j| j as usize),
-        Err(_) => {
-            let mut partner = [me; LANES];
-            for (lane, &j) in neighbors.iter().enumerate() {
-                partner[lane] = j as usize;
-            }
-            partner
-        }
-    }
 }
 
 /// The break test of a block whose stretches passed the cheap bound: breaks the bonds whose
 /// stretch exceeds their effective threshold (zero stiffness, infinite threshold, counted, logged
 /// once) and zeroes their lanes' stretch and force scale.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn break_lanes(
     chunk: &mut BondChunk,
     context: &mut BlockContext,
     local: usize,
-    entries: Range<usize>,
+    block: usize,
     internal: bool,
-    partner: &[usize; LANES],
     stretch: &mut [f32; LANES],
     scale: &mut [f32; LANES],
 ) {
     let first = chunk.first;
     let i = first + local;
     let boost = context.records[i].boost;
-    let threshold = lanes(&chunk.threshold[entries.clone()], f32::INFINITY);
-    for lane in 0..entries.len() {
-        let j = partner[lane];
-        if stretch[lane] > effective_threshold(context.rule, threshold[lane], boost, context.records[j].boost) {
-            let k = entries.start + lane;
-            chunk.threshold[k] = f32::INFINITY;
-            chunk.stiffness[k] = 0.0;
+    let bonds = &mut chunk.blocks[block];
+    for lane in 0..LANES {
+        let j = bonds.neighbor[lane] as usize;
+        if stretch[lane] > effective_threshold(context.rule, bonds.threshold[lane], boost, context.records[j].boost) {
+            bonds.threshold[lane] = f32::INFINITY;
+            bonds.stiffness[lane] = 0.0;
             context.broken[local] += 1;
             if internal {
                 context.broken[j - first] += 1;
             }
             if i < j {
-                chunk.breaks.push(chunk.bond_id[k]);
+                chunk.breaks.push(chunk.bond_id[block * LANES + lane]);
             }
             stretch[lane] = 0.0;
             scale[lane] = 0.0;
@@ -225,16 +177,16 @@ pub(super) fn break_bound(rule: BreakRule, boost: f32) -> f32 {
     }
 }
 
-/// The portable block kernel: up to [`LANES`] consecutive entries of particle `local`'s row, all
-/// internal or all external. The arithmetic runs lane by lane over fixed-size arrays, which the
-/// compiler turns into SIMD instructions where it can; gathers and the rare breaks stay scalar.
-/// Unused lanes hold a unit bond of no stiffness to the particle itself: finite and inert.
+/// The portable block kernel: one block of particle `local`'s row (internal or external). The
+/// arithmetic runs lane by lane over fixed-size arrays, which the compiler turns into SIMD
+/// instructions where it can; gathers and the rare breaks stay scalar. Padding lanes are inert
+/// (see [`crate::bond_table::BondBlock`]).
 #[inline(always)]
 fn bond_block(
     chunk: &mut BondChunk,
     context: &mut BlockContext,
     local: usize,
-    entries: Range<usize>,
+    block: usize,
     internal: bool,
     sums: &mut LaneSums,
 ) {
@@ -242,18 +194,12 @@ fn bond_block(
     let i = first + local;
     let records = context.records;
     let me = records[i];
-    let count = entries.len();
-    let xi = [
-        lanes(&chunk.rest_vector[0][entries.clone()], 1.0),
-        lanes(&chunk.rest_vector[1][entries.clone()], 0.0),
-        lanes(&chunk.rest_vector[2][entries.clone()], 0.0),
-    ];
-    let stiffness = lanes(&chunk.stiffness[entries.clone()], 0.0);
-    let threshold = lanes(&chunk.threshold[entries.clone()], f32::INFINITY);
-    let rest_length = lanes(&chunk.rest_length_m[entries.clone()], 1.0);
-    let partner = partner_lanes(&chunk.neighbor[entries.clone()], i);
+    let bonds = &chunk.blocks[block];
+    let (xi, stiffness, threshold, rest_length) =
+        (bonds.rest_vector, bonds.stiffness, bonds.threshold, bonds.rest_length_m);
+    let partner = bonds.neighbor.map(|j| j as usize);
     let mut eta = [[0.0f32; LANES]; 3];
-    for lane in 0..count {
+    for lane in 0..LANES {
         let other = records[partner[lane]];
         for axis in 0..3 {
             eta[axis][lane] = other.disp[axis] - me.disp[axis];
@@ -282,7 +228,7 @@ fn bond_block(
         suspects |= stretch[lane] > threshold[lane] + bound;
     }
     if suspects {
-        break_lanes(chunk, context, local, entries, internal, &partner, &mut stretch, &mut scale);
+        break_lanes(chunk, context, local, block, internal, &mut stretch, &mut scale);
     }
     for lane in 0..LANES {
         for axis in 0..3 {
@@ -291,7 +237,8 @@ fn bond_block(
         sums.min_stretch[lane] = sums.min_stretch[lane].min(stretch[lane]);
     }
     if internal {
-        for lane in 0..count {
+        // Padding lanes add a zero force to this particle.
+        for lane in 0..LANES {
             let total = &mut context.totals[partner[lane] - first];
             for axis in 0..3 {
                 total[axis] -= y[axis][lane] * scale[lane];
@@ -306,6 +253,7 @@ mod tests {
     use shatter_core::random::SplitMix64;
 
     use super::*;
+    use crate::bond_table::BondEntry;
 
     /// A chunk of 40 particles (from index 100 of 300) with random rows of 0 to 20 bonds, inside
     /// and outside the chunk, random rest vectors, stiffnesses (some broken) and thresholds set
@@ -320,30 +268,26 @@ mod tests {
                 boost: uniform(0.0, 1e-3),
             })
             .collect();
-        let mut chunk = BondChunk { first, len, row_start: vec![0], ..BondChunk::default() };
+        let mut chunk = BondChunk::new(first, len);
         for local in 0..len {
             let i = first + local;
             let internal: Vec<usize> = (i + 1..first + len).filter(|_| uniform(0.0, 1.0) < 0.4).take(12).collect();
             let external: Vec<usize> =
                 (0..first).chain(first + len..n).filter(|_| uniform(0.0, 1.0) < 0.03).take(9).collect();
-            for (k, &j) in internal.iter().chain(&external).enumerate() {
-                if k == internal.len() {
-                    chunk.internal_end.push(chunk.neighbor.len() as u32);
-                }
-                chunk.neighbor.push(j as u32);
+            let mut entry = |k: usize, j: usize| {
                 let xi = [0; 3].map(|_| uniform(-1e-3, 1e-3));
-                for axis in 0..3 {
-                    chunk.rest_vector[axis].push(xi[axis]);
+                BondEntry {
+                    neighbor: j as u32,
+                    rest_vector: xi,
+                    rest_length_m: (xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]).sqrt(),
+                    stiffness: if uniform(0.0, 1.0) < 0.1 { 0.0 } else { uniform(1e3, 1e4) },
+                    threshold: uniform(0.0, 0.3),
+                    bond_id: (i * 64 + k) as u64,
                 }
-                chunk.rest_length_m.push((xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]).sqrt());
-                chunk.stiffness.push(if uniform(0.0, 1.0) < 0.1 { 0.0 } else { uniform(1e3, 1e4) });
-                chunk.threshold.push(uniform(0.0, 0.3));
-                chunk.bond_id.push((i * 64 + k) as u64);
-            }
-            if chunk.internal_end.len() == local {
-                chunk.internal_end.push(chunk.neighbor.len() as u32);
-            }
-            chunk.row_start.push(chunk.neighbor.len() as u32);
+            };
+            let internal: Vec<BondEntry> = internal.iter().enumerate().map(|(k, &j)| entry(k, j)).collect();
+            let external: Vec<BondEntry> = external.iter().enumerate().map(|(k, &j)| entry(32 + k, j)).collect();
+            chunk.push_row(&internal, &external);
         }
         (chunk, records)
     }

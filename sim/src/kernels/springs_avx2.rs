@@ -17,8 +17,7 @@ use std::arch::x86_64::{
 use shatter_core::config::sim::BreakRule;
 
 use super::springs::{
-    BlockContext, ChunkForces, LANES, LaneSums, ParticleRecord, break_bound, break_lanes, lanes, partner_lanes,
-    row_blocks, spring_rows,
+    BlockContext, ChunkForces, LANES, LaneSums, ParticleRecord, break_bound, break_lanes, spring_rows,
 };
 use crate::bond_table::BondChunk;
 
@@ -48,12 +47,6 @@ fn spring_forces_avx2(chunk: &mut BondChunk, records: &[ParticleRecord], rule: B
         #[inline(always)]
         |chunk, context, local| bond_row(chunk, context, local),
     );
-}
-
-/// Eight f32 lanes from a slice of up to eight, padded with `fill`.
-#[inline(always)]
-fn load(values: &[f32], fill: f32) -> __m256 {
-    bytemuck::cast(lanes(values, fill))
 }
 
 /// Transposes eight (x, y, z, w) rows into x, y and z lanes (w is dropped).
@@ -114,18 +107,14 @@ fn bond_row(chunk: &mut BondChunk, context: &mut BlockContext, local: usize) -> 
     let zero = _mm256_set1_ps(0.0);
     let mut force_sum = [zero; 3];
     let mut smallest = zero;
-    for (entries, internal) in row_blocks(chunk, local) {
-        let count = entries.len();
-        let xi = [
-            load(&chunk.rest_vector[0][entries.clone()], 1.0),
-            load(&chunk.rest_vector[1][entries.clone()], 0.0),
-            load(&chunk.rest_vector[2][entries.clone()], 0.0),
-        ];
-        let stiffness = load(&chunk.stiffness[entries.clone()], 0.0);
-        let threshold = load(&chunk.threshold[entries.clone()], f32::INFINITY);
-        let rest_length = load(&chunk.rest_length_m[entries.clone()], 1.0);
-        // Unused lanes gather the particle itself: eta = u_i - u_i = 0, as in the portable block.
-        let partner = partner_lanes(&chunk.neighbor[entries.clone()], i);
+    for (block, internal) in chunk.row(local) {
+        let bonds = &chunk.blocks[block];
+        let xi = bonds.rest_vector.map(|axis| bytemuck::cast::<[f32; LANES], __m256>(axis));
+        let stiffness: __m256 = bytemuck::cast(bonds.stiffness);
+        let threshold: __m256 = bytemuck::cast(bonds.threshold);
+        let rest_length: __m256 = bytemuck::cast(bonds.rest_length_m);
+        let partner = bonds.neighbor.map(|j| j as usize);
+        // Padding lanes gather the particle itself: eta = u_i - u_i = 0.
         let rows = partner.map(|j| bytemuck::cast::<ParticleRecord, __m128>(records[j]));
         let disp = rows_to_lanes(&rows);
         let eta = [_mm256_sub_ps(disp[0], me[0]), _mm256_sub_ps(disp[1], me[1]), _mm256_sub_ps(disp[2], me[2])];
@@ -149,7 +138,7 @@ fn bond_row(chunk: &mut BondChunk, context: &mut BlockContext, local: usize) -> 
         if suspects != 0 {
             let mut stretch_lanes: [f32; LANES] = bytemuck::cast(stretch);
             let mut scale_lanes: [f32; LANES] = bytemuck::cast(scale);
-            break_lanes(chunk, context, local, entries, internal, &partner, &mut stretch_lanes, &mut scale_lanes);
+            break_lanes(chunk, context, local, block, internal, &mut stretch_lanes, &mut scale_lanes);
             stretch = bytemuck::cast(stretch_lanes);
             scale = bytemuck::cast(scale_lanes);
         }
@@ -160,9 +149,10 @@ fn bond_row(chunk: &mut BondChunk, context: &mut BlockContext, local: usize) -> 
         }
         smallest = _mm256_min_ps(smallest, stretch);
         if internal {
-            // Each partner's total loses the force (x, y, z) and keeps the smaller stretch (w).
+            // Each partner's total loses the force (x, y, z) and keeps the smaller stretch (w);
+            // padding lanes add a zero force to this particle.
             let reactions = lanes_to_rows(force[0], force[1], force[2], stretch);
-            for lane in 0..count {
+            for lane in 0..LANES {
                 let slot = &mut context.totals[partner[lane] - first];
                 let total: __m128 = bytemuck::cast(*slot);
                 let updated =
