@@ -109,7 +109,7 @@ fn bond_row(chunk: &mut BondChunk, context: &mut BlockContext, local: usize) -> 
     let mut smallest = zero;
     for (block, internal) in chunk.row(local) {
         let bonds = &chunk.blocks[block];
-        let xi = bonds.rest_vector.map(|axis| bytemuck::cast::<[f32; LANES], __m256>(axis));
+        let xi = bonds.rest_vector.map(bytemuck::cast::<[f32; LANES], __m256>);
         let stiffness: __m256 = bytemuck::cast(bonds.stiffness);
         let threshold: __m256 = bytemuck::cast(bonds.threshold);
         let rest_length: __m256 = bytemuck::cast(bonds.rest_length_m);
