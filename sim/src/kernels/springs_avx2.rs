@@ -152,8 +152,9 @@ fn bond_row(chunk: &mut BondChunk, context: &mut BlockContext, local: usize) -> 
             // Each partner's total loses the force (x, y, z) and keeps the smaller stretch (w);
             // padding lanes add a zero force to this particle.
             let reactions = lanes_to_rows(force[0], force[1], force[2], stretch);
+            let totals = &mut *context.totals;
             for lane in 0..LANES {
-                let slot = &mut context.totals[partner[lane] - first];
+                let slot = &mut totals[partner[lane] - first];
                 let total: __m128 = bytemuck::cast(*slot);
                 let updated =
                     _mm_blend_ps::<0b1000>(_mm_sub_ps(total, reactions[lane]), _mm_min_ps(total, reactions[lane]));
