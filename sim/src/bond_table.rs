@@ -11,8 +11,9 @@ use rayon::prelude::*;
 use shatter_core::config::sim::StiffnessCorrection;
 use shatter_core::particles::ParticleSet;
 
-/// Particles per chunk for `n` particles: large enough that most bonds stay inside a chunk,
-/// small enough for 16 or more chunks to share out among threads.
+/// Particles per chunk for `n` particles: large enough that most bonds stay inside a chunk, small
+/// enough for 8 or more chunks to share out among threads; a power of two, so that chunks of the
+/// Z-curve order are compact.
 pub fn chunk_size(n: usize) -> usize {
     (n / 16).next_power_of_two().clamp(1024, 16384)
 }
