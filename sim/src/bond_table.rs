@@ -171,9 +171,8 @@ impl BondTable {
     ) -> BondTable {
         let n = particles.len();
         let size = chunk_size(n);
-        let correction = stiffness_factors(particles, correction);
+        let values = EntryValues::new(particles, bond_constant, threshold_scale, factors, correction);
         let bonds = &particles.bonds;
-        let volume = &particles.volume_m3;
         let chunks = (0..n.div_ceil(size))
             .into_par_iter()
             .map(|c| {
@@ -190,9 +189,7 @@ impl BondTable {
                         if inside && j < i {
                             continue; // stored in j's row
                         }
-                        let factor = factors.map_or(1.0, |f| f64::from(f[k]));
                         let (xi, xj) = (particles.rest_position_m[i], particles.rest_position_m[j]);
-                        let g = 0.5 * (correction[i] + correction[j]);
                         let id = if i < j {
                             k
                         } else {
@@ -202,8 +199,8 @@ impl BondTable {
                             neighbor: j as u32,
                             rest_vector: [0, 1, 2].map(|axis| xj[axis] - xi[axis]),
                             rest_length_m: bonds.rest_length_m[k],
-                            threshold: (f64::from(bonds.threshold[k]) * threshold_scale * factor) as f32,
-                            stiffness: (bond_constant * f64::from(volume[i]) * f64::from(volume[j]) * g) as f32,
+                            threshold: values.threshold(k),
+                            stiffness: values.stiffness(i, j),
                             bond_id: id as u64,
                         };
                         if inside { internal.push(entry) } else { external.push(entry) }
@@ -236,9 +233,48 @@ impl BondTable {
     }
 }
 
+/// The material values of bond entries, the same for both backends: the stiffness
+/// k = c V_i V_j g_ij, with g_ij the mean of the two particles' stiffness factors, and the file's
+/// threshold times the material's rescale and the art-direction factor of the entry.
+pub(crate) struct EntryValues<'a> {
+    particles: &'a ParticleSet,
+    bond_constant: f64,
+    threshold_scale: f64,
+    factors: Option<&'a [f32]>,
+    correction: Vec<f64>,
+}
+
+impl<'a> EntryValues<'a> {
+    /// The values for `particles` with bond constant `c`, thresholds scaled by `threshold_scale`
+    /// and by `factors` (one per file entry), and the stiffness correction.
+    pub(crate) fn new(
+        particles: &'a ParticleSet,
+        bond_constant: f64,
+        threshold_scale: f64,
+        factors: Option<&'a [f32]>,
+        correction: StiffnessCorrection,
+    ) -> EntryValues<'a> {
+        let correction = stiffness_factors(particles, correction);
+        EntryValues { particles, bond_constant, threshold_scale, factors, correction }
+    }
+
+    /// Stiffness of the bond between particles i and j, N per unit stretch.
+    pub(crate) fn stiffness(&self, i: usize, j: usize) -> f32 {
+        let volume = &self.particles.volume_m3;
+        let g = 0.5 * (self.correction[i] + self.correction[j]);
+        (self.bond_constant * f64::from(volume[i]) * f64::from(volume[j]) * g) as f32
+    }
+
+    /// Critical stretch of file entry `k`.
+    pub(crate) fn threshold(&self, k: usize) -> f32 {
+        let factor = self.factors.map_or(1.0, |f| f64::from(f[k]));
+        (f64::from(self.particles.bonds.threshold[k]) * self.threshold_scale * factor) as f32
+    }
+}
+
 /// Per-particle stiffness factors g_i. `Energy`: g_i = pi delta^4 / sum_j |xi_ij| V_j, which makes
 /// a uniform dilation store exactly the continuum energy density 4.5 K s^2 at particle i.
-pub(crate) fn stiffness_factors(particles: &ParticleSet, correction: StiffnessCorrection) -> Vec<f64> {
+fn stiffness_factors(particles: &ParticleSet, correction: StiffnessCorrection) -> Vec<f64> {
     let n = particles.len();
     match correction {
         StiffnessCorrection::None => vec![1.0; n],

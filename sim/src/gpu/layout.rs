@@ -24,6 +24,7 @@ use shatter_core::config::sim::StiffnessCorrection;
 use shatter_core::particles::ParticleSet;
 
 use super::types::{Range, SLICE, WG};
+use crate::bond_table::EntryValues;
 
 /// One range's bond arrays.
 #[derive(Debug, Clone, PartialEq)]
@@ -131,8 +132,7 @@ impl BondLayout {
             ranges.push((start, groups));
         }
 
-        let correction = crate::bond_table::stiffness_factors(particles, correction);
-        let volume = &particles.volume_m3;
+        let values = EntryValues::new(particles, bond_constant, threshold_scale, factors, correction);
         let mut rows = vec![[0u32; 4]; n];
         let mut layouts = Vec::with_capacity(ranges.len());
         let mut first_workgroup = 0u32;
@@ -185,11 +185,9 @@ impl BondLayout {
                         }
                         let entry = row.start + k;
                         let j = bonds.neighbor[entry] as usize;
-                        let factor = factors.map_or(1.0, |f| f64::from(f[entry]));
-                        let g = 0.5 * (correction[i] + correction[j]);
                         nb[slot] = j as u32;
-                        st[slot] = (bond_constant * f64::from(volume[i]) * f64::from(volume[j]) * g) as f32;
-                        th[slot] = (f64::from(bonds.threshold[entry]) * threshold_scale * factor) as f32;
+                        st[slot] = values.stiffness(i, j);
+                        th[slot] = values.threshold(entry);
                     }
                 }
             });

@@ -1,6 +1,7 @@
-//! The spring kernel (the paper's `springforces`): the row loop shared by every instruction set,
-//! the portable block of bonds, and what both block kernels share (padding, the break test).
-//! `springs_avx2` holds the same block in explicit AVX2 instructions; both give the same bits.
+//! The spring kernel (the paper's `springforces`): the particle loop shared by every instruction
+//! set, the portable row kernel, and what both row kernels share (lane sums, the break test).
+//! `springs_avx2` holds the same row kernel in explicit AVX2 instructions; both give the same
+//! bits.
 
 // Indexed loops mirror the shader this kernel is the twin of.
 #![allow(clippy::needless_range_loop)]
@@ -62,7 +63,7 @@ pub(super) struct LaneSums {
     pub min_stretch: [f32; LANES],
 }
 
-/// What a block kernel reads and writes besides its entries.
+/// What a row kernel reads and writes besides its bond blocks.
 pub(super) struct BlockContext<'a> {
     /// The gather records of all particles.
     pub records: &'a [ParticleRecord],
@@ -84,8 +85,7 @@ pub(super) struct BlockContext<'a> {
 /// the CPU has it, else portable code; the two agree bit for bit).
 pub fn spring_forces(chunk: &mut BondChunk, records: &[ParticleRecord], rule: BreakRule, out: &mut ChunkForces) {
     #[cfg(target_arch = "x86_64")]
-    if super::springs_avx2::available() {
-        super::springs_avx2::spring_forces(chunk, records, rule, out);
+    if super::springs_avx2::spring_forces(chunk, records, rule, out) {
         return;
     }
     spring_rows(chunk, records, rule, out, bond_row);

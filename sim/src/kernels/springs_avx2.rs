@@ -1,11 +1,11 @@
-//! The spring kernel's block of bonds in explicit AVX2 instructions: the same operations in the
-//! same order as the portable block in `springs`, so the two give the same bits. What the
+//! The spring kernel's row kernel in explicit AVX2 instructions: the same operations in the same
+//! order as the portable row kernel in `springs`, so the two give the same bits. What the
 //! compiler cannot do on its own is the data movement: each partner's 16-byte record is loaded
 //! whole and eight of them are transposed into lanes with shuffles, and the reactions of internal
 //! bonds are transposed back and scattered as one 16-byte update per partner.
 //!
 //! The only `unsafe` of the workspace is the call into this module's `#[target_feature]`
-//! function, made after the CPU has been checked for AVX2 (see `docs/DECISIONS.md`).
+//! function, made right after the CPU has been checked for AVX2 (see `docs/DECISIONS.md`).
 
 use std::arch::x86_64::{
     __m128, __m256, _CMP_GT_OQ, _mm_blend_ps, _mm_min_ps, _mm_sub_ps, _mm256_add_ps, _mm256_and_ps, _mm256_castpd_ps,
@@ -21,20 +21,24 @@ use super::springs::{
 };
 use crate::bond_table::BondChunk;
 
-/// True when this CPU has AVX2 (detected once, then cached by the standard library).
-pub(super) fn available() -> bool {
-    std::arch::is_x86_feature_detected!("avx2")
-}
-
-/// [`super::spring_forces`] with the AVX2 block kernel. The caller checks [`available`] first.
-pub(super) fn spring_forces(chunk: &mut BondChunk, records: &[ParticleRecord], rule: BreakRule, out: &mut ChunkForces) {
-    assert!(available(), "the AVX2 spring kernel needs a CPU with AVX2");
+/// [`super::spring_forces`] with the AVX2 row kernel, if this CPU has AVX2 (detected once, then
+/// cached by the standard library). Returns whether it ran.
+pub(super) fn spring_forces(
+    chunk: &mut BondChunk,
+    records: &[ParticleRecord],
+    rule: BreakRule,
+    out: &mut ChunkForces,
+) -> bool {
+    if !std::arch::is_x86_feature_detected!("avx2") {
+        return false;
+    }
     // SAFETY: a `#[target_feature]` function's one precondition is that the CPU has the
-    // features it enables; the assertion above checked AVX2 on this CPU.
+    // features it enables; AVX2 was detected on this CPU just above.
     #[allow(unsafe_code)]
     unsafe {
         spring_forces_avx2(chunk, records, rule, out);
     }
+    true
 }
 
 #[target_feature(enable = "avx2")]
