@@ -510,7 +510,11 @@ impl Simulation {
                         &mut out.force,
                     );
                 }
-                *power = kernels::body_forces(first, position, velocity, mass, &body, &mut out.force);
+                *power = if body.is_empty() {
+                    0.0
+                } else {
+                    kernels::body_forces(first, position, velocity, mass, &body, &mut out.force)
+                };
             });
         std::mem::swap(boost, next_boost);
         for chunk in &table.chunks {

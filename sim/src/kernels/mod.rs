@@ -119,6 +119,14 @@ pub struct BodyForces<'a> {
     pub indenters: &'a [SphereNow],
 }
 
+impl BodyForces<'_> {
+    /// True when nothing acts (no gravity, projectile or indenter): [`body_forces`] would add
+    /// only zeros, so the step leaves it out.
+    pub fn is_empty(&self) -> bool {
+        self.gravity == [0.0; 3] && self.projectiles.is_empty() && self.indenters.is_empty()
+    }
+}
+
 /// Body forces (the paper's `bodyforces`): gravity, projectiles and indenters, added to the
 /// chunk's forces. Returns the power they deliver, sum of F . v, watts (f64, in particle order).
 pub fn body_forces(
