@@ -1,10 +1,12 @@
 //! The GPU backend against the CPU one on lavapipe (or any adapter): agreement on a fracturing
 //! scene, run-to-run determinism, bond arrays split across bindings, capacity overflows, resume.
 
-use std::collections::BTreeSet;
-use std::path::Path;
+// The shared physics scenarios; this file uses only their scene builders.
+#[allow(dead_code)]
+mod scenarios;
 
-use shatter_core::NoProgress;
+use std::collections::BTreeSet;
+
 use shatter_core::config::PipelineConfig;
 use shatter_core::particles::ParticleSet;
 use shatter_gpu::GpuContext;
@@ -12,49 +14,15 @@ use shatter_sim::gpu::{GpuOptions, GpuSimulation};
 use shatter_sim::simulation::BreakEvent;
 use shatter_sim::{Backend, Dynamics, Model, Simulation, art};
 
-const LAMBDA: f64 = 0.001;
-
 fn gpu() -> &'static GpuContext {
     GpuContext::shared_for_tests().unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"))
-}
-
-fn config_text(counts: [usize; 3], n: f64, sim: &str) -> String {
-    let size = counts.map(|c| c as f64 * LAMBDA);
-    format!(
-        r#"
-[scene]
-name = "t"
-output_dir = "out"
-seed = 4
-[geometry]
-source = "box"
-box_size_m = {size:?}
-sampler = "grid"
-spacing_m = {LAMBDA}
-horizon_factor = {n}
-[material]
-density_kg_m3 = 2200.0
-bulk_modulus_pa = 14.9e9
-[sim]
-gravity_m_s2 = [0.0, 0.0, 0.0]
-{sim}
-"#
-    )
-}
-
-/// A box of `counts` cubes of 1 mm at horizon factor `n`, with extra `[sim]` keys.
-fn block(counts: [usize; 3], n: f64, sim: &str) -> (PipelineConfig, ParticleSet) {
-    let text = config_text(counts, n, sim);
-    let config = PipelineConfig::from_toml_str(&text, Path::new("/nonexistent/pipeline.toml")).expect("valid config");
-    let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
-    (config, particles)
 }
 
 const PROJECTILE: &str = "[[sim.projectile]]\ncenter_m = [0.0, 0.0, 0.0067]\nvelocity_m_s = [0.0, 0.0, -150.0]\nradius_m = 0.003\nstiffness_pa = 3e7";
 
 /// The plate of `sim/tests/physics.rs` struck by a projectile: contact, fracture, body forces.
 fn struck_plate() -> (PipelineConfig, ParticleSet) {
-    block([20, 20, 4], 3.0, PROJECTILE)
+    scenarios::block([20, 20, 4], 3.0, "", PROJECTILE)
 }
 
 fn gpu_simulation(config: &PipelineConfig, particles: &ParticleSet, options: &GpuOptions) -> GpuSimulation {
@@ -239,15 +207,15 @@ fn every_step_of_the_struck_plate_agrees_with_the_cpu() {
 /// bounce, gravity and the indenter step for step as on the CPU.
 #[test]
 fn every_step_of_a_slab_on_the_floor_under_an_indenter_agrees_with_the_cpu() {
-    let text = config_text(
+    let text = scenarios::block_text(
         [10, 4, 10],
         3.0,
+        "",
         "[sim.floor]\nheight_m = -0.00155\nrestitution = 0.9\n[[sim.indenter]]\ncenter_m = [0.0005, 0.0036, 0.0]\n\
          velocity_m_s = [0.0, -20.0, 0.0]\nradius_m = 0.002\nstiffness_n_m2 = 1e9",
     )
     .replace("gravity_m_s2 = [0.0, 0.0, 0.0]", "gravity_m_s2 = [0.0, -9.81, 0.0]");
-    let config = PipelineConfig::from_toml_str(&text, Path::new("/nonexistent/pipeline.toml")).expect("valid config");
-    let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
+    let (config, particles) = scenarios::load(&text);
     let mut cpu = Simulation::from_config(&config, &particles).expect("cpu");
     cpu.set_velocity(|_, _| [0.0, -3.0, 0.0]);
     let out = lockstep_from(&config, &particles, cpu, 300);

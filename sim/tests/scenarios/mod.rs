@@ -18,8 +18,13 @@ const LAMBDA: f64 = 0.001;
 
 /// A box of `counts` cubes of 1 mm at horizon factor `n`, with extra `[material]` and `[sim]` keys.
 pub fn block(counts: [usize; 3], n: f64, material: &str, sim: &str) -> (PipelineConfig, ParticleSet) {
+    load(&block_text(counts, n, material, sim))
+}
+
+/// The TOML text of [`block`]'s scene (no gravity), for tests that edit it further.
+pub fn block_text(counts: [usize; 3], n: f64, material: &str, sim: &str) -> String {
     let size = counts.map(|c| c as f64 * LAMBDA);
-    let text = format!(
+    format!(
         r#"
 [scene]
 name = "t"
@@ -39,8 +44,12 @@ bulk_modulus_pa = {K}
 gravity_m_s2 = [0.0, 0.0, 0.0]
 {sim}
 "#
-    );
-    let config = PipelineConfig::from_toml_str(&text, Path::new("/nonexistent/pipeline.toml")).expect("valid config");
+    )
+}
+
+/// A scene's config and its preprocessed particles.
+pub fn load(text: &str) -> (PipelineConfig, ParticleSet) {
+    let config = PipelineConfig::from_toml_str(text, Path::new("/nonexistent/pipeline.toml")).expect("valid config");
     let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
     (config, particles)
 }
