@@ -50,7 +50,8 @@ fn time_ours(config: &PipelineConfig, particles: &shatter_core::ParticleSet, ste
         });
         let (internal, external) = sim.bond_entries();
         if threads == 1 {
-            println!("  bond entries per step: {internal} internal + {external} external");
+            let layout = if sim.on_lattice() { "lattice" } else { "row" };
+            println!("  {layout} layout; bond entries per step: {internal} internal + {external} external");
         }
         sim.step(); // warm caches
         let mut batches: Vec<f64> = (0..steps.div_ceil(10))

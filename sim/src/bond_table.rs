@@ -46,7 +46,7 @@ pub struct BondBlock {
 
 impl BondBlock {
     /// A block of padding lanes of particle `i`.
-    fn padding(i: usize) -> BondBlock {
+    pub fn padding(i: usize) -> BondBlock {
         BondBlock {
             neighbor: [i as u32; LANES],
             rest_vector: [[1.0; LANES], [0.0; LANES], [0.0; LANES]],
@@ -54,6 +54,17 @@ impl BondBlock {
             threshold: [f32::INFINITY; LANES],
             stiffness: [0.0; LANES],
         }
+    }
+
+    /// Puts `entry` into lane `lane`.
+    pub fn set_lane(&mut self, lane: usize, entry: &BondEntry) {
+        self.neighbor[lane] = entry.neighbor;
+        for axis in 0..3 {
+            self.rest_vector[axis][lane] = entry.rest_vector[axis];
+        }
+        self.rest_length_m[lane] = entry.rest_length_m;
+        self.threshold[lane] = entry.threshold;
+        self.stiffness[lane] = entry.stiffness;
     }
 }
 
@@ -97,6 +108,28 @@ pub struct BondEntry {
     pub bond_id: u64,
 }
 
+impl BondEntry {
+    /// Particle i's file entry k (a bond of i's row) with the values of `values`.
+    pub(crate) fn new(particles: &ParticleSet, values: &EntryValues, i: usize, k: usize) -> BondEntry {
+        let bonds = &particles.bonds;
+        let j = bonds.neighbor[k] as usize;
+        let (xi, xj) = (particles.rest_position_m[i], particles.rest_position_m[j]);
+        let id = if i < j {
+            k
+        } else {
+            bonds.find(j, i as u32).unwrap_or_else(|| unreachable!("validated: bonds are symmetric"))
+        };
+        BondEntry {
+            neighbor: j as u32,
+            rest_vector: [0, 1, 2].map(|axis| xj[axis] - xi[axis]),
+            rest_length_m: bonds.rest_length_m[k],
+            threshold: values.threshold(k),
+            stiffness: values.stiffness(i, j),
+            bond_id: id as u64,
+        }
+    }
+}
+
 impl BondChunk {
     /// An empty chunk of particles `first..first + len`, to be filled row by row.
     pub fn new(first: usize, len: usize) -> BondChunk {
@@ -118,13 +151,7 @@ impl BondChunk {
             let mut block = BondBlock::padding(i);
             let mut ids = [PADDING; LANES];
             for (lane, entry) in group.iter().enumerate() {
-                block.neighbor[lane] = entry.neighbor;
-                for axis in 0..3 {
-                    block.rest_vector[axis][lane] = entry.rest_vector[axis];
-                }
-                block.rest_length_m[lane] = entry.rest_length_m;
-                block.threshold[lane] = entry.threshold;
-                block.stiffness[lane] = entry.stiffness;
+                block.set_lane(lane, entry);
                 ids[lane] = entry.bond_id;
             }
             self.blocks.push(block);
@@ -159,19 +186,10 @@ pub struct BondTable {
 }
 
 impl BondTable {
-    /// Builds the table for `particles` with bond constant `c`, thresholds scaled by
-    /// `threshold_scale` and by `factors` (one per file entry, art direction), and the stiffness
-    /// correction. Volumes are the file's.
-    pub fn new(
-        particles: &ParticleSet,
-        bond_constant: f64,
-        threshold_scale: f64,
-        factors: Option<&[f32]>,
-        correction: StiffnessCorrection,
-    ) -> BondTable {
+    /// Builds the table for `particles` with the bond values of `values`.
+    pub(crate) fn new(particles: &ParticleSet, values: &EntryValues) -> BondTable {
         let n = particles.len();
         let size = chunk_size(n);
-        let values = EntryValues::new(particles, bond_constant, threshold_scale, factors, correction);
         let bonds = &particles.bonds;
         let chunks = (0..n.div_ceil(size))
             .into_par_iter()
@@ -189,20 +207,7 @@ impl BondTable {
                         if inside && j < i {
                             continue; // stored in j's row
                         }
-                        let (xi, xj) = (particles.rest_position_m[i], particles.rest_position_m[j]);
-                        let id = if i < j {
-                            k
-                        } else {
-                            bonds.find(j, i as u32).unwrap_or_else(|| unreachable!("validated: bonds are symmetric"))
-                        };
-                        let entry = BondEntry {
-                            neighbor: j as u32,
-                            rest_vector: [0, 1, 2].map(|axis| xj[axis] - xi[axis]),
-                            rest_length_m: bonds.rest_length_m[k],
-                            threshold: values.threshold(k),
-                            stiffness: values.stiffness(i, j),
-                            bond_id: id as u64,
-                        };
+                        let entry = BondEntry::new(particles, values, i, k);
                         if inside { internal.push(entry) } else { external.push(entry) }
                     }
                     chunk.push_row(&internal, &external);
@@ -215,22 +220,23 @@ impl BondTable {
 
     /// Marks the bonds with the given ids (sorted) broken; returns how many entries changed.
     pub fn mark_broken(&mut self, sorted_ids: &[u64]) -> usize {
-        self.chunks
-            .par_iter_mut()
-            .map(|chunk| {
-                let mut marked = 0;
-                for k in 0..chunk.bond_id.len() {
-                    if chunk.bond_id[k] != PADDING && sorted_ids.binary_search(&chunk.bond_id[k]).is_ok() {
-                        let block = &mut chunk.blocks[k / LANES];
-                        block.threshold[k % LANES] = f32::INFINITY;
-                        block.stiffness[k % LANES] = 0.0;
-                        marked += 1;
-                    }
-                }
-                marked
-            })
-            .sum()
+        self.chunks.par_iter_mut().map(|chunk| mark_broken(&mut chunk.blocks, &chunk.bond_id, sorted_ids)).sum()
     }
+}
+
+/// Marks the lanes of `blocks` whose ids (`bond_id`, one per lane) are among `sorted_ids`
+/// broken: zero stiffness, infinite threshold. Returns how many lanes changed.
+pub(crate) fn mark_broken(blocks: &mut [BondBlock], bond_id: &[u64], sorted_ids: &[u64]) -> usize {
+    let mut marked = 0;
+    for (k, id) in bond_id.iter().enumerate() {
+        if *id != PADDING && sorted_ids.binary_search(id).is_ok() {
+            let block = &mut blocks[k / LANES];
+            block.threshold[k % LANES] = f32::INFINITY;
+            block.stiffness[k % LANES] = 0.0;
+            marked += 1;
+        }
+    }
+    marked
 }
 
 /// The material values of bond entries, the same for both backends: the stiffness

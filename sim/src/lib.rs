@@ -2,7 +2,9 @@
 //! and Askari, on the CPU (this crate's production path and the reference for the GPU backend).
 //!
 //! - [`model`]: constants and start checks derived from the config and the particle file.
-//! - [`bond_table`]: the chunked bond layout.
+//! - [`bond_table`]: the chunked bond layout (rows of bond blocks, any particle set).
+//! - [`lattice_table`]: the bond layout for particles on a cubic lattice (no gathers).
+//! - [`spring_table`]: which of the two layouts a simulation runs on.
 //! - [`kernels`]: the step's kernels (springs, collisions, body forces, Verlet halves).
 //! - [`simulation`]: the state and the step.
 //! - [`gpu`]: the GPU backend (wgpu, WGSL kernels in `shaders/`, their CPU twins).
@@ -18,14 +20,17 @@ pub mod contact;
 pub mod frames;
 pub mod gpu;
 pub mod kernels;
+pub mod lattice_table;
 pub mod model;
 pub mod run;
 pub mod simulation;
+pub mod spring_table;
 
 pub use backend::{Backend, create_backend};
 pub use gpu::GpuSimulation;
 pub use model::Model;
 pub use simulation::{Dynamics, Energy, Simulation};
+pub use spring_table::LayoutChoice;
 
 /// Why a simulation cannot start or had to stop.
 #[derive(Debug, thiserror::Error)]

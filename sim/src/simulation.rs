@@ -3,13 +3,15 @@
 use glam::DVec3;
 use rayon::prelude::*;
 use shatter_core::PipelineConfig;
-use shatter_core::config::sim::StiffnessCorrection;
+use shatter_core::config::sim::{BreakRule, StiffnessCorrection};
 use shatter_core::particles::{Bonds, ParticleSet};
 
-use crate::bond_table::BondTable;
+use crate::bond_table::chunk_size;
 use crate::contact::ContactList;
-use crate::kernels::{self, BodyForces, BondLookup, ChunkForces, ParticleRecord, SphereNow};
+use crate::kernels::{self, BodyForces, BondLookup, ChunkForces, ParticleRecord, SlotForces, SphereNow};
+use crate::lattice_table::{LatticeTable, NO_PARTICLE};
 use crate::model::{Model, MovingSphere};
+use crate::spring_table::{LayoutChoice, SpringTable};
 use crate::{SimError, art};
 
 /// The mutable state of a run, everything a checkpoint must hold.
@@ -88,6 +90,12 @@ impl BondIndex {
     fn mark(&mut self, id: u64) {
         self.broken[(id / 64) as usize] |= 1 << (id % 64);
     }
+
+    /// The two particles of bond `id`.
+    fn endpoints(&self, id: u64) -> (usize, usize) {
+        let i = self.offsets.partition_point(|offset| *offset <= id) - 1;
+        (i, self.neighbor[id as usize] as usize)
+    }
 }
 
 impl BondLookup for BondIndex {
@@ -122,7 +130,9 @@ pub struct Simulation {
     inverse_mass: Vec<f32>,
     /// Bonds per particle in the particle file (for damage).
     bond_count: Vec<u32>,
-    table: BondTable,
+    table: SpringTable,
+    /// Particles per chunk of the per-particle passes.
+    chunk_size: usize,
     index: BondIndex,
     contacts: Option<ContactList>,
     dynamics: Dynamics,
@@ -143,8 +153,20 @@ impl Simulation {
         factors: Option<&[f32]>,
         correction: StiffnessCorrection,
     ) -> Simulation {
+        Simulation::with_layout(particles, model, factors, correction, LayoutChoice::Fastest)
+    }
+
+    /// [`Simulation::new`] with a say in the bond layout.
+    fn with_layout(
+        particles: &ParticleSet,
+        model: Model,
+        factors: Option<&[f32]>,
+        correction: StiffnessCorrection,
+        layout: LayoutChoice,
+    ) -> Simulation {
         let n = particles.len();
-        let table = BondTable::new(particles, model.bond_constant, model.threshold_scale, factors, correction);
+        let (constant, scale) = (model.bond_constant, model.threshold_scale);
+        let table = SpringTable::new(particles, constant, scale, factors, correction, layout);
         let rest = [0, 1, 2].map(|axis| particles.rest_position_m.iter().map(|p| p[axis]).collect::<Vec<f32>>());
         let mass: Vec<f32> = particles.volume_m3.iter().map(|v| (f64::from(*v) * model.density_kg_m3) as f32).collect();
         let inverse_mass = mass.iter().map(|m| 1.0 / m).collect();
@@ -158,6 +180,7 @@ impl Simulation {
             inverse_mass,
             bond_count,
             table,
+            chunk_size: chunk_size(n),
             index: BondIndex::new(&particles.bonds),
             contacts,
             dynamics: Dynamics {
@@ -175,7 +198,7 @@ impl Simulation {
             records: vec![ParticleRecord::default(); n],
             chunk_power: Vec::new(),
         };
-        simulation.chunk_power = vec![0.0; simulation.table.chunks.len()];
+        simulation.chunk_power = vec![0.0; n.div_ceil(simulation.chunk_size)];
         simulation.compute_forces();
         simulation
     }
@@ -183,9 +206,19 @@ impl Simulation {
     /// The simulation a config describes for a particle set: its model, art direction and
     /// stiffness correction.
     pub fn from_config(config: &PipelineConfig, particles: &ParticleSet) -> Result<Simulation, SimError> {
+        Simulation::from_config_with_layout(config, particles, LayoutChoice::Fastest)
+    }
+
+    /// [`Simulation::from_config`] with a say in the bond layout (tests run both).
+    pub fn from_config_with_layout(
+        config: &PipelineConfig,
+        particles: &ParticleSet,
+        layout: LayoutChoice,
+    ) -> Result<Simulation, SimError> {
         let model = Model::new(config, particles)?;
         let factors = art::threshold_factors(&config.sim, particles, config.scene.seed)?;
-        Ok(Simulation::new(particles, model, factors.as_deref(), config.sim.stiffness_correction))
+        let correction = config.sim.stiffness_correction;
+        Ok(Simulation::with_layout(particles, model, factors.as_deref(), correction, layout))
     }
 
     /// Number of particles.
@@ -201,19 +234,12 @@ impl Simulation {
     /// Bond entries the force pass computes per step: (internal, stored once and applied to
     /// both ends; external, stored and computed on both sides).
     pub fn bond_entries(&self) -> (usize, usize) {
-        let mut counts = (0, 0);
-        for chunk in &self.table.chunks {
-            for local in 0..chunk.len {
-                for (_, _, internal) in chunk.row_bonds(local) {
-                    if internal {
-                        counts.0 += 1;
-                    } else {
-                        counts.1 += 1;
-                    }
-                }
-            }
-        }
-        counts
+        self.table.entries()
+    }
+
+    /// True when the force pass runs on the lattice layout ([`crate::lattice_table`]).
+    pub fn on_lattice(&self) -> bool {
+        matches!(self.table, SpringTable::Lattice(_))
     }
 
     /// The model.
@@ -273,17 +299,11 @@ impl Simulation {
         }
         self.broken.fill(0);
         for &id in broken_bonds {
-            let (i, j) = self.endpoints(id);
+            let (i, j) = self.index.endpoints(id);
             self.broken[i] += 1;
             self.broken[j] += 1;
         }
         self.dynamics = dynamics;
-    }
-
-    /// The two particles of bond `id`.
-    fn endpoints(&self, id: u64) -> (usize, usize) {
-        let i = self.index.offsets.partition_point(|offset| *offset <= id) - 1;
-        (i, self.index.neighbor[id as usize] as usize)
     }
 
     /// Takes the bonds broken since the last call, in the order they broke.
@@ -307,7 +327,7 @@ impl Simulation {
 
     /// Kinetic and bond energy, summed per chunk in particle order (deterministic).
     pub fn energy(&self) -> Energy {
-        let kinetic_j = kinetic_energy_j(&self.mass, &self.dynamics.vel, self.table.chunk_size);
+        let kinetic_j = kinetic_energy_j(&self.mass, &self.dynamics.vel, self.chunk_size);
         let bond_j = self.bond_energy_per_particle().iter().sum();
         Energy { kinetic_j, bond_j }
     }
@@ -316,28 +336,21 @@ impl Simulation {
     /// joules.
     pub fn bond_energy_per_particle(&self) -> Vec<f64> {
         let disp = &self.dynamics.disp;
-        let size = self.table.chunk_size;
         let mut energy = vec![0.0f64; self.len()];
-        (self.table.chunks.par_iter(), energy.par_chunks_mut(size)).into_par_iter().for_each(|(chunk, energy)| {
-            for local in 0..chunk.len {
-                let i = chunk.first + local;
-                for (block, lane, internal) in chunk.row_bonds(local) {
-                    let bond = &chunk.blocks[block];
-                    if bond.stiffness[lane] == 0.0 {
-                        continue;
-                    }
-                    let j = bond.neighbor[lane] as usize;
-                    let xi = [0, 1, 2].map(|a| bond.rest_vector[a][lane]);
-                    let eta = [0, 1, 2].map(|a| disp[a][j] - disp[a][i]);
-                    let rest_length = bond.rest_length_m[lane];
-                    let (s, _, _) = kernels::stretch(xi, eta, rest_length);
-                    let half = 0.25 * f64::from(bond.stiffness[lane]) * f64::from(s).powi(2) * f64::from(rest_length);
-                    energy[local] += half;
-                    if internal {
-                        // stored once: the partner's half too (same chunk)
-                        energy[j - chunk.first] += half;
-                    }
-                }
+        self.table.for_each_entry(|i, bond, lane, internal| {
+            if bond.stiffness[lane] == 0.0 {
+                return;
+            }
+            let j = bond.neighbor[lane] as usize;
+            let xi = [0, 1, 2].map(|a| bond.rest_vector[a][lane]);
+            let eta = [0, 1, 2].map(|a| disp[a][j] - disp[a][i]);
+            let rest_length = bond.rest_length_m[lane];
+            let (s, _, _) = kernels::stretch(xi, eta, rest_length);
+            let half = 0.25 * f64::from(bond.stiffness[lane]) * f64::from(s).powi(2) * f64::from(rest_length);
+            energy[i] += half;
+            if internal {
+                // stored once: the partner's half too
+                energy[j] += half;
             }
         });
         energy
@@ -347,19 +360,13 @@ impl Simulation {
     /// min over particles of sqrt(2 m_i / sum_j k_ij / L_ij), seconds.
     pub fn stable_dt_s(&self) -> f64 {
         let mut stiffness = vec![0.0f64; self.len()];
-        for chunk in &self.table.chunks {
-            for local in 0..chunk.len {
-                let i = chunk.first + local;
-                for (block, lane, internal) in chunk.row_bonds(local) {
-                    let bond = &chunk.blocks[block];
-                    let spring = f64::from(bond.stiffness[lane]) / f64::from(bond.rest_length_m[lane]);
-                    stiffness[i] += spring;
-                    if internal {
-                        stiffness[bond.neighbor[lane] as usize] += spring;
-                    }
-                }
+        self.table.for_each_entry(|i, bond, lane, internal| {
+            let spring = f64::from(bond.stiffness[lane]) / f64::from(bond.rest_length_m[lane]);
+            stiffness[i] += spring;
+            if internal {
+                stiffness[bond.neighbor[lane] as usize] += spring;
             }
-        }
+        });
         stiffness
             .iter()
             .zip(&self.mass)
@@ -371,7 +378,7 @@ impl Simulation {
     /// Advances one step of velocity Verlet.
     pub fn step(&mut self) {
         let dt = self.model.dt_s as f32;
-        let size = self.table.chunk_size;
+        let size = self.chunk_size;
         let inverse_mass = &self.inverse_mass;
         let Dynamics { disp, vel, force, .. } = &mut self.dynamics;
         let [vx, vy, vz] = vel;
@@ -428,6 +435,7 @@ impl Simulation {
             rest,
             mass,
             table,
+            chunk_size,
             index,
             contacts,
             dynamics,
@@ -439,7 +447,7 @@ impl Simulation {
             chunk_power,
             ..
         } = self;
-        let size = table.chunk_size;
+        let size = *chunk_size;
         let t = dynamics.step as f64 * model.dt_s;
         let sphere_now = |sphere: &MovingSphere| {
             let speed = sphere.velocity_m_s.length();
@@ -456,48 +464,96 @@ impl Simulation {
         let body = BodyForces { gravity: model.gravity_m_s2, projectiles: &projectiles, indenters: &indenters };
 
         let Dynamics { disp, vel, force, boost, step, .. } = dynamics;
-        // Current positions, for collisions and body forces; the spring kernel's gather records.
+        // Current positions, for collisions and body forces.
         {
             let [px, py, pz] = position_scratch;
-            (px.par_iter_mut(), py.par_iter_mut(), pz.par_iter_mut(), records.par_iter_mut())
-                .into_par_iter()
-                .enumerate()
-                .for_each(|(i, (x, y, z, record))| {
+            (px.par_iter_mut(), py.par_iter_mut(), pz.par_iter_mut()).into_par_iter().enumerate().for_each(
+                |(i, (x, y, z))| {
                     *x = rest[0][i] + disp[0][i];
                     *y = rest[1][i] + disp[1][i];
                     *z = rest[2][i] + disp[2][i];
-                    *record = ParticleRecord { disp: [disp[0][i], disp[1][i], disp[2][i]], boost: boost[i] };
-                });
+                },
+            );
         }
         let position = [&position_scratch[0][..], &position_scratch[1][..], &position_scratch[2][..]];
         if let Some(contacts) = contacts.as_mut() {
             contacts.update(position);
         }
-        let records = &*records;
+        let rule = model.break_rule;
+        let [fx, fy, fz] = force;
+        match table {
+            SpringTable::Rows(table) => {
+                // The row kernel's gather records.
+                records.par_iter_mut().enumerate().for_each(|(i, record)| {
+                    *record = ParticleRecord { disp: [disp[0][i], disp[1][i], disp[2][i]], boost: boost[i] };
+                });
+                let records = &*records;
+                (
+                    table.chunks.par_iter_mut(),
+                    fx.par_chunks_mut(size),
+                    fy.par_chunks_mut(size),
+                    fz.par_chunks_mut(size),
+                    next_boost.par_chunks_mut(size),
+                    broken.par_chunks_mut(size),
+                )
+                    .into_par_iter()
+                    .for_each(|(chunk, fx, fy, fz, min_stretch, broken)| {
+                        let mut out = ChunkForces { force: [fx, fy, fz], min_stretch, broken };
+                        kernels::spring_forces(chunk, records, rule, &mut out);
+                    });
+            }
+            SpringTable::Lattice(lattice) => {
+                lattice_forces(lattice, [&disp[0][..], &disp[1][..], &disp[2][..]], boost, rule);
+                let (slot_of, totals) = (&lattice.slot_of, &lattice.totals);
+                (
+                    fx.par_chunks_mut(size),
+                    fy.par_chunks_mut(size),
+                    fz.par_chunks_mut(size),
+                    next_boost.par_chunks_mut(size),
+                )
+                    .into_par_iter()
+                    .enumerate()
+                    .for_each(|(c, (fx, fy, fz, min_stretch))| {
+                        for local in 0..fx.len() {
+                            let slot = slot_of[c * size + local] as usize;
+                            fx[local] = totals.force[0][slot];
+                            fy[local] = totals.force[1][slot];
+                            fz[local] = totals.force[2][slot];
+                            min_stretch[local] = totals.min_stretch[slot];
+                        }
+                    });
+                // The row kernel counts breaks per particle as it goes; here they are counted
+                // after the pass, from the log (each bond once).
+                for chunk in &lattice.chunks {
+                    for &bond in &chunk.breaks {
+                        let (i, j) = index.endpoints(bond);
+                        broken[i] += 1;
+                        broken[j] += 1;
+                    }
+                }
+            }
+        }
         let velocity = [&vel[0][..], &vel[1][..], &vel[2][..]];
-        let (rule, alpha) = (model.break_rule, model.alpha);
+        let alpha = model.alpha;
         let (contact_stiffness, contact_distance) = (model.contact_stiffness_pa, model.contact_distance_m);
         let contacts = contacts.as_ref();
         let rest_position = [&rest[0][..], &rest[1][..], &rest[2][..]];
         let lookup = &*index;
-        let [fx, fy, fz] = force;
         (
-            table.chunks.par_iter_mut(),
             chunk_power.par_iter_mut(),
             fx.par_chunks_mut(size),
             fy.par_chunks_mut(size),
             fz.par_chunks_mut(size),
             next_boost.par_chunks_mut(size),
-            broken.par_chunks_mut(size),
         )
             .into_par_iter()
-            .for_each(|(chunk, power, fx, fy, fz, min_stretch, broken)| {
-                let first = chunk.first;
-                let mut out = ChunkForces { force: [fx, fy, fz], min_stretch, broken };
-                kernels::spring_forces(chunk, records, rule, &mut out);
-                for value in out.min_stretch.iter_mut() {
+            .enumerate()
+            .for_each(|(c, (power, fx, fy, fz, min_stretch))| {
+                let first = c * size;
+                for value in min_stretch.iter_mut() {
                     *value *= -alpha;
                 }
+                let mut force = [fx, fy, fz];
                 if let Some(contacts) = contacts {
                     kernels::collisions(
                         first,
@@ -507,22 +563,60 @@ impl Simulation {
                         lookup,
                         contact_stiffness,
                         contact_distance,
-                        &mut out.force,
+                        &mut force,
                     );
                 }
                 *power = if body.is_empty() {
                     0.0
                 } else {
-                    kernels::body_forces(first, position, velocity, mass, &body, &mut out.force)
+                    kernels::body_forces(first, position, velocity, mass, &body, &mut force)
                 };
             });
         std::mem::swap(boost, next_boost);
-        for chunk in &table.chunks {
-            for &bond in &chunk.breaks {
-                index.mark(bond);
-                events.push(BreakEvent { step: *step, bond });
-            }
-        }
+        table.for_each_break(|bond| {
+            index.mark(bond);
+            events.push(BreakEvent { step: *step, bond });
+        });
         chunk_power.iter().sum()
     }
+}
+
+/// The lattice layout's spring pass: the slots' inputs from the particles' displacements and
+/// boosts, then the kernel over all chunks, into the table's slot totals.
+fn lattice_forces(lattice: &mut LatticeTable, disp: [&[f32]; 3], boost: &[f32], rule: BreakRule) {
+    let LatticeTable { chunk_slots, chunks, particle_of, inputs, totals, .. } = lattice;
+    let (size, particle_of) = (*chunk_slots, &*particle_of);
+    {
+        let [ux, uy, uz] = &mut inputs.disp;
+        let slot_boost = &mut inputs.boost;
+        (ux.par_chunks_mut(size), uy.par_chunks_mut(size), uz.par_chunks_mut(size), slot_boost.par_chunks_mut(size))
+            .into_par_iter()
+            .enumerate()
+            .zip(chunks.par_iter())
+            .for_each(|((c, (ux, uy, uz, slot_boost)), chunk)| {
+                for local in 0..chunk.slots {
+                    let p = particle_of[c * size + local];
+                    if p != NO_PARTICLE {
+                        let p = p as usize;
+                        (ux[local], uy[local], uz[local]) = (disp[0][p], disp[1][p], disp[2][p]);
+                        slot_boost[local] = boost[p];
+                    }
+                }
+            });
+    }
+    let inputs = &*inputs;
+    let [fx, fy, fz] = &mut totals.force;
+    let min_stretch = &mut totals.min_stretch;
+    (
+        chunks.par_iter_mut(),
+        fx.par_chunks_mut(size),
+        fy.par_chunks_mut(size),
+        fz.par_chunks_mut(size),
+        min_stretch.par_chunks_mut(size),
+    )
+        .into_par_iter()
+        .for_each(|(chunk, fx, fy, fz, min_stretch)| {
+            let mut out = SlotForces { force: [fx, fy, fz], min_stretch };
+            kernels::lattice_spring_forces(chunk, inputs, particle_of, rule, &mut out);
+        });
 }

@@ -5,10 +5,13 @@
 // Indexed loops mirror the shaders these kernels are twins of.
 #![allow(clippy::needless_range_loop)]
 
+mod lanes;
+mod lattice_springs;
 mod springs;
 #[cfg(target_arch = "x86_64")]
 mod springs_avx2;
 
+pub use lattice_springs::{SlotForces, lattice_spring_forces};
 pub use springs::{ChunkForces, ParticleRecord, spring_forces, stretch};
 
 use crate::contact::{ContactList, contact_reach, repulsion};

@@ -8,6 +8,7 @@
 
 use shatter_core::config::sim::BreakRule;
 
+use super::lanes::{BondLanes, bond_lanes};
 use crate::bond_table::BondChunk;
 pub(super) use crate::bond_table::LANES;
 
@@ -36,7 +37,7 @@ pub fn stretch(xi: [f32; 3], eta: [f32; 3], rest_length: f32) -> (f32, [f32; 3],
 /// The threshold a bond's stretch is compared with: its own plus the larger (or smaller) of its
 /// particles' compression boosts.
 #[inline(always)]
-fn effective_threshold(rule: BreakRule, threshold: f32, boost_i: f32, boost_j: f32) -> f32 {
+pub(super) fn effective_threshold(rule: BreakRule, threshold: f32, boost_i: f32, boost_j: f32) -> f32 {
     match rule {
         BreakRule::Max => threshold + boost_i.max(boost_j),
         BreakRule::Min => threshold + boost_i.min(boost_j),
@@ -205,23 +206,7 @@ fn bond_block(
             eta[axis][lane] = other.disp[axis] - me.disp[axis];
         }
     }
-    // Stretch and force scale, lane by lane (see `stretch`; one division for both).
-    let mut stretch = [0.0f32; LANES];
-    let mut scale = [0.0f32; LANES];
-    let mut y = [[0.0f32; LANES]; 3];
-    for lane in 0..LANES {
-        for axis in 0..3 {
-            y[axis][lane] = xi[axis][lane] + eta[axis][lane];
-        }
-        let length = (y[0][lane] * y[0][lane] + y[1][lane] * y[1][lane] + y[2][lane] * y[2][lane]).sqrt();
-        let growth = 2.0 * (xi[0][lane] * eta[0][lane] + xi[1][lane] * eta[1][lane] + xi[2][lane] * eta[2][lane])
-            + (eta[0][lane] * eta[0][lane] + eta[1][lane] * eta[1][lane] + eta[2][lane] * eta[2][lane]);
-        let denominator = rest_length[lane] * (length + rest_length[lane]) * length;
-        let inverse = if denominator > 0.0 { 1.0 / denominator } else { 0.0 };
-        // s = growth / (L (|y| + L)); the force k s y / |y| = k growth / (L (|y| + L) |y|) y
-        stretch[lane] = if stiffness[lane] > 0.0 { growth * length * inverse } else { 0.0 };
-        scale[lane] = stiffness[lane] * growth * inverse;
-    }
+    let BondLanes { y, mut stretch, mut scale } = bond_lanes(&xi, &eta, rest_length, stiffness);
     let bound = break_bound(context.rule, me.boost);
     let mut suspects = false;
     for lane in 0..LANES {

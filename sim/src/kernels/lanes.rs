@@ -1,0 +1,112 @@
+//! Arithmetic on eight f32 lanes ([`Lanes`]), one operation per function, each a loop the
+//! compiler turns into one 256-bit instruction; and the bond force of eight bonds built from
+//! them, shared by the kernels of both bond layouts.
+
+// Indexed loops: one per operation, each a vector instruction.
+#![allow(clippy::needless_range_loop)]
+
+pub use crate::bond_table::LANES;
+
+/// Eight f32 lanes.
+pub type Lanes = [f32; LANES];
+
+/// a + b, lane by lane.
+#[inline(always)]
+pub fn add(a: Lanes, b: Lanes) -> Lanes {
+    let mut lanes = [0.0; LANES];
+    for l in 0..LANES {
+        lanes[l] = a[l] + b[l];
+    }
+    lanes
+}
+
+/// a - b, lane by lane.
+#[inline(always)]
+pub fn sub(a: Lanes, b: Lanes) -> Lanes {
+    let mut lanes = [0.0; LANES];
+    for l in 0..LANES {
+        lanes[l] = a[l] - b[l];
+    }
+    lanes
+}
+
+/// a b, lane by lane.
+#[inline(always)]
+pub fn mul(a: Lanes, b: Lanes) -> Lanes {
+    let mut lanes = [0.0; LANES];
+    for l in 0..LANES {
+        lanes[l] = a[l] * b[l];
+    }
+    lanes
+}
+
+/// a / b, lane by lane.
+#[inline(always)]
+pub fn div(a: Lanes, b: Lanes) -> Lanes {
+    let mut lanes = [0.0; LANES];
+    for l in 0..LANES {
+        lanes[l] = a[l] / b[l];
+    }
+    lanes
+}
+
+/// The square root of a, lane by lane.
+#[inline(always)]
+pub fn sqrt(a: Lanes) -> Lanes {
+    let mut lanes = [0.0; LANES];
+    for l in 0..LANES {
+        lanes[l] = a[l].sqrt();
+    }
+    lanes
+}
+
+/// The smaller of a and b, lane by lane.
+#[inline(always)]
+pub fn min(a: Lanes, b: Lanes) -> Lanes {
+    let mut lanes = [0.0; LANES];
+    for l in 0..LANES {
+        lanes[l] = a[l].min(b[l]);
+    }
+    lanes
+}
+
+/// `value` where `condition` is positive, else 0, lane by lane.
+#[inline(always)]
+pub fn where_positive(condition: Lanes, value: Lanes) -> Lanes {
+    let mut lanes = [0.0; LANES];
+    for l in 0..LANES {
+        lanes[l] = if condition[l] > 0.0 { value[l] } else { 0.0 };
+    }
+    lanes
+}
+
+/// a0 b0 + a1 b1 + a2 b2, lane by lane, summed in that order.
+#[inline(always)]
+pub fn dot(a: &[Lanes; 3], b: &[Lanes; 3]) -> Lanes {
+    add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
+}
+
+/// Eight bonds' stretch and force.
+pub struct BondLanes {
+    /// The bond vector y = xi + eta, metres.
+    pub y: [Lanes; 3],
+    /// Stretch s (0 for a bond of no stiffness).
+    pub stretch: Lanes,
+    /// Force per metre of y: the force is `scale` y.
+    pub scale: Lanes,
+}
+
+/// The PMB force of eight bonds from their rest vectors xi, displacement differences eta, rest
+/// lengths and stiffnesses: s = (2 xi . eta + eta . eta) / (L (|y| + L)) (see
+/// [`super::stretch`]), and the force k s y / |y| as `scale` y, with one division for both.
+#[inline(always)]
+pub fn bond_lanes(xi: &[Lanes; 3], eta: &[Lanes; 3], rest_length: Lanes, stiffness: Lanes) -> BondLanes {
+    let y = [add(xi[0], eta[0]), add(xi[1], eta[1]), add(xi[2], eta[2])];
+    let length = sqrt(dot(&y, &y));
+    let growth = add(mul([2.0; LANES], dot(xi, eta)), dot(eta, eta));
+    let denominator = mul(mul(rest_length, add(length, rest_length)), length);
+    let inverse = where_positive(denominator, div([1.0; LANES], denominator));
+    let stretch = where_positive(stiffness, mul(mul(growth, length), inverse));
+    let scale = mul(mul(stiffness, growth), inverse);
+    BondLanes { y, stretch, scale }
+}

@@ -1,0 +1,147 @@
+//! The spring kernel for the lattice layout ([`crate::lattice_table`]): the same bond force and
+//! break test as the row kernel, eight sites at a time, their partners eight consecutive slots.
+//! Plain lane arithmetic ([`super::lanes`]) that the compiler turns into vector instructions:
+//! with no gathers, there is nothing for explicit intrinsics to add.
+
+use shatter_core::config::sim::BreakRule;
+
+use super::lanes::{BondLanes, LANES, Lanes, add, bond_lanes, min, mul, sub};
+use super::springs::{break_bound, effective_threshold};
+use crate::lattice_table::{LatticeChunk, SlotInputs};
+
+/// One chunk's per-slot outputs (its slots only, from the chunk's first slot).
+pub struct SlotForces<'a> {
+    /// Force, newtons (x, y, z).
+    pub force: [&'a mut [f32]; 3],
+    /// Smallest stretch over each slot's intact bonds (never above 0).
+    pub min_stretch: &'a mut [f32],
+}
+
+/// Eight consecutive values of `values` from `start`.
+#[inline(always)]
+fn load(values: &[f32], start: usize) -> Lanes {
+    let mut lanes = [0.0; LANES];
+    lanes.copy_from_slice(&values[start..start + LANES]);
+    lanes
+}
+
+/// Spring forces (the paper's `springforces`) of one chunk of the lattice layout: for every
+/// intact bond, the stretch, the break test against the effective threshold, and the PMB force.
+/// Internal blocks are applied to both ends, external ones to this end only; bonds that break
+/// are recorded once in `chunk.breaks` (external ones by their lower particle). Each slot sums
+/// its own bonds block by block, in block order, into a running total per lane, then adds that
+/// total to the reactions its slot has received; a fixed order, whatever the thread count.
+pub fn lattice_spring_forces(
+    chunk: &mut LatticeChunk,
+    inputs: &SlotInputs,
+    particle_of: &[u32],
+    rule: BreakRule,
+    out: &mut SlotForces,
+) {
+    let context = LatticeContext { inputs, particle_of, rule };
+    chunk.breaks.clear();
+    let first = chunk.first_slot;
+    // Slots past the chunk's rows are never read.
+    for axis in 0..3 {
+        out.force[axis][..chunk.slots].fill(0.0);
+    }
+    out.min_stretch[..chunk.slots].fill(0.0);
+    for brick in 0..chunk.brick_slot.len() {
+        let own = chunk.brick_slot[brick] as usize;
+        let disp = &inputs.disp;
+        let me = [load(&disp[0], own), load(&disp[1], own), load(&disp[2], own)];
+        let bound = match rule {
+            BreakRule::Max => load(&inputs.boost, own),
+            BreakRule::Min => [break_bound(rule, 0.0); LANES],
+        };
+        let mut force_sum = [[0.0f32; LANES]; 3];
+        let mut smallest = [0.0f32; LANES];
+        for (block, internal) in chunk.brick_blocks(brick) {
+            let partner = chunk.partner_slot[block] as usize;
+            let bonds = &chunk.blocks[block];
+            let eta = [
+                sub(load(&disp[0], partner), me[0]),
+                sub(load(&disp[1], partner), me[1]),
+                sub(load(&disp[2], partner), me[2]),
+            ];
+            let BondLanes { y, mut stretch, mut scale } =
+                bond_lanes(&bonds.rest_vector, &eta, bonds.rest_length_m, bonds.stiffness);
+            let limit = add(bonds.threshold, bound);
+            let mut suspects = false;
+            for lane in 0..LANES {
+                suspects |= stretch[lane] > limit[lane];
+            }
+            if suspects {
+                let place = BlockPlace { block, own, partner, internal };
+                break_lanes(&context, chunk, &place, &mut stretch, &mut scale);
+            }
+            let force = [mul(y[0], scale), mul(y[1], scale), mul(y[2], scale)];
+            for axis in 0..3 {
+                force_sum[axis] = add(force_sum[axis], force[axis]);
+            }
+            smallest = min(smallest, stretch);
+            if internal {
+                let at = partner - first;
+                for axis in 0..3 {
+                    let total = &mut out.force[axis][at..at + LANES];
+                    let updated = sub(load(total, 0), force[axis]);
+                    total.copy_from_slice(&updated);
+                }
+                let total = &mut out.min_stretch[at..at + LANES];
+                let updated = min(load(total, 0), stretch);
+                total.copy_from_slice(&updated);
+            }
+        }
+        let at = own - first;
+        for axis in 0..3 {
+            let total = &mut out.force[axis][at..at + LANES];
+            let updated = add(load(total, 0), force_sum[axis]);
+            total.copy_from_slice(&updated);
+        }
+        let total = &mut out.min_stretch[at..at + LANES];
+        let updated = min(load(total, 0), smallest);
+        total.copy_from_slice(&updated);
+    }
+}
+
+/// What the break test reads besides the block.
+struct LatticeContext<'a> {
+    inputs: &'a SlotInputs,
+    particle_of: &'a [u32],
+    rule: BreakRule,
+}
+
+/// A block and where it sits: its brick's first slot, its partners' first slot, and whether it
+/// is internal.
+struct BlockPlace {
+    block: usize,
+    own: usize,
+    partner: usize,
+    internal: bool,
+}
+
+/// Breaks the bonds of a block whose stretches passed the cheap bound where they exceed their
+/// effective threshold (zero stiffness, infinite threshold, logged once) and zeroes their lanes'
+/// stretch and force scale.
+fn break_lanes(
+    context: &LatticeContext,
+    chunk: &mut LatticeChunk,
+    place: &BlockPlace,
+    stretch: &mut Lanes,
+    scale: &mut Lanes,
+) {
+    let boost = &context.inputs.boost;
+    let bonds = &mut chunk.blocks[place.block];
+    for lane in 0..LANES {
+        let (mine, theirs) = (boost[place.own + lane], boost[place.partner + lane]);
+        if stretch[lane] > effective_threshold(context.rule, bonds.threshold[lane], mine, theirs) {
+            bonds.threshold[lane] = f32::INFINITY;
+            bonds.stiffness[lane] = 0.0;
+            if place.internal || context.particle_of[place.own + lane] < bonds.neighbor[lane] {
+                chunk.breaks.push(chunk.bond_id[place.block * LANES + lane]);
+            }
+            stretch[lane] = 0.0;
+            scale[lane] = 0.0;
+        }
+    }
+}

@@ -1,0 +1,289 @@
+//! The bond layout for particles on a cubic lattice (the grid sampler's), where eight bonds can
+//! be computed without a gather.
+//!
+//! Every lattice row (the sites of one y and z) gets a segment of slots, one per site along x,
+//! with [`GHOST`] empty slots on either side. A brick is eight consecutive sites of a row; a block
+//! holds, for one brick and one lattice offset d, the bond of each of its sites to the site at
+//! +d. The partners of a block are then eight consecutive slots: the kernel loads their
+//! displacements as one vector per axis and adds the reactions back the same way, where the row
+//! layout moves every partner's record separately. Empty lanes (no site, or no bond at that
+//! offset) are the inert padding of [`BondBlock`].
+//!
+//! Rows are grouped into chunks by square tiles of y and z, each chunk a contiguous range of
+//! slots. As in [`crate::bond_table`], a bond whose two particles share a chunk is stored once
+//! (at its positive offset) and applied to both ends; one that crosses chunks is stored and
+//! computed on both sides. Chunks depend only on the particle set, never on the thread count.
+
+use std::collections::HashMap;
+
+use rayon::prelude::*;
+use shatter_core::particles::ParticleSet;
+
+use crate::bond_table::{BondBlock, BondEntry, EntryValues, LANES, PADDING};
+
+/// Empty slots on each side of a row: bonds may reach at most this many sites along x.
+pub const GHOST: usize = 8;
+
+/// Marks a slot without a particle.
+pub const NO_PARTICLE: u32 = u32::MAX;
+
+/// Rows of a chunk's tile side are a power of two from here up to 64, the largest that still
+/// gives this many chunks (to share out among threads).
+const MIN_CHUNKS: usize = 16;
+
+/// Below this fraction of bond lanes among all lanes, the lattice layout is not used: the
+/// padding would cost more than the gathers it saves.
+const MIN_FILL: f64 = 0.5;
+
+/// One chunk: its slots, and its bonds in blocks grouped by brick.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LatticeChunk {
+    /// First slot of the chunk.
+    pub first_slot: usize,
+    /// Slots of the chunk's rows (from the first; the chunk owns [`LatticeTable::chunk_slots`]).
+    pub slots: usize,
+    /// First slot of each brick that has bonds, in slot order.
+    pub brick_slot: Vec<u32>,
+    /// Block offsets per brick (bricks + 1).
+    pub brick_start: Vec<u32>,
+    /// End of each brick's internal blocks (partners in this chunk); the rest are external.
+    pub internal_end: Vec<u32>,
+    /// Slot of the partner of each block's first lane; lane l's partner is this + l.
+    pub partner_slot: Vec<u32>,
+    /// The blocks (`neighbor` holds each lane's partner particle).
+    pub blocks: Vec<BondBlock>,
+    /// Each lane's bond id (see [`crate::bond_table::BondChunk::bond_id`]).
+    pub bond_id: Vec<u64>,
+    /// Ids of bonds this chunk saw break in the current step, each once (scratch, reused).
+    pub breaks: Vec<u64>,
+}
+
+impl LatticeChunk {
+    /// Brick `brick`'s blocks, each with whether it is internal.
+    pub fn brick_blocks(&self, brick: usize) -> impl Iterator<Item = (usize, bool)> + use<> {
+        let (start, middle) = (self.brick_start[brick] as usize, self.internal_end[brick] as usize);
+        (start..self.brick_start[brick + 1] as usize).map(move |block| (block, block < middle))
+    }
+}
+
+/// What the lattice kernel reads of every slot, filled each step from the particles: the
+/// displacement and the compression boost (zero in empty slots).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SlotInputs {
+    /// Displacement u, metres (x, y, z arrays).
+    pub disp: [Vec<f32>; 3],
+    /// Compression boost of the thresholds.
+    pub boost: Vec<f32>,
+}
+
+/// What the lattice kernel writes for every slot: force (x, y, z) and the smallest stretch of
+/// the slot's bonds.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SlotTotals {
+    /// Force, newtons (x, y, z arrays).
+    pub force: [Vec<f32>; 3],
+    /// Smallest stretch over the slot's intact bonds (never above 0).
+    pub min_stretch: Vec<f32>,
+}
+
+/// The lattice layout of a particle set.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LatticeTable {
+    /// Slots per chunk: every chunk owns this many, room for its tile's rows, so that the
+    /// per-slot arrays split into equal chunks.
+    pub chunk_slots: usize,
+    /// The chunks, in slot order.
+    pub chunks: Vec<LatticeChunk>,
+    /// Each particle's slot.
+    pub slot_of: Vec<u32>,
+    /// Each slot's particle, or [`NO_PARTICLE`].
+    pub particle_of: Vec<u32>,
+    /// The kernel's per-slot inputs.
+    pub inputs: SlotInputs,
+    /// The kernel's per-slot outputs.
+    pub totals: SlotTotals,
+}
+
+/// A particle's integer lattice coordinates.
+type Site = [i64; 3];
+
+/// The lattice sites of all particles, if every particle sits (to 0.1% of the spacing) on the
+/// cubic lattice of spacing lambda through the lowest corner, each site holds one particle, and
+/// every bond reaches at most [`GHOST`] sites along x.
+fn lattice_sites(particles: &ParticleSet) -> Option<Vec<Site>> {
+    let spacing = particles.meta.lambda_m;
+    if particles.is_empty() || spacing.is_nan() || spacing <= 0.0 {
+        return None;
+    }
+    let corner = [0, 1, 2]
+        .map(|axis| particles.rest_position_m.iter().map(|p| f64::from(p[axis])).fold(f64::INFINITY, f64::min));
+    let mut sites = Vec::with_capacity(particles.len());
+    for p in &particles.rest_position_m {
+        let mut site = [0i64; 3];
+        for axis in 0..3 {
+            let units = (f64::from(p[axis]) - corner[axis]) / spacing;
+            if (units - units.round()).abs() > 1e-3 || units > 1e6 {
+                return None;
+            }
+            site[axis] = units.round() as i64;
+        }
+        sites.push(site);
+    }
+    let mut sorted = sites.clone();
+    sorted.sort_unstable();
+    if sorted.windows(2).any(|pair| pair[0] == pair[1]) {
+        return None;
+    }
+    let bonds = &particles.bonds;
+    let reach_ok = (0..particles.len())
+        .all(|i| bonds.row(i).all(|k| sites[bonds.neighbor[k] as usize][0].abs_diff(sites[i][0]) <= GHOST as u64));
+    reach_ok.then_some(sites)
+}
+
+impl LatticeTable {
+    /// The lattice layout of `particles` with the bond values of `values`, or `None` when the
+    /// particles are not on a cubic lattice (see [`lattice_sites`]) or fill too few lanes.
+    pub(crate) fn new(particles: &ParticleSet, values: &EntryValues) -> Option<LatticeTable> {
+        let sites = lattice_sites(particles)?;
+        let width = sites.iter().map(|s| s[0]).max().unwrap_or(0) as usize + 1;
+        let stride = GHOST + width.div_ceil(LANES) * LANES + GHOST;
+        // Rows (y, z) in chunk order: by tile, then z, then y.
+        let mut rows: Vec<[i64; 2]> = sites.iter().map(|s| [s[1], s[2]]).collect();
+        rows.sort_unstable();
+        rows.dedup();
+        let tile = tile_side(&rows);
+        let tile_of = |row: &[i64; 2]| [row[1] / tile, row[0] / tile];
+        rows.sort_unstable_by_key(|row| (tile_of(row), row[1], row[0]));
+        // Each row's chunk and place in it.
+        let mut tiles: Vec<([i64; 2], usize)> = Vec::new();
+        for row in &rows {
+            match tiles.last_mut() {
+                Some((tile, count)) if *tile == tile_of(row) => *count += 1,
+                _ => tiles.push((tile_of(row), 1)),
+            }
+        }
+        let chunk_slots = tiles.iter().map(|(_, count)| count).max().unwrap_or(&0) * stride;
+        let mut origin = HashMap::with_capacity(rows.len());
+        let mut row_index = 0;
+        for (c, (_, count)) in tiles.iter().enumerate() {
+            for r in 0..*count {
+                origin.insert(rows[row_index], c * chunk_slots + r * stride + GHOST);
+                row_index += 1;
+            }
+        }
+        let slot_count = tiles.len() * chunk_slots;
+        let slot_of: Vec<u32> = sites.iter().map(|s| (origin[&[s[1], s[2]]] + s[0] as usize) as u32).collect();
+        let mut particle_of = vec![NO_PARTICLE; slot_count];
+        for (i, slot) in slot_of.iter().enumerate() {
+            particle_of[*slot as usize] = i as u32;
+        }
+        let chunks: Vec<LatticeChunk> = tiles
+            .par_iter()
+            .enumerate()
+            .map(|(c, (_, count))| {
+                build_chunk(particles, values, &sites, &slot_of, &particle_of, c * chunk_slots, count * stride)
+            })
+            .collect();
+        let lanes: usize = chunks.iter().map(|c| c.bond_id.len()).sum();
+        let filled = chunks.iter().flat_map(|c| &c.bond_id).filter(|id| **id != PADDING).count();
+        if lanes > 0 && (filled as f64) < MIN_FILL * lanes as f64 {
+            return None;
+        }
+        let zeros = || vec![0.0f32; slot_count];
+        Some(LatticeTable {
+            chunk_slots,
+            chunks,
+            slot_of,
+            particle_of,
+            inputs: SlotInputs { disp: [zeros(), zeros(), zeros()], boost: zeros() },
+            totals: SlotTotals { force: [zeros(), zeros(), zeros()], min_stretch: zeros() },
+        })
+    }
+}
+
+/// The side of the square tiles of rows that make the chunks: the largest power of two up to 64
+/// that gives at least [`MIN_CHUNKS`] tiles, and at least 4.
+fn tile_side(rows: &[[i64; 2]]) -> i64 {
+    let mut side = 64;
+    while side > 4 {
+        let mut tiles: Vec<[i64; 2]> = rows.iter().map(|r| [r[0] / side, r[1] / side]).collect();
+        tiles.sort_unstable();
+        tiles.dedup();
+        if tiles.len() >= MIN_CHUNKS {
+            break;
+        }
+        side /= 2;
+    }
+    side
+}
+
+/// Builds the blocks of the chunk of slots `first_slot..first_slot + slots`.
+fn build_chunk(
+    particles: &ParticleSet,
+    values: &EntryValues,
+    sites: &[Site],
+    slot_of: &[u32],
+    particle_of: &[u32],
+    first_slot: usize,
+    slots: usize,
+) -> LatticeChunk {
+    let bonds = &particles.bonds;
+    let inside = |slot: usize| (first_slot..first_slot + slots).contains(&slot);
+    // (brick slot, external, offset, lane, entry)
+    let mut lanes: Vec<(usize, bool, Site, usize, BondEntry)> = Vec::new();
+    for (local, &i) in particle_of[first_slot..first_slot + slots].iter().enumerate() {
+        if i == NO_PARTICLE {
+            continue;
+        }
+        let (i, slot, lane) = (i as usize, first_slot + local, local % LANES);
+        for k in bonds.row(i) {
+            let j = bonds.neighbor[k] as usize;
+            let offset = [2, 1, 0].map(|axis| sites[j][axis] - sites[i][axis]);
+            let internal = inside(slot_of[j] as usize);
+            if internal && offset < [0; 3] {
+                continue; // stored at the opposite offset, in j's brick
+            }
+            let entry = BondEntry::new(particles, values, i, k);
+            lanes.push((slot - lane, !internal, offset, lane, entry));
+        }
+    }
+    lanes.sort_unstable_by_key(|(brick, external, offset, lane, _)| (*brick, *external, *offset, *lane));
+    let mut chunk = LatticeChunk { first_slot, slots, brick_start: vec![0], ..LatticeChunk::default() };
+    let mut start = 0;
+    while start < lanes.len() {
+        let (brick, external, offset, _, _) = lanes[start];
+        let end = start + lanes[start..].iter().take_while(|l| (l.0, l.1, l.2) == (brick, external, offset)).count();
+        if chunk.brick_slot.last() != Some(&(brick as u32)) {
+            if !chunk.brick_slot.is_empty() {
+                close_brick(&mut chunk);
+            }
+            chunk.brick_slot.push(brick as u32);
+        }
+        if external && chunk.internal_end.len() < chunk.brick_slot.len() {
+            chunk.internal_end.push(chunk.blocks.len() as u32);
+        }
+        let mut block = BondBlock::padding(0);
+        let mut ids = [PADDING; LANES];
+        for (_, _, _, lane, entry) in &lanes[start..end] {
+            block.set_lane(*lane, entry);
+            ids[*lane] = entry.bond_id;
+        }
+        let (_, _, _, lane, entry) = &lanes[start];
+        chunk.partner_slot.push(slot_of[entry.neighbor as usize] - *lane as u32);
+        chunk.blocks.push(block);
+        chunk.bond_id.extend(ids);
+        start = end;
+    }
+    if !chunk.brick_slot.is_empty() {
+        close_brick(&mut chunk);
+    }
+    chunk
+}
+
+/// Ends the last brick's block range (and its internal range, if it had only internal blocks).
+fn close_brick(chunk: &mut LatticeChunk) {
+    if chunk.internal_end.len() < chunk.brick_slot.len() {
+        chunk.internal_end.push(chunk.blocks.len() as u32);
+    }
+    chunk.brick_start.push(chunk.blocks.len() as u32);
+}

@@ -1,0 +1,112 @@
+//! The bond layout a CPU simulation runs on: the lattice layout where the particles sit on a
+//! cubic lattice (it needs no gathers), else the row layout, which takes any particle set.
+
+use shatter_core::config::sim::StiffnessCorrection;
+use shatter_core::particles::ParticleSet;
+
+use crate::bond_table::{self, BondBlock, BondTable, EntryValues, LANES, PADDING};
+use crate::lattice_table::LatticeTable;
+
+/// Which layouts [`SpringTable::new`] may choose.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LayoutChoice {
+    /// The lattice layout where it applies, else the row layout.
+    Fastest,
+    /// The row layout always (tests compare the two).
+    RowsOnly,
+}
+
+/// The bond layout of a CPU simulation.
+#[derive(Debug, Clone)]
+pub enum SpringTable {
+    /// Rows of bond blocks, any particle set.
+    Rows(BondTable),
+    /// Bricks of lattice sites.
+    Lattice(Box<LatticeTable>),
+}
+
+impl SpringTable {
+    /// The layout for `particles` with bond constant `c`, thresholds scaled by `threshold_scale`
+    /// and by `factors` (one per file entry, art direction), and the stiffness correction.
+    pub fn new(
+        particles: &ParticleSet,
+        bond_constant: f64,
+        threshold_scale: f64,
+        factors: Option<&[f32]>,
+        correction: StiffnessCorrection,
+        choice: LayoutChoice,
+    ) -> SpringTable {
+        let values = EntryValues::new(particles, bond_constant, threshold_scale, factors, correction);
+        let lattice = match choice {
+            LayoutChoice::Fastest => LatticeTable::new(particles, &values),
+            LayoutChoice::RowsOnly => None,
+        };
+        match lattice {
+            Some(lattice) => SpringTable::Lattice(Box::new(lattice)),
+            None => SpringTable::Rows(BondTable::new(particles, &values)),
+        }
+    }
+
+    /// Marks the bonds with the given ids (sorted) broken.
+    pub fn mark_broken(&mut self, sorted_ids: &[u64]) {
+        match self {
+            SpringTable::Rows(table) => {
+                table.mark_broken(sorted_ids);
+            }
+            SpringTable::Lattice(table) => {
+                for chunk in &mut table.chunks {
+                    bond_table::mark_broken(&mut chunk.blocks, &chunk.bond_id, sorted_ids);
+                }
+            }
+        }
+    }
+
+    /// Calls `entry(i, block, lane, internal)` for every stored bond entry (padding skipped):
+    /// particle i's bond to `block.neighbor[lane]`, `internal` when it is stored once for both
+    /// ends.
+    pub fn for_each_entry(&self, mut entry: impl FnMut(usize, &BondBlock, usize, bool)) {
+        match self {
+            SpringTable::Rows(table) => {
+                for chunk in &table.chunks {
+                    for local in 0..chunk.len {
+                        for (block, lane, internal) in chunk.row_bonds(local) {
+                            entry(chunk.first + local, &chunk.blocks[block], lane, internal);
+                        }
+                    }
+                }
+            }
+            SpringTable::Lattice(table) => {
+                for chunk in &table.chunks {
+                    for brick in 0..chunk.brick_slot.len() {
+                        let own = chunk.brick_slot[brick] as usize;
+                        for (block, internal) in chunk.brick_blocks(brick) {
+                            for lane in 0..LANES {
+                                if chunk.bond_id[block * LANES + lane] != PADDING {
+                                    let i = table.particle_of[own + lane] as usize;
+                                    entry(i, &chunk.blocks[block], lane, internal);
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Calls `f` with the id of every bond the last force pass broke, chunk by chunk in the order
+    /// they broke.
+    pub fn for_each_break(&self, mut f: impl FnMut(u64)) {
+        match self {
+            SpringTable::Rows(table) => table.chunks.iter().flat_map(|c| &c.breaks).for_each(|id| f(*id)),
+            SpringTable::Lattice(table) => table.chunks.iter().flat_map(|c| &c.breaks).for_each(|id| f(*id)),
+        }
+    }
+
+    /// Bond entries the force pass computes per step: (internal, stored once and applied to
+    /// both ends; external, stored and computed on both sides).
+    pub fn entries(&self) -> (usize, usize) {
+        let mut counts = (0, 0);
+        self.for_each_entry(|_, _, _, internal| if internal { counts.0 += 1 } else { counts.1 += 1 });
+        counts
+    }
+}
