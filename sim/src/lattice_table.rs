@@ -9,7 +9,7 @@
 //! layout moves every partner's record separately. Empty lanes (no site, or no bond at that
 //! offset) are the inert padding of [`BondBlock`].
 //!
-//! Rows are grouped into chunks by square tiles of y and z, each chunk a contiguous range of
+//! Rows are grouped into chunks by rectangular tiles of y and z, each chunk a contiguous range of
 //! slots. As in [`crate::bond_table`], a bond whose two particles share a chunk is stored once
 //! (at its positive offset) and applied to both ends; one that crosses chunks is stored and
 //! computed on both sides. Chunks depend only on the particle set, never on the thread count.
@@ -27,8 +27,7 @@ pub const GHOST: usize = 8;
 /// Marks a slot without a particle.
 pub const NO_PARTICLE: u32 = u32::MAX;
 
-/// Rows of a chunk's tile side are a power of two from here up to 64, the largest that still
-/// gives this many chunks (to share out among threads).
+/// Chunks to share out among threads, at least (see [`tile_size`]).
 const MIN_CHUNKS: usize = 16;
 
 /// Below this fraction of bond lanes among all lanes, the lattice layout is not used: the
@@ -151,8 +150,8 @@ impl LatticeTable {
         let mut rows: Vec<[i64; 2]> = sites.iter().map(|s| [s[1], s[2]]).collect();
         rows.sort_unstable();
         rows.dedup();
-        let tile = tile_side(&rows);
-        let tile_of = |row: &[i64; 2]| [row[1] / tile, row[0] / tile];
+        let tile = tile_size(&rows);
+        let tile_of = |row: &[i64; 2]| [row[1] / tile[1], row[0] / tile[0]];
         rows.sort_unstable_by_key(|row| (tile_of(row), row[1], row[0]));
         // Each row's chunk and place in it.
         let mut tiles: Vec<([i64; 2], usize)> = Vec::new();
@@ -201,20 +200,26 @@ impl LatticeTable {
     }
 }
 
-/// The side of the square tiles of rows that make the chunks: the largest power of two up to 64
-/// that gives at least [`MIN_CHUNKS`] tiles, and at least 4.
-fn tile_side(rows: &[[i64; 2]]) -> i64 {
-    let mut side = 64;
-    while side > 4 {
-        let mut tiles: Vec<[i64; 2]> = rows.iter().map(|r| [r[0] / side, r[1] / side]).collect();
-        tiles.sort_unstable();
-        tiles.dedup();
-        if tiles.len() >= MIN_CHUNKS {
-            break;
+/// The size (y, z) of the tiles of rows that make the chunks: of all tilings of the rows' extent
+/// into at least [`MIN_CHUNKS`] tiles (or into single rows, if there are fewer), the one with the
+/// shortest tile perimeter per row, so that the fewest bonds cross chunks.
+fn tile_size(rows: &[[i64; 2]]) -> [i64; 2] {
+    let extent = [0, 1].map(|axis| rows.iter().map(|r| r[axis] as usize).max().unwrap_or(0) + 1);
+    let mut best = ([1, 1], f64::INFINITY);
+    for across_y in 1..=extent[0] {
+        for across_z in 1..=extent[1] {
+            let size = [extent[0].div_ceil(across_y), extent[1].div_ceil(across_z)];
+            let tiles = extent[0].div_ceil(size[0]) * extent[1].div_ceil(size[1]);
+            if tiles < MIN_CHUNKS && size != [1, 1] {
+                continue;
+            }
+            let crossing = 1.0 / size[0] as f64 + 1.0 / size[1] as f64;
+            if crossing < best.1 {
+                best = (size, crossing);
+            }
         }
-        side /= 2;
     }
-    side
+    best.0.map(|side| side as i64)
 }
 
 /// Builds the blocks of the chunk of slots `first_slot..first_slot + slots`.
