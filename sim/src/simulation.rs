@@ -504,24 +504,6 @@ impl Simulation {
             }
             SpringTable::Lattice(lattice) => {
                 lattice_forces(lattice, [&disp[0][..], &disp[1][..], &disp[2][..]], boost, rule);
-                let (slot_of, totals) = (&lattice.slot_of, &lattice.totals);
-                (
-                    fx.par_chunks_mut(size),
-                    fy.par_chunks_mut(size),
-                    fz.par_chunks_mut(size),
-                    next_boost.par_chunks_mut(size),
-                )
-                    .into_par_iter()
-                    .enumerate()
-                    .for_each(|(c, (fx, fy, fz, min_stretch))| {
-                        for local in 0..fx.len() {
-                            let slot = slot_of[c * size + local] as usize;
-                            fx[local] = totals.force[0][slot];
-                            fy[local] = totals.force[1][slot];
-                            fz[local] = totals.force[2][slot];
-                            min_stretch[local] = totals.min_stretch[slot];
-                        }
-                    });
                 // The row kernel counts breaks per particle as it goes; here they are counted
                 // after the pass, from the log (each bond once).
                 for chunk in &lattice.chunks {
@@ -539,6 +521,10 @@ impl Simulation {
         let contacts = contacts.as_ref();
         let rest_position = [&rest[0][..], &rest[1][..], &rest[2][..]];
         let lookup = &*index;
+        let lattice_totals = match &*table {
+            SpringTable::Lattice(lattice) => Some((&lattice.slot_of, &lattice.totals)),
+            SpringTable::Rows(_) => None,
+        };
         (
             chunk_power.par_iter_mut(),
             fx.par_chunks_mut(size),
@@ -550,6 +536,16 @@ impl Simulation {
             .enumerate()
             .for_each(|(c, (power, fx, fy, fz, min_stretch))| {
                 let first = c * size;
+                if let Some((slot_of, totals)) = lattice_totals {
+                    // The lattice kernel's outputs, from slot to particle order.
+                    for local in 0..fx.len() {
+                        let slot = slot_of[first + local] as usize;
+                        fx[local] = totals.force[0][slot];
+                        fy[local] = totals.force[1][slot];
+                        fz[local] = totals.force[2][slot];
+                        min_stretch[local] = totals.min_stretch[slot];
+                    }
+                }
                 for value in min_stretch.iter_mut() {
                     *value *= -alpha;
                 }

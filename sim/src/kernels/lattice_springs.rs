@@ -81,25 +81,32 @@ pub fn lattice_spring_forces(
             }
             smallest = min(smallest, stretch);
             if internal {
-                let at = partner - first;
-                for axis in 0..3 {
-                    let total = &mut out.force[axis][at..at + LANES];
-                    let updated = sub(load(total, 0), force[axis]);
-                    total.copy_from_slice(&updated);
-                }
-                let total = &mut out.min_stretch[at..at + LANES];
-                let updated = min(load(total, 0), stretch);
-                total.copy_from_slice(&updated);
+                // The reaction: x - f is x + (-f), bit for bit.
+                let reaction = [neg(force[0]), neg(force[1]), neg(force[2])];
+                out.add(partner - first, &reaction, stretch);
             }
         }
-        let at = own - first;
+        out.add(own - first, &force_sum, smallest);
+    }
+}
+
+/// -a, lane by lane.
+#[inline(always)]
+fn neg(a: Lanes) -> Lanes {
+    mul(a, [-1.0; LANES])
+}
+
+impl SlotForces<'_> {
+    /// Adds `force` to the eight slots from `at` (chunk-local) and keeps the smaller stretch.
+    #[inline(always)]
+    fn add(&mut self, at: usize, force: &[Lanes; 3], stretch: Lanes) {
         for axis in 0..3 {
-            let total = &mut out.force[axis][at..at + LANES];
-            let updated = add(load(total, 0), force_sum[axis]);
+            let total = &mut self.force[axis][at..at + LANES];
+            let updated = add(load(total, 0), force[axis]);
             total.copy_from_slice(&updated);
         }
-        let total = &mut out.min_stretch[at..at + LANES];
-        let updated = min(load(total, 0), smallest);
+        let total = &mut self.min_stretch[at..at + LANES];
+        let updated = min(load(total, 0), stretch);
         total.copy_from_slice(&updated);
     }
 }
