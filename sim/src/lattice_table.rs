@@ -67,22 +67,47 @@ impl LatticeChunk {
 
 /// What the lattice kernel reads of every slot, filled each step from the particles: the
 /// displacement and the compression boost (zero in empty slots).
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct SlotInputs {
-    /// Displacement u, metres (x, y, z arrays).
-    pub disp: [Vec<f32>; 3],
+pub struct SlotInputs<'a> {
+    /// Displacement u, metres (x, y, z).
+    pub disp: [&'a [f32]; 3],
     /// Compression boost of the thresholds.
-    pub boost: Vec<f32>,
+    pub boost: &'a [f32],
 }
 
-/// What the lattice kernel writes for every slot: force (x, y, z) and the smallest stretch of
-/// the slot's bonds.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct SlotTotals {
-    /// Force, newtons (x, y, z arrays).
-    pub force: [Vec<f32>; 3],
-    /// Smallest stretch over the slot's intact bonds (never above 0).
-    pub min_stretch: Vec<f32>,
+/// How much further into a 4 KiB page each array of [`SlotArrays`] starts than the one before.
+const SKEW_BYTES: usize = 256;
+
+/// The lattice kernel's per-slot arrays in one allocation: its inputs (displacement x, y, z and
+/// boost) and its outputs (force x, y, z, newtons, and the smallest stretch of the slot's intact
+/// bonds). Each array starts [`SKEW_BYTES`] further into a 4 KiB page than the one before, so
+/// that a load from one array never waits on a store to another at the same slot because their
+/// addresses agree in the low 12 bits (4K aliasing), wherever the allocator puts them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SlotArrays {
+    data: Vec<f32>,
+    len: usize,
+    stride: usize,
+}
+
+impl SlotArrays {
+    /// Eight zeroed arrays of `len` slots.
+    fn new(len: usize) -> SlotArrays {
+        let stride = len.next_multiple_of(1024) + SKEW_BYTES / 4;
+        SlotArrays { data: vec![0.0; 8 * stride], len, stride }
+    }
+
+    /// Array `k`: 0 to 2 displacement, 3 boost, 4 to 6 force, 7 smallest stretch.
+    pub fn array(&self, k: usize) -> &[f32] {
+        &self.data[k * self.stride..k * self.stride + self.len]
+    }
+
+    /// The four input arrays and the four output arrays, all writable.
+    pub fn split_mut(&mut self) -> ([&mut [f32]; 4], [&mut [f32]; 4]) {
+        let len = self.len;
+        let mut arrays = self.data.chunks_exact_mut(self.stride).map(|array| &mut array[..len]);
+        let mut next = || arrays.next().unwrap_or_else(|| unreachable!("eight arrays"));
+        ([next(), next(), next(), next()], [next(), next(), next(), next()])
+    }
 }
 
 /// The lattice layout of a particle set.
@@ -97,10 +122,8 @@ pub struct LatticeTable {
     pub slot_of: Vec<u32>,
     /// Each slot's particle, or [`NO_PARTICLE`].
     pub particle_of: Vec<u32>,
-    /// The kernel's per-slot inputs.
-    pub inputs: SlotInputs,
-    /// The kernel's per-slot outputs.
-    pub totals: SlotTotals,
+    /// The kernel's per-slot inputs and outputs.
+    pub slots: SlotArrays,
 }
 
 /// A particle's integer lattice coordinates.
@@ -150,6 +173,11 @@ impl LatticeTable {
         let mut rows: Vec<[i64; 2]> = sites.iter().map(|s| [s[1], s[2]]).collect();
         rows.sort_unstable();
         rows.dedup();
+        // A lane holds a bond only where its slot holds a particle: too few particles for the
+        // rows' slots, and the lanes cannot fill either.
+        if (sites.len() as f64) < MIN_FILL * (rows.len() * (stride - 2 * GHOST)) as f64 {
+            return None;
+        }
         let tile = tile_size(&rows);
         let tile_of = |row: &[i64; 2]| [row[1] / tile[1], row[0] / tile[0]];
         rows.sort_unstable_by_key(|row| (tile_of(row), row[1], row[0]));
@@ -188,15 +216,7 @@ impl LatticeTable {
         if lanes > 0 && (filled as f64) < MIN_FILL * lanes as f64 {
             return None;
         }
-        let zeros = || vec![0.0f32; slot_count];
-        Some(LatticeTable {
-            chunk_slots,
-            chunks,
-            slot_of,
-            particle_of,
-            inputs: SlotInputs { disp: [zeros(), zeros(), zeros()], boost: zeros() },
-            totals: SlotTotals { force: [zeros(), zeros(), zeros()], min_stretch: zeros() },
-        })
+        Some(LatticeTable { chunk_slots, chunks, slot_of, particle_of, slots: SlotArrays::new(slot_count) })
     }
 }
 
@@ -222,7 +242,7 @@ fn tile_size(rows: &[[i64; 2]]) -> [i64; 2] {
     best.0.map(|side| side as i64)
 }
 
-/// Builds the blocks of the chunk of slots `first_slot..first_slot + slots`.
+/// Builds the blocks of the chunk of slots `first_slot..first_slot + slots`, brick by brick.
 fn build_chunk(
     particles: &ParticleSet,
     values: &EntryValues,
@@ -234,61 +254,50 @@ fn build_chunk(
 ) -> LatticeChunk {
     let bonds = &particles.bonds;
     let inside = |slot: usize| (first_slot..first_slot + slots).contains(&slot);
-    // (brick slot, external, offset, lane, entry)
-    let mut lanes: Vec<(usize, bool, Site, usize, BondEntry)> = Vec::new();
-    for (local, &i) in particle_of[first_slot..first_slot + slots].iter().enumerate() {
-        if i == NO_PARTICLE {
+    let mut chunk = LatticeChunk { first_slot, slots, brick_start: vec![0], ..LatticeChunk::default() };
+    // One brick's stored bonds: (external, offset (z, y, x), lane, entry).
+    let mut lanes: Vec<(bool, Site, usize, BondEntry)> = Vec::new();
+    for brick in (first_slot..first_slot + slots).step_by(LANES) {
+        lanes.clear();
+        for (lane, &i) in particle_of[brick..brick + LANES].iter().enumerate() {
+            if i == NO_PARTICLE {
+                continue;
+            }
+            let i = i as usize;
+            for k in bonds.row(i) {
+                let j = bonds.neighbor[k] as usize;
+                let offset = [2, 1, 0].map(|axis| sites[j][axis] - sites[i][axis]);
+                let internal = inside(slot_of[j] as usize);
+                if internal && offset < [0; 3] {
+                    continue; // stored at the opposite offset, in j's brick
+                }
+                lanes.push((!internal, offset, lane, BondEntry::new(particles, values, i, k)));
+            }
+        }
+        if lanes.is_empty() {
             continue;
         }
-        let (i, slot, lane) = (i as usize, first_slot + local, local % LANES);
-        for k in bonds.row(i) {
-            let j = bonds.neighbor[k] as usize;
-            let offset = [2, 1, 0].map(|axis| sites[j][axis] - sites[i][axis]);
-            let internal = inside(slot_of[j] as usize);
-            if internal && offset < [0; 3] {
-                continue; // stored at the opposite offset, in j's brick
+        // Internal blocks first, then external; one block per offset.
+        lanes.sort_unstable_by_key(|(external, offset, lane, _)| (*external, *offset, *lane));
+        chunk.brick_slot.push(brick as u32);
+        let mut internal_end = None;
+        for group in lanes.chunk_by(|a, b| (a.0, a.1) == (b.0, b.1)) {
+            if group[0].0 && internal_end.is_none() {
+                internal_end = Some(chunk.blocks.len());
             }
-            let entry = BondEntry::new(particles, values, i, k);
-            lanes.push((slot - lane, !internal, offset, lane, entry));
-        }
-    }
-    lanes.sort_unstable_by_key(|(brick, external, offset, lane, _)| (*brick, *external, *offset, *lane));
-    let mut chunk = LatticeChunk { first_slot, slots, brick_start: vec![0], ..LatticeChunk::default() };
-    let mut start = 0;
-    while start < lanes.len() {
-        let (brick, external, offset, _, _) = lanes[start];
-        let end = start + lanes[start..].iter().take_while(|l| (l.0, l.1, l.2) == (brick, external, offset)).count();
-        if chunk.brick_slot.last() != Some(&(brick as u32)) {
-            if !chunk.brick_slot.is_empty() {
-                close_brick(&mut chunk);
+            let mut block = BondBlock::padding(0);
+            let mut ids = [PADDING; LANES];
+            for (_, _, lane, entry) in group {
+                block.set_lane(*lane, entry);
+                ids[*lane] = entry.bond_id;
             }
-            chunk.brick_slot.push(brick as u32);
+            let (_, _, lane, entry) = &group[0];
+            chunk.partner_slot.push(slot_of[entry.neighbor as usize] - *lane as u32);
+            chunk.blocks.push(block);
+            chunk.bond_id.extend(ids);
         }
-        if external && chunk.internal_end.len() < chunk.brick_slot.len() {
-            chunk.internal_end.push(chunk.blocks.len() as u32);
-        }
-        let mut block = BondBlock::padding(0);
-        let mut ids = [PADDING; LANES];
-        for (_, _, _, lane, entry) in &lanes[start..end] {
-            block.set_lane(*lane, entry);
-            ids[*lane] = entry.bond_id;
-        }
-        let (_, _, _, lane, entry) = &lanes[start];
-        chunk.partner_slot.push(slot_of[entry.neighbor as usize] - *lane as u32);
-        chunk.blocks.push(block);
-        chunk.bond_id.extend(ids);
-        start = end;
-    }
-    if !chunk.brick_slot.is_empty() {
-        close_brick(&mut chunk);
+        chunk.internal_end.push(internal_end.unwrap_or(chunk.blocks.len()) as u32);
+        chunk.brick_start.push(chunk.blocks.len() as u32);
     }
     chunk
-}
-
-/// Ends the last brick's block range (and its internal range, if it had only internal blocks).
-fn close_brick(chunk: &mut LatticeChunk) {
-    if chunk.internal_end.len() < chunk.brick_slot.len() {
-        chunk.internal_end.push(chunk.blocks.len() as u32);
-    }
-    chunk.brick_start.push(chunk.blocks.len() as u32);
 }

@@ -6,10 +6,10 @@ use shatter_core::PipelineConfig;
 use shatter_core::config::sim::{BreakRule, StiffnessCorrection};
 use shatter_core::particles::{Bonds, ParticleSet};
 
-use crate::bond_table::chunk_size;
+use crate::bond_table::{BondBlock, EntryValues, chunk_size};
 use crate::contact::ContactList;
-use crate::kernels::{self, BodyForces, BondLookup, ChunkForces, ParticleRecord, SlotForces, SphereNow};
-use crate::lattice_table::{LatticeTable, NO_PARTICLE};
+use crate::kernels::{self, BodyForces, BondLookup, ChunkForces, ParticleRecord, SphereNow};
+use crate::lattice_table::{LatticeTable, NO_PARTICLE, SlotInputs};
 use crate::model::{Model, MovingSphere};
 use crate::spring_table::{LayoutChoice, SpringTable};
 use crate::{SimError, art};
@@ -87,14 +87,12 @@ impl BondIndex {
         }
     }
 
-    fn mark(&mut self, id: u64) {
+    /// Marks bond `id` broken and counts it in both its particles' `broken` counts.
+    fn record_break(&mut self, id: u64, broken: &mut [u32]) {
         self.broken[(id / 64) as usize] |= 1 << (id % 64);
-    }
-
-    /// The two particles of bond `id`.
-    fn endpoints(&self, id: u64) -> (usize, usize) {
         let i = self.offsets.partition_point(|offset| *offset <= id) - 1;
-        (i, self.neighbor[id as usize] as usize)
+        broken[i] += 1;
+        broken[self.neighbor[id as usize] as usize] += 1;
     }
 }
 
@@ -166,7 +164,13 @@ impl Simulation {
     ) -> Simulation {
         let n = particles.len();
         let (constant, scale) = (model.bond_constant, model.threshold_scale);
-        let table = SpringTable::new(particles, constant, scale, factors, correction, layout);
+        let values = EntryValues::new(particles, constant, scale, factors, correction);
+        let table = SpringTable::new(particles, &values, layout);
+        // The row kernel's gather records (the lattice kernel fills its own slots).
+        let records = match table {
+            SpringTable::Rows(_) => vec![ParticleRecord::default(); n],
+            SpringTable::Lattice(_) => Vec::new(),
+        };
         let rest = [0, 1, 2].map(|axis| particles.rest_position_m.iter().map(|p| p[axis]).collect::<Vec<f32>>());
         let mass: Vec<f32> = particles.volume_m3.iter().map(|v| (f64::from(*v) * model.density_kg_m3) as f32).collect();
         let inverse_mass = mass.iter().map(|m| 1.0 / m).collect();
@@ -195,7 +199,7 @@ impl Simulation {
             broken: vec![0; n],
             events: Vec::new(),
             position_scratch: zeros(),
-            records: vec![ParticleRecord::default(); n],
+            records,
             chunk_power: Vec::new(),
         };
         simulation.chunk_power = vec![0.0; n.div_ceil(simulation.chunk_size)];
@@ -294,14 +298,9 @@ impl Simulation {
     /// Replaces the state with a checkpoint's; `broken_bonds` (sorted ids) are marked broken.
     pub fn restore(&mut self, dynamics: Dynamics, broken_bonds: &[u64]) {
         self.table.mark_broken(broken_bonds);
-        for &id in broken_bonds {
-            self.index.mark(id);
-        }
         self.broken.fill(0);
         for &id in broken_bonds {
-            let (i, j) = self.index.endpoints(id);
-            self.broken[i] += 1;
-            self.broken[j] += 1;
+            self.index.record_break(id, &mut self.broken);
         }
         self.dynamics = dynamics;
     }
@@ -325,10 +324,15 @@ impl Simulation {
         [0, 1, 2].map(|a| self.rest[a].iter().zip(&self.dynamics.disp[a]).map(|(x, u)| x + u).collect())
     }
 
-    /// Kinetic and bond energy, summed per chunk in particle order (deterministic).
+    /// Kinetic and bond energy, summed per chunk in a fixed order (deterministic).
     pub fn energy(&self) -> Energy {
         let kinetic_j = kinetic_energy_j(&self.mass, &self.dynamics.vel, self.chunk_size);
-        let bond_j = self.bond_energy_per_particle().iter().sum();
+        let disp = &self.dynamics.disp;
+        let bond_j = self.table.sum_entries(|i, bond, lane, internal| {
+            // stored once: the partner's half too
+            let ends = if internal { 2.0 } else { 1.0 };
+            ends * half_bond_energy_j(disp, i, bond, lane)
+        });
         Energy { kinetic_j, bond_j }
     }
 
@@ -338,19 +342,11 @@ impl Simulation {
         let disp = &self.dynamics.disp;
         let mut energy = vec![0.0f64; self.len()];
         self.table.for_each_entry(|i, bond, lane, internal| {
-            if bond.stiffness[lane] == 0.0 {
-                return;
-            }
-            let j = bond.neighbor[lane] as usize;
-            let xi = [0, 1, 2].map(|a| bond.rest_vector[a][lane]);
-            let eta = [0, 1, 2].map(|a| disp[a][j] - disp[a][i]);
-            let rest_length = bond.rest_length_m[lane];
-            let (s, _, _) = kernels::stretch(xi, eta, rest_length);
-            let half = 0.25 * f64::from(bond.stiffness[lane]) * f64::from(s).powi(2) * f64::from(rest_length);
+            let half = half_bond_energy_j(disp, i, bond, lane);
             energy[i] += half;
             if internal {
                 // stored once: the partner's half too
-                energy[j] += half;
+                energy[bond.neighbor[lane] as usize] += half;
             }
         });
         energy
@@ -494,25 +490,15 @@ impl Simulation {
                     fy.par_chunks_mut(size),
                     fz.par_chunks_mut(size),
                     next_boost.par_chunks_mut(size),
-                    broken.par_chunks_mut(size),
                 )
                     .into_par_iter()
-                    .for_each(|(chunk, fx, fy, fz, min_stretch, broken)| {
-                        let mut out = ChunkForces { force: [fx, fy, fz], min_stretch, broken };
+                    .for_each(|(chunk, fx, fy, fz, min_stretch)| {
+                        let mut out = ChunkForces { force: [fx, fy, fz], min_stretch };
                         kernels::spring_forces(chunk, records, rule, &mut out);
                     });
             }
             SpringTable::Lattice(lattice) => {
                 lattice_forces(lattice, [&disp[0][..], &disp[1][..], &disp[2][..]], boost, rule);
-                // The row kernel counts breaks per particle as it goes; here they are counted
-                // after the pass, from the log (each bond once).
-                for chunk in &lattice.chunks {
-                    for &bond in &chunk.breaks {
-                        let (i, j) = index.endpoints(bond);
-                        broken[i] += 1;
-                        broken[j] += 1;
-                    }
-                }
             }
         }
         let velocity = [&vel[0][..], &vel[1][..], &vel[2][..]];
@@ -522,7 +508,7 @@ impl Simulation {
         let rest_position = [&rest[0][..], &rest[1][..], &rest[2][..]];
         let lookup = &*index;
         let lattice_totals = match &*table {
-            SpringTable::Lattice(lattice) => Some((&lattice.slot_of, &lattice.totals)),
+            SpringTable::Lattice(lattice) => Some((&lattice.slot_of, &lattice.slots)),
             SpringTable::Rows(_) => None,
         };
         (
@@ -536,14 +522,13 @@ impl Simulation {
             .enumerate()
             .for_each(|(c, (power, fx, fy, fz, min_stretch))| {
                 let first = c * size;
-                if let Some((slot_of, totals)) = lattice_totals {
+                if let Some((slot_of, slots)) = lattice_totals {
                     // The lattice kernel's outputs, from slot to particle order.
+                    let [sx, sy, sz, smallest] = [4, 5, 6, 7].map(|k| slots.array(k));
                     for local in 0..fx.len() {
                         let slot = slot_of[first + local] as usize;
-                        fx[local] = totals.force[0][slot];
-                        fy[local] = totals.force[1][slot];
-                        fz[local] = totals.force[2][slot];
-                        min_stretch[local] = totals.min_stretch[slot];
+                        (fx[local], fy[local], fz[local]) = (sx[slot], sy[slot], sz[slot]);
+                        min_stretch[local] = smallest[slot];
                     }
                 }
                 for value in min_stretch.iter_mut() {
@@ -569,40 +554,50 @@ impl Simulation {
                 };
             });
         std::mem::swap(boost, next_boost);
+        // Both kernels log each broken bond once, so the counts per particle are kept here.
         table.for_each_break(|bond| {
-            index.mark(bond);
+            index.record_break(bond, broken);
             events.push(BreakEvent { step: *step, bond });
         });
         chunk_power.iter().sum()
     }
 }
 
+/// Half the energy 1/2 k s^2 L of particle i's bond in `bond`'s lane `lane` (0 once broken),
+/// joules.
+fn half_bond_energy_j(disp: &[Vec<f32>; 3], i: usize, bond: &BondBlock, lane: usize) -> f64 {
+    if bond.stiffness[lane] == 0.0 {
+        return 0.0;
+    }
+    let j = bond.neighbor[lane] as usize;
+    let xi = [0, 1, 2].map(|a| bond.rest_vector[a][lane]);
+    let eta = [0, 1, 2].map(|a| disp[a][j] - disp[a][i]);
+    let rest_length = bond.rest_length_m[lane];
+    let (s, _, _) = kernels::stretch(xi, eta, rest_length);
+    0.25 * f64::from(bond.stiffness[lane]) * f64::from(s).powi(2) * f64::from(rest_length)
+}
+
 /// The lattice layout's spring pass: the slots' inputs from the particles' displacements and
 /// boosts, then the kernel over all chunks, into the table's slot totals.
 fn lattice_forces(lattice: &mut LatticeTable, disp: [&[f32]; 3], boost: &[f32], rule: BreakRule) {
-    let LatticeTable { chunk_slots, chunks, particle_of, inputs, totals, .. } = lattice;
+    let LatticeTable { chunk_slots, chunks, particle_of, slots, .. } = lattice;
     let (size, particle_of) = (*chunk_slots, &*particle_of);
-    {
-        let [ux, uy, uz] = &mut inputs.disp;
-        let slot_boost = &mut inputs.boost;
-        (ux.par_chunks_mut(size), uy.par_chunks_mut(size), uz.par_chunks_mut(size), slot_boost.par_chunks_mut(size))
-            .into_par_iter()
-            .enumerate()
-            .zip(chunks.par_iter())
-            .for_each(|((c, (ux, uy, uz, slot_boost)), chunk)| {
-                for local in 0..chunk.slots {
-                    let p = particle_of[c * size + local];
-                    if p != NO_PARTICLE {
-                        let p = p as usize;
-                        (ux[local], uy[local], uz[local]) = (disp[0][p], disp[1][p], disp[2][p]);
-                        slot_boost[local] = boost[p];
-                    }
+    let ([ux, uy, uz, slot_boost], [fx, fy, fz, min_stretch]) = slots.split_mut();
+    (ux.par_chunks_mut(size), uy.par_chunks_mut(size), uz.par_chunks_mut(size), slot_boost.par_chunks_mut(size))
+        .into_par_iter()
+        .enumerate()
+        .zip(chunks.par_iter())
+        .for_each(|((c, (ux, uy, uz, slot_boost)), chunk)| {
+            for local in 0..chunk.slots {
+                let p = particle_of[c * size + local];
+                if p != NO_PARTICLE {
+                    let p = p as usize;
+                    (ux[local], uy[local], uz[local]) = (disp[0][p], disp[1][p], disp[2][p]);
+                    slot_boost[local] = boost[p];
                 }
-            });
-    }
-    let inputs = &*inputs;
-    let [fx, fy, fz] = &mut totals.force;
-    let min_stretch = &mut totals.min_stretch;
+            }
+        });
+    let inputs = SlotInputs { disp: [ux, uy, uz], boost: slot_boost };
     (
         chunks.par_iter_mut(),
         fx.par_chunks_mut(size),
@@ -612,7 +607,7 @@ fn lattice_forces(lattice: &mut LatticeTable, disp: [&[f32]; 3], boost: &[f32], 
     )
         .into_par_iter()
         .for_each(|(chunk, fx, fy, fz, min_stretch)| {
-            let mut out = SlotForces { force: [fx, fy, fz], min_stretch };
-            kernels::lattice_spring_forces(chunk, inputs, particle_of, rule, &mut out);
+            let mut out = ChunkForces { force: [fx, fy, fz], min_stretch };
+            kernels::lattice_spring_forces(chunk, &inputs, particle_of, rule, &mut out);
         });
 }

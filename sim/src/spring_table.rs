@@ -1,7 +1,7 @@
 //! The bond layout a CPU simulation runs on: the lattice layout where the particles sit on a
 //! cubic lattice (it needs no gathers), else the row layout, which takes any particle set.
 
-use shatter_core::config::sim::StiffnessCorrection;
+use rayon::prelude::*;
 use shatter_core::particles::ParticleSet;
 
 use crate::bond_table::{self, BondBlock, BondTable, EntryValues, LANES, PADDING};
@@ -26,24 +26,15 @@ pub enum SpringTable {
 }
 
 impl SpringTable {
-    /// The layout for `particles` with bond constant `c`, thresholds scaled by `threshold_scale`
-    /// and by `factors` (one per file entry, art direction), and the stiffness correction.
-    pub fn new(
-        particles: &ParticleSet,
-        bond_constant: f64,
-        threshold_scale: f64,
-        factors: Option<&[f32]>,
-        correction: StiffnessCorrection,
-        choice: LayoutChoice,
-    ) -> SpringTable {
-        let values = EntryValues::new(particles, bond_constant, threshold_scale, factors, correction);
+    /// The layout for `particles` with the bond values of `values`.
+    pub(crate) fn new(particles: &ParticleSet, values: &EntryValues, choice: LayoutChoice) -> SpringTable {
         let lattice = match choice {
-            LayoutChoice::Fastest => LatticeTable::new(particles, &values),
+            LayoutChoice::Fastest => LatticeTable::new(particles, values),
             LayoutChoice::RowsOnly => None,
         };
         match lattice {
             Some(lattice) => SpringTable::Lattice(Box::new(lattice)),
-            None => SpringTable::Rows(BondTable::new(particles, &values)),
+            None => SpringTable::Rows(BondTable::new(particles, values)),
         }
     }
 
@@ -61,36 +52,63 @@ impl SpringTable {
         }
     }
 
-    /// Calls `entry(i, block, lane, internal)` for every stored bond entry (padding skipped):
-    /// particle i's bond to `block.neighbor[lane]`, `internal` when it is stored once for both
-    /// ends.
-    pub fn for_each_entry(&self, mut entry: impl FnMut(usize, &BondBlock, usize, bool)) {
+    /// Number of chunks.
+    fn chunk_count(&self) -> usize {
+        match self {
+            SpringTable::Rows(table) => table.chunks.len(),
+            SpringTable::Lattice(table) => table.chunks.len(),
+        }
+    }
+
+    /// Calls `entry(i, block, lane, internal)` for every stored bond entry of chunk `c` (padding
+    /// skipped), in a fixed order: particle i's bond to `block.neighbor[lane]`, `internal` when it
+    /// is stored once for both ends.
+    fn for_each_entry_of_chunk(&self, c: usize, mut entry: impl FnMut(usize, &BondBlock, usize, bool)) {
         match self {
             SpringTable::Rows(table) => {
-                for chunk in &table.chunks {
-                    for local in 0..chunk.len {
-                        for (block, lane, internal) in chunk.row_bonds(local) {
-                            entry(chunk.first + local, &chunk.blocks[block], lane, internal);
-                        }
+                let chunk = &table.chunks[c];
+                for local in 0..chunk.len {
+                    for (block, lane, internal) in chunk.row_bonds(local) {
+                        entry(chunk.first + local, &chunk.blocks[block], lane, internal);
                     }
                 }
             }
             SpringTable::Lattice(table) => {
-                for chunk in &table.chunks {
-                    for brick in 0..chunk.brick_slot.len() {
-                        let own = chunk.brick_slot[brick] as usize;
-                        for (block, internal) in chunk.brick_blocks(brick) {
-                            for lane in 0..LANES {
-                                if chunk.bond_id[block * LANES + lane] != PADDING {
-                                    let i = table.particle_of[own + lane] as usize;
-                                    entry(i, &chunk.blocks[block], lane, internal);
-                                }
+                let chunk = &table.chunks[c];
+                for brick in 0..chunk.brick_slot.len() {
+                    let own = chunk.brick_slot[brick] as usize;
+                    for (block, internal) in chunk.brick_blocks(brick) {
+                        for lane in 0..LANES {
+                            if chunk.bond_id[block * LANES + lane] != PADDING {
+                                let i = table.particle_of[own + lane] as usize;
+                                entry(i, &chunk.blocks[block], lane, internal);
                             }
                         }
                     }
                 }
             }
         }
+    }
+
+    /// [`SpringTable::for_each_entry_of_chunk`] over all chunks, in chunk order.
+    pub fn for_each_entry(&self, mut entry: impl FnMut(usize, &BondBlock, usize, bool)) {
+        for c in 0..self.chunk_count() {
+            self.for_each_entry_of_chunk(c, &mut entry);
+        }
+    }
+
+    /// The sum of `value(i, block, lane, internal)` over all stored entries: summed per chunk in
+    /// entry order, in parallel, then over chunks in order (the same on any thread count).
+    pub fn sum_entries(&self, value: impl Fn(usize, &BondBlock, usize, bool) -> f64 + Sync) -> f64 {
+        let sums: Vec<f64> = (0..self.chunk_count())
+            .into_par_iter()
+            .map(|c| {
+                let mut sum = 0.0;
+                self.for_each_entry_of_chunk(c, |i, block, lane, internal| sum += value(i, block, lane, internal));
+                sum
+            })
+            .collect();
+        sums.iter().sum()
     }
 
     /// Calls `f` with the id of every bond the last force pass broke, chunk by chunk in the order

@@ -4,8 +4,6 @@
 
 mod scenarios;
 
-use std::collections::HashMap;
-
 use scenarios::{block, max_force};
 use shatter_core::config::PipelineConfig;
 use shatter_core::particles::ParticleSet;
@@ -131,23 +129,19 @@ fn the_lattice_and_row_layouts_agree_on_a_struck_plate() {
     let (lattice, lattice_breaks, lattice_damage, lattice_energy) = run(lattice);
     let (rows, row_breaks, row_damage, row_energy) = run(rows_only(&config, &particles));
     assert!(row_breaks.len() > 20_000, "the projectile should break bonds: {}", row_breaks.len());
-    // The force sums run in another order. Fracture grows rounding differences (over 300 steps
-    // one break in five differs), so the runs are compared through the first 24,000 breaks: all
-    // but a few bonds broken alike (in both runs, in the same step), the damage alike, and the
-    // displacements within 0.1% of the largest.
-    let by_bond = |breaks: &[(u64, u64)]| breaks.iter().map(|(step, bond)| (*bond, *step)).collect::<HashMap<_, _>>();
-    let (lattice_breaks, row_breaks) = (by_bond(&lattice_breaks), by_bond(&row_breaks));
-    let alike = row_breaks.iter().filter(|(bond, step)| lattice_breaks.get(bond) == Some(step)).count();
-    let unlike = lattice_breaks.len() + row_breaks.len() - 2 * alike;
-    assert!(unlike * 1000 < row_breaks.len(), "{unlike} of {} breaks differ", row_breaks.len());
-    assert!(lattice_damage.iter().zip(&row_damage).all(|(a, b)| (a - b).abs() < 0.05));
+    // The force sums run in another order, and fracture grows rounding differences (over 300
+    // steps one break in five differs), so the runs are compared through the first 24,000 breaks:
+    // the same bonds broken in the same steps, the same damage, displacements within 1e-5 of the
+    // largest and total energies within 1e-6 (measured: 1.6e-7 and 2e-8).
+    assert_eq!(lattice_breaks, row_breaks);
+    assert_eq!(lattice_damage, row_damage);
     let largest = rows.disp.iter().flatten().fold(0.0f32, |m, u| m.max(u.abs()));
     for axis in 0..3 {
         for (a, b) in lattice.disp[axis].iter().zip(&rows.disp[axis]) {
-            assert!((a - b).abs() <= 1e-3 * largest, "displacements differ: {a} and {b} (largest {largest})");
+            assert!((a - b).abs() <= 1e-5 * largest, "displacements differ: {a} and {b} (largest {largest})");
         }
     }
-    assert!(relative(lattice_energy.total_j(), row_energy.total_j()) < 1e-4, "{lattice_energy:?} {row_energy:?}");
+    assert!(relative(lattice_energy.total_j(), row_energy.total_j()) < 1e-6, "{lattice_energy:?} {row_energy:?}");
 }
 
 #[test]

@@ -6,16 +6,8 @@
 use shatter_core::config::sim::BreakRule;
 
 use super::lanes::{BondLanes, LANES, Lanes, add, bond_lanes, min, mul, sub};
-use super::springs::{break_bound, effective_threshold};
+use super::springs::{ChunkForces, break_bound, effective_threshold};
 use crate::lattice_table::{LatticeChunk, SlotInputs};
-
-/// One chunk's per-slot outputs (its slots only, from the chunk's first slot).
-pub struct SlotForces<'a> {
-    /// Force, newtons (x, y, z).
-    pub force: [&'a mut [f32]; 3],
-    /// Smallest stretch over each slot's intact bonds (never above 0).
-    pub min_stretch: &'a mut [f32],
-}
 
 /// Eight consecutive values of `values` from `start`.
 #[inline(always)]
@@ -33,10 +25,10 @@ fn load(values: &[f32], start: usize) -> Lanes {
 /// total to the reactions its slot has received; a fixed order, whatever the thread count.
 pub fn lattice_spring_forces(
     chunk: &mut LatticeChunk,
-    inputs: &SlotInputs,
+    inputs: &SlotInputs<'_>,
     particle_of: &[u32],
     rule: BreakRule,
-    out: &mut SlotForces,
+    out: &mut ChunkForces,
 ) {
     let context = LatticeContext { inputs, particle_of, rule };
     chunk.breaks.clear();
@@ -48,10 +40,9 @@ pub fn lattice_spring_forces(
     out.min_stretch[..chunk.slots].fill(0.0);
     for brick in 0..chunk.brick_slot.len() {
         let own = chunk.brick_slot[brick] as usize;
-        let disp = &inputs.disp;
-        let me = [load(&disp[0], own), load(&disp[1], own), load(&disp[2], own)];
+        let disp = inputs.disp;
         let bound = match rule {
-            BreakRule::Max => load(&inputs.boost, own),
+            BreakRule::Max => load(inputs.boost, own),
             BreakRule::Min => [break_bound(rule, 0.0); LANES],
         };
         let mut force_sum = [[0.0f32; LANES]; 3];
@@ -59,10 +50,12 @@ pub fn lattice_spring_forces(
         for (block, internal) in chunk.brick_blocks(brick) {
             let partner = chunk.partner_slot[block] as usize;
             let bonds = &chunk.blocks[block];
+            // u_i is loaded again for every block rather than kept: the registers it would hold
+            // keep the lane sums out of the stack.
             let eta = [
-                sub(load(&disp[0], partner), me[0]),
-                sub(load(&disp[1], partner), me[1]),
-                sub(load(&disp[2], partner), me[2]),
+                sub(load(disp[0], partner), load(disp[0], own)),
+                sub(load(disp[1], partner), load(disp[1], own)),
+                sub(load(disp[2], partner), load(disp[2], own)),
             ];
             let BondLanes { y, mut stretch, mut scale } =
                 bond_lanes(&bonds.rest_vector, &eta, bonds.rest_length_m, bonds.stiffness);
@@ -96,7 +89,7 @@ fn neg(a: Lanes) -> Lanes {
     mul(a, [-1.0; LANES])
 }
 
-impl SlotForces<'_> {
+impl ChunkForces<'_> {
     /// Adds `force` to the eight slots from `at` (chunk-local) and keeps the smaller stretch.
     #[inline(always)]
     fn add(&mut self, at: usize, force: &[Lanes; 3], stretch: Lanes) {
@@ -113,7 +106,7 @@ impl SlotForces<'_> {
 
 /// What the break test reads besides the block.
 struct LatticeContext<'a> {
-    inputs: &'a SlotInputs,
+    inputs: &'a SlotInputs<'a>,
     particle_of: &'a [u32],
     rule: BreakRule,
 }
@@ -137,7 +130,7 @@ fn break_lanes(
     stretch: &mut Lanes,
     scale: &mut Lanes,
 ) {
-    let boost = &context.inputs.boost;
+    let boost = context.inputs.boost;
     let bonds = &mut chunk.blocks[place.block];
     for lane in 0..LANES {
         let (mine, theirs) = (boost[place.own + lane], boost[place.partner + lane]);

@@ -11,7 +11,7 @@ mod springs;
 #[cfg(target_arch = "x86_64")]
 mod springs_avx2;
 
-pub use lattice_springs::{SlotForces, lattice_spring_forces};
+pub use lattice_springs::lattice_spring_forces;
 pub use springs::{ChunkForces, ParticleRecord, spring_forces, stretch};
 
 use crate::contact::{ContactList, contact_reach, repulsion};

@@ -12,14 +12,13 @@ use super::lanes::{BondLanes, bond_lanes};
 use crate::bond_table::BondChunk;
 pub(super) use crate::bond_table::LANES;
 
-/// One chunk's outputs of the force pass.
+/// One chunk's outputs of the force pass (per particle of the row layout's chunk, per slot of
+/// the lattice layout's).
 pub struct ChunkForces<'a> {
-    /// Force accumulators, newtons.
+    /// Force, newtons (x, y, z).
     pub force: [&'a mut [f32]; 3],
     /// Smallest stretch over each particle's intact bonds (never above 0).
     pub min_stretch: &'a mut [f32],
-    /// Broken bonds per particle (running count).
-    pub broken: &'a mut [u32],
 }
 
 /// Bond stretch s = |xi + eta| / |xi| - 1 computed from the displacement difference eta, as
@@ -73,8 +72,6 @@ pub(super) struct BlockContext<'a> {
     /// The chunk's per-particle sums (force x, y, z and smallest stretch) that internal bonds'
     /// reactions are scattered into.
     pub totals: &'a mut [[f32; 4]],
-    /// Broken bonds per particle of the chunk.
-    pub broken: &'a mut [u32],
 }
 
 /// Spring forces (the paper's `springforces`): for every intact bond of the chunk, the stretch,
@@ -107,7 +104,7 @@ pub(super) fn spring_rows(
     let mut totals = std::mem::take(&mut chunk.totals);
     totals.clear();
     totals.resize(chunk.len, [0.0; 4]);
-    let mut context = BlockContext { records, rule, totals: &mut totals, broken: out.broken };
+    let mut context = BlockContext { records, rule, totals: &mut totals };
     for local in 0..chunk.len {
         let sums = row(chunk, &mut context, local);
         let total = &mut context.totals[local];
@@ -142,7 +139,6 @@ pub(super) fn break_lanes(
     context: &mut BlockContext,
     local: usize,
     block: usize,
-    internal: bool,
     stretch: &mut [f32; LANES],
     scale: &mut [f32; LANES],
 ) {
@@ -155,10 +151,6 @@ pub(super) fn break_lanes(
         if stretch[lane] > effective_threshold(context.rule, bonds.threshold[lane], boost, context.records[j].boost) {
             bonds.threshold[lane] = f32::INFINITY;
             bonds.stiffness[lane] = 0.0;
-            context.broken[local] += 1;
-            if internal {
-                context.broken[j - first] += 1;
-            }
             if i < j {
                 chunk.breaks.push(chunk.bond_id[block * LANES + lane]);
             }
@@ -213,7 +205,7 @@ fn bond_block(
         suspects |= stretch[lane] > threshold[lane] + bound;
     }
     if suspects {
-        break_lanes(chunk, context, local, block, internal, &mut stretch, &mut scale);
+        break_lanes(chunk, context, local, block, &mut stretch, &mut scale);
     }
     for lane in 0..LANES {
         for axis in 0..3 {
@@ -277,22 +269,21 @@ mod tests {
         (chunk, records)
     }
 
-    /// Everything a pass writes: forces, smallest stretches, break counts, the broken bonds'
-    /// ids and the bond table after the pass.
-    type PassResult = ([Vec<f32>; 3], Vec<f32>, Vec<u32>, BondChunk);
+    /// Everything a pass writes: forces, smallest stretches, and the bond table after the pass
+    /// (with the broken bonds' ids).
+    type PassResult = ([Vec<f32>; 3], Vec<f32>, BondChunk);
 
     fn run(mut chunk: BondChunk, records: &[ParticleRecord], rule: BreakRule, avx2: bool) -> PassResult {
         let len = chunk.len;
         let (mut fx, mut fy, mut fz) = (vec![0.0; len], vec![0.0; len], vec![0.0; len]);
-        let (mut min_stretch, mut broken) = (vec![0.0; len], vec![0; len]);
-        let mut out =
-            ChunkForces { force: [&mut fx, &mut fy, &mut fz], min_stretch: &mut min_stretch, broken: &mut broken };
+        let mut min_stretch = vec![0.0; len];
+        let mut out = ChunkForces { force: [&mut fx, &mut fy, &mut fz], min_stretch: &mut min_stretch };
         if avx2 {
             spring_forces(&mut chunk, records, rule, &mut out);
         } else {
             spring_rows(&mut chunk, records, rule, &mut out, bond_row);
         }
-        ([fx, fy, fz], min_stretch, broken, chunk)
+        ([fx, fy, fz], min_stretch, chunk)
     }
 
     #[test]
@@ -310,8 +301,7 @@ mod tests {
                 // Equal as numbers: the two may differ in the sign of a zero smallest stretch.
                 assert_eq!(portable.1, dispatched.1, "seed {seed}");
                 assert_eq!(portable.2, dispatched.2, "seed {seed}");
-                assert_eq!(portable.3, dispatched.3, "seed {seed}");
-                breaks += portable.3.breaks.len();
+                breaks += portable.2.breaks.len();
                 assert!(portable.0[0].iter().any(|f| *f != 0.0), "seed {seed}: no forces");
             }
         }

@@ -142,7 +142,7 @@ fn bond_row(chunk: &mut BondChunk, context: &mut BlockContext, local: usize) -> 
         if suspects != 0 {
             let mut stretch_lanes: [f32; LANES] = bytemuck::cast(stretch);
             let mut scale_lanes: [f32; LANES] = bytemuck::cast(scale);
-            break_lanes(chunk, context, local, block, internal, &mut stretch_lanes, &mut scale_lanes);
+            break_lanes(chunk, context, local, block, &mut stretch_lanes, &mut scale_lanes);
             stretch = bytemuck::cast(stretch_lanes);
             scale = bytemuck::cast(scale_lanes);
         }
