@@ -4,12 +4,12 @@ use std::io::Read;
 use std::path::Path;
 
 use serde_json::json;
+use shatter_core::checkpoint;
 use shatter_core::fragments::FragmentFrame;
+use shatter_core::frames::{BreakLog, PointFrame};
 use shatter_core::particles::ParticleSet;
 use shatter_core::stage_file::{StageKind, read_header};
-use shatter_render::post::components::size_histogram;
-use shatter_sim::frames::{BreakLog, PointFrame};
-use shatter_sim::run::checkpoint_summary;
+use shatter_post::components::size_histogram;
 
 use crate::Failure;
 
@@ -28,7 +28,7 @@ pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
         match read_header(path)?.kind {
             StageKind::Particles => serde_json::to_value(ParticleSet::read(path)?.summary())?,
             StageKind::Checkpoint => {
-                let (meta, particles) = checkpoint_summary(path)?;
+                let (meta, particles) = checkpoint::summary(path)?;
                 json!({"kind": "checkpoint", "particles": particles, "frame": meta.frame, "step": meta.step,
                        "broken_bonds": meta.broken_bonds, "external_work_j": meta.external_work_j,
                        "initial_energy_j": meta.initial_energy_j})

@@ -15,10 +15,10 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use shatter_core::{ConfigError, PipelineConfig};
+use shatter_post::PostError;
 use shatter_preprocess::PreprocessError;
-use shatter_render::post::PostError;
-use shatter_render::run::RenderError;
-use shatter_sim::run::RunError;
+use shatter_render::render_driver::RenderError;
+use shatter_sim::sim_driver::RunError;
 
 /// Exit code for bad input: a config, mesh or setting the user must fix (clap uses it for bad
 /// arguments too).

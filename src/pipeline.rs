@@ -6,12 +6,10 @@
 
 use std::time::Instant;
 
-use shatter_core::PipelineConfig;
 use shatter_core::config::GeometrySource;
 use shatter_core::fragments::FragmentFrame;
-use shatter_render::post::{FRAGMENTS_DIR, fragments_path};
-use shatter_render::run::{RENDER_DIR, frame_file};
-use shatter_sim::run::{CHECKPOINT_FILE, FRAMES_DIR, PARTICLES_FILE, RunError, frame_path};
+use shatter_core::{OutputLayout, PipelineConfig};
+use shatter_sim::sim_driver::RunError;
 
 use crate::sim::SimArgs;
 use crate::stamps::{Hasher, Stamps};
@@ -26,9 +24,10 @@ struct Done {
 
 /// Runs the stages of `config` up to `until`.
 pub fn run(config: &PipelineConfig, options: &SimArgs, until: Stage) -> Result<(), Failure> {
-    let output = config.output_dir();
+    let layout = OutputLayout::of(config);
+    let output = layout.root();
     std::fs::create_dir_all(output).map_err(|error| anyhow::anyhow!("{}: cannot create: {error}", output.display()))?;
-    let mut stamps = Stamps::load(output);
+    let mut stamps = Stamps::load(layout.stamps());
     let mut done = Vec::new();
     let frames = config.sim.frames;
 
@@ -43,7 +42,7 @@ pub fn run(config: &PipelineConfig, options: &SimArgs, until: Stage) -> Result<(
     }
     let preprocess_hash = hash.finish();
     let started = Instant::now();
-    if stamps.matches("preprocess", &preprocess_hash) && output.join(PARTICLES_FILE).is_file() {
+    if stamps.matches("preprocess", &preprocess_hash) && layout.particles().is_file() {
         done.push(Done { stage: "preprocess", seconds: 0.0, note: "up to date".into() });
     } else {
         preprocess::run(config)?;
@@ -63,11 +62,10 @@ pub fn run(config: &PipelineConfig, options: &SimArgs, until: Stage) -> Result<(
         .json(&backend)
         .finish();
     let started = Instant::now();
-    let frames_dir = output.join(FRAMES_DIR);
-    if stamps.matches("sim", &sim_hash) && frame_path(&frames_dir, frames).is_file() {
+    if stamps.matches("sim", &sim_hash) && layout.frame_points(frames).is_file() {
         done.push(Done { stage: "sim", seconds: 0.0, note: "up to date".into() });
     } else {
-        let resume = output.join(CHECKPOINT_FILE).is_file();
+        let resume = layout.checkpoint().is_file();
         let resumed = SimArgs { resume, ..options.clone() };
         match sim::run(config, &resumed) {
             Err(failure) if is_checkpoint_mismatch(&failure) => {
@@ -86,9 +84,8 @@ pub fn run(config: &PipelineConfig, options: &SimArgs, until: Stage) -> Result<(
     // post: the simulation's outputs (identified by its settings: it is deterministic) and [post]
     let post_hash =
         Hasher::default().bytes(sim_hash.as_bytes()).json(&config.post).json(&config.scene.frames_per_second).finish();
-    let fragments_dir = output.join(FRAGMENTS_DIR);
     let started = Instant::now();
-    if stamps.matches("post", &post_hash) && fragments_path(&fragments_dir, frames).is_file() {
+    if stamps.matches("post", &post_hash) && layout.fragments(frames).is_file() {
         done.push(Done { stage: "post", seconds: 0.0, note: "up to date".into() });
     } else {
         post::run(config)?;
@@ -105,13 +102,9 @@ pub fn run(config: &PipelineConfig, options: &SimArgs, until: Stage) -> Result<(
         hash = hash.file(path);
     }
     let render_hash = hash.finish();
-    let render_dir = output.join(RENDER_DIR);
     let key = |frame: u32| format!("render.{frame:04}");
     let stale: Vec<u32> = (1..=frames)
-        .filter(|&frame| {
-            !(stamps.matches(&key(frame), &render_hash)
-                && frame_file(&render_dir, &config.scene.name, frame, "exr").is_file())
-        })
+        .filter(|&frame| !(stamps.matches(&key(frame), &render_hash) && layout.render_frame(frame, "exr").is_file()))
         .collect();
     let started = Instant::now();
     if stale.is_empty() {
@@ -136,20 +129,20 @@ fn is_checkpoint_mismatch(failure: &Failure) -> bool {
 
 /// Prints time per stage, fragments, frames written and where they are.
 fn summary(done: &[Done], config: &PipelineConfig) -> Result<(), Failure> {
-    let output = config.output_dir();
+    let layout = OutputLayout::of(config);
+    let output = layout.root();
     println!("\nshatter run: {} ({})", config.scene.name, output.display());
     for line in done {
         let time = if line.note == "up to date" { "skipped".to_string() } else { format!("{:.1} s", line.seconds) };
         println!("  {:<11} {time:>10}  {}", line.stage, line.note);
     }
-    let last = fragments_path(&output.join(FRAGMENTS_DIR), config.sim.frames);
+    let last = layout.fragments(config.sim.frames);
     if let Ok(frame) = FragmentFrame::read(&last) {
         let largest = frame.elements.iter().copied().max().unwrap_or(0);
         println!("  fragments in the last frame: {} (largest {} elements)", frame.fragment_count(), largest);
     }
-    let render_dir = output.join(RENDER_DIR);
-    if render_dir.is_dir() {
-        let first = frame_file(&render_dir, &config.scene.name, 1, "exr");
+    if layout.render_dir().is_dir() {
+        let first = layout.render_frame(1, "exr");
         println!("  frames: {} ...", first.display());
     }
     Ok(())

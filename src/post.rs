@@ -7,7 +7,7 @@ use crate::progress::Bars;
 
 /// Runs the post stage.
 pub fn run(config: &PipelineConfig) -> Result<(), Failure> {
-    let report = shatter_render::post::run(config, &Bars::default())?;
+    let report = shatter_post::run_post(config, &Bars::default())?;
     let histogram: Vec<String> = report
         .size_histogram
         .iter()

@@ -3,9 +3,7 @@
 use std::time::Instant;
 
 use anyhow::Context;
-use shatter_core::PipelineConfig;
-
-use shatter_sim::run::PARTICLES_FILE;
+use shatter_core::{OutputLayout, PipelineConfig};
 
 use crate::Failure;
 use crate::progress::Bars;
@@ -20,9 +18,10 @@ pub fn run(config: &PipelineConfig) -> Result<(), Failure> {
     for note in &result.notes {
         eprintln!("note: {note}");
     }
-    let folder = config.output_dir();
+    let layout = OutputLayout::of(config);
+    let folder = layout.root();
     std::fs::create_dir_all(folder).with_context(|| format!("cannot create the output folder {}", folder.display()))?;
-    let path = folder.join(PARTICLES_FILE);
+    let path = layout.particles();
     result.particles.write(&path)?;
     let summary = result.particles.summary();
     let bytes = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);

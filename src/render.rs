@@ -1,7 +1,7 @@
 //! `shatter render`: fragments to EXR frames.
 
 use shatter_core::PipelineConfig;
-use shatter_render::run::{AfterFrame, RenderError, parse_frames};
+use shatter_render::render_driver::{AfterFrame, RenderError, parse_frames, run_render};
 
 use crate::Failure;
 use crate::progress::Bars;
@@ -36,7 +36,7 @@ pub fn render_frames(
     after_frame: AfterFrame,
 ) -> Result<(), Failure> {
     let backend = backend.map(BackendArg::backend);
-    let report = shatter_render::run::run(config, Some(frames), backend, &Bars::default(), after_frame)?;
+    let report = run_render(config, Some(frames), backend, &Bars::default(), after_frame)?;
     let [width, height] = report.resolution;
     println!(
         "render: {} frames at {width} x {height}, {} samples per pixel ({:.2} M primary rays/s)",

@@ -2,7 +2,7 @@
 
 use shatter_core::PipelineConfig;
 use shatter_core::config::sim::Backend;
-use shatter_sim::run::{RunOptions, run as run_simulation};
+use shatter_sim::sim_driver::{RunOptions, run_sim};
 
 use crate::Failure;
 use crate::progress::Bars;
@@ -61,7 +61,7 @@ pub fn run(config: &PipelineConfig, args: &SimArgs) -> Result<(), Failure> {
     }
     let pool = pool.build().map_err(|error| anyhow::anyhow!("cannot start worker threads: {error}"))?;
     let options = RunOptions { backend: Some(backend), resume: args.resume, allow_unstable_dt: args.allow_unstable_dt };
-    let report = pool.install(|| run_simulation(config, options, &Bars::default()))?;
+    let report = pool.install(|| run_sim(config, options, &Bars::default()))?;
     for warning in &report.warnings {
         eprintln!("warning: {warning}");
     }

@@ -7,9 +7,6 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 
-/// The stamp file's name in the output folder.
-pub const STAMPS_FILE: &str = "stamps.json";
-
 /// A 64-bit FNV-1a hash, written as 16 hex digits.
 #[derive(Debug, Clone, Copy)]
 pub struct Hasher(u64);
@@ -59,10 +56,8 @@ pub struct Stamps {
 }
 
 impl Stamps {
-    /// The stamps in `output_dir` (none yet if the file is missing or unreadable: everything
-    /// runs).
-    pub fn load(output_dir: &Path) -> Stamps {
-        let path = output_dir.join(STAMPS_FILE);
+    /// The stamps at `path` (none yet if the file is missing or unreadable: everything runs).
+    pub fn load(path: PathBuf) -> Stamps {
         let entries =
             std::fs::read(&path).ok().and_then(|bytes| serde_json::from_slice(&bytes).ok()).unwrap_or_default();
         Stamps { path, entries }

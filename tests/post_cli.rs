@@ -90,7 +90,7 @@ fn post_writes_fragments_point_caches_and_a_usd_that_usd_reads() {
     // Element 0's rest and frame-6 positions, from the particle file and the frame's point cache.
     let particles =
         shatter_core::particles::ParticleSet::read(&dir.path().join("out/particles.shp")).expect("particles");
-    let frame = shatter_sim::frames::PointFrame::read(&dir.path().join("out/frames/points.0006.ply")).expect("frame");
+    let frame = shatter_core::frames::PointFrame::read(&dir.path().join("out/frames/points.0006.ply")).expect("frame");
     let rest = particles.rest_position_m[0];
     let now = [frame.position[0][0], frame.position[1][0], frame.position[2][0]];
     let script = dir.path().join("check_usd.py");

@@ -14,9 +14,8 @@
 use std::path::{Path, PathBuf};
 
 use shatter_core::config::sim::Backend;
-use shatter_core::{NoProgress, PipelineConfig};
-use shatter_render::run::{RENDER_DIR, frame_file};
-use shatter_sim::run::{PARTICLES_FILE, RunOptions};
+use shatter_core::{NoProgress, OutputLayout, PipelineConfig};
+use shatter_sim::sim_driver::RunOptions;
 
 /// Largest mean FLIP error allowed.
 const MAX_MEAN: f32 = 0.01;
@@ -61,20 +60,26 @@ fn render_key_frames(shot: &Shot, output: &Path) -> Vec<(u32, image::RgbImage)> 
     config.render.resolution = RESOLUTION;
     config.render.samples_per_pixel = 2;
     config.render.previews = true;
+    let layout = OutputLayout::of(&config);
 
     let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
     std::fs::create_dir_all(output).expect("output folder");
-    particles.write(&output.join(PARTICLES_FILE)).expect("particle file");
+    particles.write(&layout.particles()).expect("particle file");
     let options = RunOptions { backend: Some(Backend::Cpu), ..RunOptions::default() };
-    shatter_sim::run::run(&config, options, &NoProgress).expect("sim");
-    shatter_render::post::run(&config, &NoProgress).expect("post");
-    shatter_render::run::run(&config, Some(shot.key_frames), Some(Backend::Cpu), &NoProgress, &mut |_| Ok(()))
-        .expect("render");
-    let render_dir = output.join(RENDER_DIR);
+    shatter_sim::sim_driver::run_sim(&config, options, &NoProgress).expect("sim");
+    shatter_post::run_post(&config, &NoProgress).expect("post");
+    shatter_render::render_driver::run_render(
+        &config,
+        Some(shot.key_frames),
+        Some(Backend::Cpu),
+        &NoProgress,
+        &mut |_| Ok(()),
+    )
+    .expect("render");
     shot.key_frames
         .iter()
         .map(|&frame| {
-            let path = frame_file(&render_dir, &config.scene.name, frame, "png");
+            let path = layout.render_frame(frame, "png");
             (frame, image::open(&path).expect("preview").to_rgb8())
         })
         .collect()

@@ -3,6 +3,9 @@
 //! - [`config`]: the `pipeline.toml` schema, parsing and validation.
 //! - [`stage_file`]: the versioned, checksummed, atomically written binary container that every
 //!   stage file uses.
+//! - [`layout`]: every path in a scene's output folder.
+//! - [`checkpoint`]: the simulation's checkpoint (full state at a frame boundary).
+//! - [`frames`]: the simulation's per-frame point caches and its bond-break log.
 //! - [`fragments`]: the per-frame fragments file written by `shatter post`.
 //! - [`particles`]: the particle file written by `shatter preprocess` (rest state, element
 //!   geometry, bonds, element adjacency).
@@ -10,8 +13,11 @@
 //! - [`progress`]: how library code reports progress to the CLI.
 //! - [`random`]: seeded, order-independent randomness.
 
+pub mod checkpoint;
 pub mod config;
 pub mod fragments;
+pub mod frames;
+pub mod layout;
 pub mod particles;
 pub mod ply;
 pub mod progress;
@@ -19,6 +25,7 @@ pub mod random;
 pub mod stage_file;
 
 pub use config::{ConfigError, PipelineConfig};
+pub use layout::OutputLayout;
 pub use particles::ParticleSet;
 pub use progress::{NoProgress, Progress};
 pub use stage_file::StageFileError;

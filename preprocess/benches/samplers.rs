@@ -18,7 +18,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use shatter_core::Progress;
 use shatter_core::config::PipelineConfig;
-use shatter_preprocess::kdtree::KdTree;
+use shatter_geometry::PointKdTree;
 use shatter_preprocess::preprocess;
 
 /// Prints each phase's wall time as it finishes.
@@ -148,7 +148,7 @@ critical_stretch = 0.001
 
     // lambda: the point spacing (used) against the smallest distance between barycentres.
     let points: Vec<DVec3> = set.rest_position_m.iter().map(|p| DVec3::from_array(p.map(f64::from))).collect();
-    let tree = KdTree::new(&points);
+    let tree = PointKdTree::new(&points);
     let nearest: Vec<f64> = (0..points.len())
         .into_par_iter()
         .map_init(Vec::new, |found, i| {

@@ -10,8 +10,8 @@ use std::path::Path;
 use std::time::Instant;
 
 use glam::DVec3;
+use shatter_geometry::mesh::TriangleMesh;
 use shatter_preprocess::blue_noise::{poisson_disk, poisson_disk_with_count};
-use shatter_preprocess::mesh::TriangleMesh;
 use shatter_preprocess::mesh_query::MeshQuery;
 use shatter_preprocess::repair::repair;
 use shatter_preprocess::voronoi::clipped_voronoi;

@@ -420,13 +420,13 @@ fn classify_cubes(query: &MeshQuery, grid: &Grid) -> Vec<Region> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kdtree::KdTree;
-    use crate::mesh::TriangleMesh;
-    use crate::mesh::tests::cube;
+    use crate::test_meshes::cube;
+    use shatter_geometry::PointKdTree;
+    use shatter_geometry::mesh::TriangleMesh;
 
     /// The smallest distance between two points (brute force over k-d tree neighbours).
     fn min_pair_distance(points: &[DVec3], within: f64) -> f64 {
-        let tree = KdTree::new(points);
+        let tree = PointKdTree::new(points);
         let mut found = Vec::new();
         let mut best = f64::INFINITY;
         for (i, p) in points.iter().enumerate() {
@@ -450,7 +450,7 @@ mod tests {
         assert!(points.iter().all(|p| p.cmpgt(DVec3::ZERO).all() && p.cmplt(DVec3::ONE).all()));
         assert!(min_pair_distance(&points, 2.0 * r) >= r);
         // Maximal: every point of the cube is within r of a sample (checked on a fine lattice).
-        let tree = KdTree::new(&points);
+        let tree = PointKdTree::new(&points);
         let mut found = Vec::new();
         let steps = 40;
         for i in 0..steps * steps * steps {

@@ -7,7 +7,7 @@ use shatter_core::Progress;
 use shatter_core::particles::Bonds;
 use shatter_core::random::{splitmix64, unit_interval};
 
-use crate::kdtree::KdTree;
+use shatter_geometry::PointKdTree;
 
 /// Pairs at distance up to `delta * (1 + HORIZON_TOLERANCE)` are bonded, so that lattice
 /// neighbours at exactly delta (e.g. (3, 0, 0) lambda at N = 3) are bonded despite rounding.
@@ -45,7 +45,7 @@ pub fn build_bonds(
     progress: &dyn Progress,
 ) -> Bonds {
     assert_eq!(points.len(), stored_positions.len());
-    let tree = KdTree::new(points);
+    let tree = PointKdTree::new(points);
     let radius_sq = (params.delta_m * (1.0 + HORIZON_TOLERANCE)).powi(2);
     progress.start("bonds", points.len() as u64);
     let chunks: Vec<Bonds> = (0..points.len().div_ceil(CHUNK))

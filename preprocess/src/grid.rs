@@ -5,7 +5,7 @@ use glam::DVec3;
 
 use crate::inside::{FillRule, InsideCells, inside_cells};
 use crate::lattice::Lattice;
-use crate::mesh::TriangleMesh;
+use shatter_geometry::mesh::TriangleMesh;
 
 /// The largest lattice (in cells, filled or not) the grid sampler will allocate.
 pub const MAX_LATTICE_CELLS: usize = 1 << 32;
@@ -112,7 +112,7 @@ pub(crate) fn morton_code(cell: [usize; 3]) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::tests::cube;
+    use crate::test_meshes::cube;
 
     #[test]
     fn morton_code_interleaves_bits() {

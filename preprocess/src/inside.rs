@@ -13,7 +13,7 @@ use rayon::prelude::*;
 use robust::{Coord, orient2d};
 
 use crate::lattice::Lattice;
-use crate::mesh::TriangleMesh;
+use shatter_geometry::mesh::TriangleMesh;
 
 /// How a winding number decides inside.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -210,7 +210,7 @@ mod tests {
     use glam::DVec3;
 
     use super::*;
-    use crate::mesh::tests::cube;
+    use crate::test_meshes::cube;
 
     fn count(cells: &InsideCells) -> usize {
         cells.inside.iter().filter(|inside| **inside).count()

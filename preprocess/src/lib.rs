@@ -11,15 +11,16 @@ pub mod bonds;
 pub mod delaunay;
 pub mod grid;
 pub mod inside;
-pub mod kdtree;
 pub mod lattice;
-pub mod mesh;
 pub mod mesh_query;
 pub mod order;
 pub mod repair;
 pub mod tet_shell;
 pub mod voronoi;
 pub mod voronoi_sampler;
+
+#[cfg(test)]
+mod test_meshes;
 
 use glam::{DQuat, DVec3};
 use shatter_core::Progress;
@@ -29,11 +30,11 @@ use shatter_core::particles::{Elements, ParticleMeta, ParticleSet};
 use crate::bonds::{BondParams, build_bonds};
 use crate::grid::{GridError, GridSample};
 use crate::inside::FillRule;
-use crate::mesh::{MeshError, TriangleMesh};
 use crate::mesh_query::MeshQuery;
 use crate::repair::{MeshReport, repair};
 use crate::tet_shell::{ShellError, ShellParams, TetShell, tet_shell};
 use crate::voronoi_sampler::{SiteSpacing, VoronoiSample, VoronoiSamplerError, voronoi_sample};
+use shatter_geometry::mesh::{MeshError, TriangleMesh};
 
 /// Why preprocessing failed.
 #[derive(Debug, thiserror::Error)]

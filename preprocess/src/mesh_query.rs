@@ -21,7 +21,7 @@ use glam::DVec3;
 use robust::{Coord, Coord3D, orient2d, orient3d};
 
 use crate::inside::FillRule;
-use crate::mesh::TriangleMesh;
+use shatter_geometry::mesh::TriangleMesh;
 
 /// Triangles per leaf.
 const LEAF_SIZE: usize = 4;
@@ -439,7 +439,7 @@ pub(crate) mod tests {
     use super::*;
     use crate::inside::inside_cells;
     use crate::lattice::Lattice;
-    use crate::mesh::tests::cube;
+    use crate::test_meshes::cube;
 
     /// An octahedron with corners on the axes at `radius`, each face split into `n * n`
     /// triangles whose vertices are pushed onto the sphere of that radius when `round` is set

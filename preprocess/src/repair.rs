@@ -7,7 +7,7 @@
 //! not consistently wound is filled with the even-odd rule instead of the non-zero rule.
 
 use crate::inside::FillRule;
-use crate::mesh::{LoadStats, TriangleMesh};
+use shatter_geometry::mesh::{LoadStats, TriangleMesh};
 
 /// One edge-connected part of a mesh.
 #[derive(Debug, Clone, PartialEq)]
@@ -204,7 +204,7 @@ mod tests {
     use glam::DVec3;
 
     use super::*;
-    use crate::mesh::tests::cube;
+    use crate::test_meshes::cube;
 
     fn two_bodies(big: f64, small: f64) -> TriangleMesh {
         let mut mesh = cube(big);

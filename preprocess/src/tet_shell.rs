@@ -60,9 +60,9 @@ use shatter_core::{NoProgress, Progress};
 
 use crate::blue_noise::{MAX_GRID_CUBES, poisson_disk};
 use crate::delaunay::{DelaunayError, NO_NEIGHBOR, tet_volume, tetrahedralize};
-use crate::mesh::TriangleMesh;
 use crate::mesh_query::MeshQuery;
 use crate::order::z_order;
+use shatter_geometry::mesh::TriangleMesh;
 
 /// Candidates per `r^2` of surface area (`r` the point spacing). Thinning keeps about 0.6 per
 /// `r^2` (one candidate in thirty); the gaps between candidates (about 0.2 `r`) bound how far any
@@ -530,7 +530,7 @@ pub fn thin(points: &[DVec3], r: f64) -> Option<Vec<DVec3>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::tests::cube;
+    use crate::test_meshes::cube;
 
     fn params(layers: u32, filled_core: bool) -> ShellParams {
         ShellParams { spacing: 0.05, layers, layer_spacing: 0.1, filled_core, seed: 5, keep_thick_surface_tets: true }

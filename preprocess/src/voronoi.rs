@@ -52,8 +52,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::delaunay::{DelaunayError, tetrahedralize};
-use crate::mesh::TriangleMesh;
 use crate::mesh_query::{MeshQuery, closest_on_segment};
+use shatter_geometry::mesh::TriangleMesh;
 
 /// The label of a piece edge that lies on an edge of the original triangle, not on a cell face.
 const MESH_EDGE: u32 = u32::MAX;
@@ -786,8 +786,8 @@ mod tests {
     use shatter_core::random::SplitMix64;
 
     use super::*;
-    use crate::mesh::tests::cube;
     use crate::mesh_query::tests::octahedron;
+    use crate::test_meshes::cube;
 
     /// `count` random points strictly inside the mesh.
     fn random_sites(mesh: &TriangleMesh, count: usize, seed: u64) -> Vec<DVec3> {

@@ -8,10 +8,10 @@ use glam::DVec3;
 use crate::blue_noise::{
     MAX_GRID_CUBES, POISSON_DENSITY, min_distance_for_count, poisson_disk, poisson_disk_with_count,
 };
-use crate::mesh::TriangleMesh;
 use crate::mesh_query::MeshQuery;
 use crate::order::z_order;
 use crate::voronoi::{ClippedVoronoi, VoronoiError, clipped_voronoi};
+use shatter_geometry::mesh::TriangleMesh;
 
 /// How far apart the sites are.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -96,7 +96,7 @@ pub fn voronoi_sample(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::tests::cube;
+    use crate::test_meshes::cube;
 
     #[test]
     fn a_cube_is_cut_into_cells_in_z_order() {

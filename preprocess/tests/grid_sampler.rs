@@ -4,7 +4,7 @@
 use shatter_core::NoProgress;
 use shatter_core::config::PipelineConfig;
 use shatter_core::particles::{Elements, ParticleSet};
-use shatter_preprocess::mesh::TriangleMesh;
+use shatter_geometry::mesh::TriangleMesh;
 use shatter_preprocess::repair::repair;
 use shatter_preprocess::{PreprocessError, preprocess};
 use support::assets;

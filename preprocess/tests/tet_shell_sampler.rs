@@ -15,10 +15,10 @@ use shatter_core::NoProgress;
 use shatter_core::config::PipelineConfig;
 use shatter_core::particles::{Elements, ParticleSet};
 use shatter_core::random::{SplitMix64, splitmix64};
+use shatter_geometry::PointKdTree;
+use shatter_geometry::mesh::TriangleMesh;
 use shatter_preprocess::inside::{FillRule, inside_cells};
-use shatter_preprocess::kdtree::KdTree;
 use shatter_preprocess::lattice::Lattice;
-use shatter_preprocess::mesh::TriangleMesh;
 use shatter_preprocess::mesh_query::MeshQuery;
 use shatter_preprocess::tet_shell::{CORE, ShellParams, shell_points};
 use shatter_preprocess::{Preprocessed, preprocess};
@@ -116,7 +116,7 @@ fn check_tets(name: &str, set: &ParticleSet) -> Figures {
 
 /// The smallest distance between two of `points` (searched within `reach`).
 fn closest_pair(points: &[DVec3], reach: f64) -> f64 {
-    let tree = KdTree::new(points);
+    let tree = PointKdTree::new(points);
     (0..points.len())
         .into_par_iter()
         .map_init(Vec::new, |found, i| {
@@ -245,7 +245,7 @@ fn layer_points_keep_their_distances_and_cover_the_layers() {
             assert!(layer == 0 || query.contains(*p));
         }
     }
-    let tree = KdTree::new(&shell.points);
+    let tree = PointKdTree::new(&shell.points);
     let mut found = Vec::new();
     let mut closest_same = f64::INFINITY;
     let mut closest_across = f64::INFINITY;
@@ -274,7 +274,7 @@ fn layer_points_keep_their_distances_and_cover_the_layers() {
     // Coverage of the surface layer: random surface points and their nearest surface sample.
     let surface: Vec<DVec3> =
         shell.points.iter().zip(&shell.layer).filter(|(_, l)| **l == 0).map(|(p, _)| *p).collect();
-    let tree = KdTree::new(&surface);
+    let tree = PointKdTree::new(&surface);
     let areas: Vec<f64> = (0..mesh.triangles.len())
         .map(|t| {
             let [a, b, c] = mesh.corners(t);

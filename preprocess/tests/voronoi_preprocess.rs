@@ -13,8 +13,8 @@ use rayon::prelude::*;
 use shatter_core::NoProgress;
 use shatter_core::config::PipelineConfig;
 use shatter_core::particles::{Elements, ParticleSet};
-use shatter_preprocess::kdtree::KdTree;
-use shatter_preprocess::mesh::TriangleMesh;
+use shatter_geometry::PointKdTree;
+use shatter_geometry::mesh::TriangleMesh;
 use shatter_preprocess::{PreprocessError, preprocess};
 use support::{load, polytope_vertices};
 
@@ -59,7 +59,7 @@ fn check_cells(name: &str, set: &ParticleSet, mesh: &TriangleMesh, polytopes: us
 
     // No two particles closer than lambda, as stored.
     let positions: Vec<DVec3> = set.rest_position_m.iter().map(|p| vec(*p)).collect();
-    let tree = KdTree::new(&positions);
+    let tree = PointKdTree::new(&positions);
     let closest = (0..n)
         .into_par_iter()
         .map_init(Vec::new, |found, i| {

@@ -7,9 +7,9 @@
 use std::time::Instant;
 
 use glam::DVec3;
+use shatter_geometry::PointKdTree;
+use shatter_geometry::mesh::TriangleMesh;
 use shatter_preprocess::blue_noise::poisson_disk_with_count;
-use shatter_preprocess::kdtree::KdTree;
-use shatter_preprocess::mesh::TriangleMesh;
 use shatter_preprocess::mesh_query::MeshQuery;
 use shatter_preprocess::voronoi::{ClippedVoronoi, bisector, clipped_voronoi};
 use support::polytope_vertices;
@@ -70,7 +70,7 @@ fn totals_error(mesh: &TriangleMesh, voronoi: &ClippedVoronoi) -> (f64, f64) {
 /// No two sites closer than `min_distance` (the k-d tree's range query is inclusive); returns
 /// the closest pair's distance.
 fn check_min_distance(sites: &[DVec3], min_distance: f64) -> f64 {
-    let tree = KdTree::new(sites);
+    let tree = PointKdTree::new(sites);
     let mut found = Vec::new();
     let mut closest = f64::INFINITY;
     for (i, site) in sites.iter().enumerate() {

@@ -1,5 +1,5 @@
 // The GPU ray tracer, one pixel per invocation: the twin of render/src/trace.rs (and of the
-// functions of geometry.rs, kdtree.rs and lighting.rs it uses), step for step.
+// functions of primitives.rs, element_kdtree.rs and lighting.rs it uses), step for step.
 
 const NONE: u32 = 0xffffffffu;
 const LEAF: u32 = 3u;
@@ -66,7 +66,7 @@ struct Span {
     hit: bool,
 }
 
-// geometry.rs polytope_span
+// primitives.rs polytope_span
 fn polytope_span(e: u32, slack: f32, origin: vec3<f32>, direction: vec3<f32>) -> Span {
     var span = Span(-infinity(), infinity(), NONE, NONE, false);
     var wide_in = -infinity();
@@ -113,7 +113,7 @@ fn cross3(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }
 
-// geometry.rs polytope_contains
+// primitives.rs polytope_contains
 fn polytope_contains(e: u32, slack: f32, point: vec3<f32>) -> bool {
     for (var k = plane_offsets[e]; k < plane_offsets[e + 1u]; k++) {
         let plane = planes[k];
@@ -130,7 +130,7 @@ struct TriangleHit {
     hit: bool,
 }
 
-// geometry.rs triangle_hit
+// primitives.rs triangle_hit
 fn triangle_hit(origin: vec3<f32>, direction: vec3<f32>, index: u32) -> TriangleHit {
     var result = TriangleHit(0.0, false, false);
     let a = triangles[3u * index].xyz;
@@ -174,7 +174,7 @@ fn plane_normal(e: u32, plane: u32) -> vec3<f32> {
     return planes[plane_offsets[e] + plane].xyz;
 }
 
-// geometry.rs trimtope_hit, as trace.rs element_hit returns it
+// primitives.rs trimtope_hit, as trace.rs element_hit returns it
 fn trimtope_hit(e: u32, origin: vec3<f32>, direction: vec3<f32>, t_min: f32) -> Hit {
     let slack = params.scene_min.w;
     let span = polytope_span(e, slack, origin, direction);
@@ -210,7 +210,7 @@ struct FirstTriangle {
     index: u32,
 }
 
-// geometry.rs first_triangle (index: into the whole triangle array; NONE when none is met)
+// primitives.rs first_triangle (index: into the whole triangle array; NONE when none is met)
 fn first_triangle(e: u32, origin: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -> FirstTriangle {
     var first = FirstTriangle(infinity(), false, NONE);
     let start = triangle_offsets[e];
@@ -231,7 +231,7 @@ fn first_triangle(e: u32, origin: vec3<f32>, direction: vec3<f32>, t0: f32, t1: 
     return first;
 }
 
-// geometry.rs segment_meets_box
+// primitives.rs segment_meets_box
 fn segment_meets_box(origin: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32, lo: vec3<f32>, hi: vec3<f32>) -> bool {
     var near = t0;
     var far = t1;
@@ -263,7 +263,7 @@ fn element_hit(e: u32, origin: vec3<f32>, direction: vec3<f32>, t_min: f32) -> H
     return miss();
 }
 
-// kdtree.rs inverse_component
+// element_kdtree.rs inverse_component
 fn inverse_component(d: f32) -> f32 {
     let tiny = 1e-30;
     if (abs(d) < tiny) {
@@ -272,7 +272,7 @@ fn inverse_component(d: f32) -> f32 {
     return 1.0 / d;
 }
 
-// trace.rs closest_hit through kdtree.rs traverse (short stack, push-down, kd-restart)
+// trace.rs closest_hit through element_kdtree.rs traverse (short stack, push-down, kd-restart)
 fn closest_hit(origin: vec3<f32>, direction: vec3<f32>, t_min_ray: f32) -> Hit {
     var best = miss();
     let inverse = vec3<f32>(inverse_component(direction.x), inverse_component(direction.y), inverse_component(direction.z));
@@ -368,7 +368,7 @@ fn closest_hit(origin: vec3<f32>, direction: vec3<f32>, t_min_ray: f32) -> Hit {
     return best;
 }
 
-// trace.rs element_at through kdtree.rs for_each_at
+// trace.rs element_at through element_kdtree.rs for_each_at
 fn element_at(point: vec3<f32>, except: u32) -> u32 {
     for (var axis = 0u; axis < 3u; axis++) {
         if (!(point[axis] >= params.scene_min[axis] && point[axis] <= params.scene_max[axis])) {

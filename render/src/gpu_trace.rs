@@ -6,7 +6,7 @@ use bytemuck::{Pod, Zeroable};
 use shatter_core::particles::ElementType;
 use shatter_gpu::{ComputeKernel, GpuContext, GpuError, wgpu};
 
-use crate::geometry::TRIANGLE_GROUP;
+use crate::primitives::TRIANGLE_GROUP;
 use crate::scene::{Camera, SceneGeometry};
 use crate::trace::{Look, Pixel};
 

@@ -1,18 +1,20 @@
-//! The post and render stages of shatter.
+//! The render stage of shatter, `shatter render`: the fragments of each frame ray traced to
+//! multi-layer EXR (and PNG previews).
 //!
-//! - [`post`]: fragments by breadth-first search over intact element adjacency, stable ids, rigid
-//!   motion by mass-weighted Kabsch per fragment, optional smoothing, point caches and a USD shot.
-//!
-//! - [`kdtree`], [`geometry`], [`scene`], [`lighting`], [`trace`]: the ray tracer (SAH k-d tree
-//!   with short-stack traversal; cube, tetrahedron and trimtope CSG unions; SH environment light
-//!   and Blinn-Phong; glass), [`image_out`]: EXR and PNG, [`run`]: `shatter render`.
+//! - [`element_kdtree`]: the SAH k-d tree over element bounds, with short-stack traversal.
+//! - [`primitives`]: ray hits of cubes, tetrahedra and trimtopes, and their CSG unions.
+//! - [`scene`]: the elements of a frame placed by their fragments' motions; the camera.
+//! - [`lighting`]: SH environment light, Blinn-Phong, the environment map.
+//! - [`trace`]: the CPU tracer (glass, floor, shading); the CPU twin of `shaders/trace.wgsl`.
+//! - [`gpu_trace`]: the GPU tracer running `shaders/trace.wgsl`.
+//! - [`image_out`]: EXR and PNG writing.
+//! - [`render_driver`]: the stage's driver (frame ranges, progress).
 
-pub mod geometry;
+pub mod element_kdtree;
 pub mod gpu_trace;
 pub mod image_out;
-pub mod kdtree;
 pub mod lighting;
-pub mod post;
-pub mod run;
+pub mod primitives;
+pub mod render_driver;
 pub mod scene;
 pub mod trace;

@@ -178,7 +178,7 @@ pub fn key_light(map: &EnvironmentMap) -> KeyLight {
         let theta = (y as f32 + 0.5) / map.height as f32 * PI;
         for x in 0..map.width {
             let d = map.direction(x, y);
-            let cosine = crate::geometry::dot(d, direction);
+            let cosine = crate::primitives::dot(d, direction);
             if cosine >= KEY_CONE_RADIANS.cos() {
                 let radiance = map.texels[y * map.width + x];
                 for c in 0..3 {
@@ -230,7 +230,7 @@ mod tests {
         let mut rng = shatter_core::random::SplitMix64::new(1);
         for _ in 0..500 {
             let n = direction_of(rng.next_f64() as f32, rng.next_f64() as f32);
-            let cos_gamma = crate::geometry::dot(n, light);
+            let cos_gamma = crate::primitives::dot(n, light);
             // The 9-term response: flux * sum_l A_l (2l + 1) / (4 pi) P_l(cos gamma).
             let p2 = 0.5 * (3.0 * cos_gamma * cos_gamma - 1.0);
             let truncated = flux
@@ -252,7 +252,7 @@ mod tests {
         map.texels[10 * width + 90] = [100.0; 3];
         let key = key_light(&map);
         let expected = map.direction(90, 10);
-        assert!(crate::geometry::dot(key.direction, expected) > 0.9999);
+        assert!(crate::primitives::dot(key.direction, expected) > 0.9999);
         assert!(key.irradiance[0] > 0.0);
     }
 }

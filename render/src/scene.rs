@@ -7,8 +7,8 @@ use rayon::prelude::*;
 use shatter_core::fragments::FragmentFrame;
 use shatter_core::particles::{ElementType, Elements, ParticleSet};
 
-use crate::geometry::{Plane, WIDEN, cube_planes, sort_triangles_spatially, tet_planes, triangle_groups};
-use crate::kdtree::{Aabb, KdTree};
+use crate::element_kdtree::{Aabb, KdTree};
+use crate::primitives::{Plane, WIDEN, cube_planes, sort_triangles_spatially, tet_planes, triangle_groups};
 
 /// One element's planes, triangles, site and bounds.
 type ElementParts = (Vec<Plane>, Vec<[[f32; 3]; 3]>, [f32; 3], Aabb);
@@ -28,7 +28,7 @@ pub struct SceneGeometry {
     pub triangles: Vec<[[f32; 3]; 3]>,
     /// Offsets into `triangle_groups`, one more than there are elements.
     pub triangle_group_offsets: Vec<u32>,
-    /// Bounds of each element's groups of [`crate::geometry::TRIANGLE_GROUP`] consecutive triangles.
+    /// Bounds of each element's groups of [`crate::primitives::TRIANGLE_GROUP`] consecutive triangles.
     pub triangle_groups: Vec<Aabb>,
     /// A point inside each element (a trimtope's Voronoi site).
     pub sites: Vec<[f32; 3]>,
@@ -245,7 +245,7 @@ impl Camera {
         let sx = 2.0 * px / self.width as f32 - 1.0;
         let sy = 1.0 - 2.0 * py / self.height as f32;
         let d = [0, 1, 2].map(|k| self.forward[k] + sx * self.right[k] + sy * self.up[k]);
-        let length = crate::geometry::dot(d, d).sqrt();
+        let length = crate::primitives::dot(d, d).sqrt();
         d.map(|v| v / length)
     }
 }

@@ -13,8 +13,8 @@
 use rayon::prelude::*;
 use shatter_core::particles::ElementType;
 
-use crate::geometry::{TrimtopeHit, along, dot, polytope_contains, polytope_span, trimtope_hit};
 use crate::lighting::{EnvironmentMap, KeyLight, sh_irradiance};
+use crate::primitives::{TrimtopeHit, along, dot, polytope_contains, polytope_span, trimtope_hit};
 use crate::scene::{Camera, SceneGeometry};
 
 /// No element.
@@ -50,8 +50,10 @@ pub fn element_hit(scene: &SceneGeometry, e: usize, origin: [f32; 3], direction:
             }
             TrimtopeHit::Surface { t, triangle } => {
                 let tri = scene.triangles_of(e)[triangle as usize];
-                let n =
-                    crate::geometry::cross(crate::geometry::sub(tri[1], tri[0]), crate::geometry::sub(tri[2], tri[0]));
+                let n = crate::primitives::cross(
+                    crate::primitives::sub(tri[1], tri[0]),
+                    crate::primitives::sub(tri[2], tri[0]),
+                );
                 let length = dot(n, n).sqrt();
                 Hit { t, element: e as u32, normal: n.map(|v| v / length) }
             }

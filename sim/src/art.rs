@@ -9,8 +9,8 @@ use rayon::prelude::*;
 use shatter_core::config::sim::{SeamConfig, ShardsConfig, SimConfig, WeakenedPathConfig};
 use shatter_core::particles::ParticleSet;
 use shatter_core::random::{SplitMix64, splitmix64};
-use shatter_preprocess::kdtree::KdTree;
-use shatter_preprocess::mesh::TriangleMesh;
+use shatter_geometry::PointKdTree;
+use shatter_geometry::mesh::TriangleMesh;
 
 use crate::SimError;
 
@@ -94,7 +94,7 @@ fn weakened_band(
     delta: f64,
 ) -> impl Fn(usize, usize) -> f64 + Sync {
     // Only particles near the walk can have a bond whose midpoint is near it.
-    let tree = KdTree::new(rest);
+    let tree = PointKdTree::new(rest);
     let mut near = vec![false; rest.len()];
     let mut found = Vec::new();
     for pair in walk.windows(2) {
@@ -152,7 +152,7 @@ fn seam_rule(seam: &SeamConfig, rest: &[DVec3], delta: f64) -> Result<Rule, SimE
 /// Sorted keys (min << 32 | max) of the particle pairs within `delta` whose segment crosses a
 /// triangle of `mesh`.
 fn bonds_crossing_mesh(mesh: &TriangleMesh, rest: &[DVec3], delta: f64) -> Vec<u64> {
-    let tree = KdTree::new(rest);
+    let tree = PointKdTree::new(rest);
     let mut keys: Vec<u64> = (0..mesh.triangles.len())
         .into_par_iter()
         .flat_map_iter(|t| {

@@ -1,6 +1,6 @@
 //! What `shatter sim` needs of a backend, whichever runs the steps: the CPU [`Simulation`] or the
 //! GPU [`GpuSimulation`]. The frame loop, checkpoints, resume and stability checks in
-//! [`crate::run`] see only this trait.
+//! [`crate::sim_driver`] see only this trait.
 //!
 //! Host-side state ([`Backend::dynamics`], energy, damage) is current after
 //! [`Backend::finish_frame`] (and after construction, [`Backend::restore`] and the `set_*`
@@ -14,7 +14,9 @@ use shatter_gpu::{AdapterChoice, GpuContext, GpuError};
 
 use crate::gpu::{GpuOptions, GpuSimulation};
 use crate::model::Model;
-use crate::simulation::{BreakEvent, Dynamics, Energy, Simulation};
+use shatter_core::frames::BreakEvent;
+
+use crate::simulation::{Dynamics, Energy, Simulation};
 use crate::{SimError, art};
 
 /// A simulation backend.

@@ -10,19 +10,17 @@
 //! - [`gpu`]: the GPU backend (wgpu, WGSL kernels in `shaders/`, their CPU twins).
 //! - [`backend`]: what the frame loop needs of either backend.
 //! - [`art`]: art direction of the cracks (weakened paths, seams, shards).
-//! - [`frames`]: the PLY point caches and the bond-break log.
-//! - [`run`]: the `shatter sim` driver: frames, checkpoints, resume, stability checks.
+//! - [`sim_driver`]: the `shatter sim` driver: frames, checkpoints, resume, stability checks.
 
 pub mod art;
 pub mod backend;
 pub mod bond_table;
 pub mod contact;
-pub mod frames;
 pub mod gpu;
 pub mod kernels;
 pub mod lattice_table;
 pub mod model;
-pub mod run;
+pub mod sim_driver;
 pub mod simulation;
 pub mod spring_table;
 

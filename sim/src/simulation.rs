@@ -4,6 +4,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use shatter_core::PipelineConfig;
 use shatter_core::config::sim::{BreakRule, StiffnessCorrection};
+use shatter_core::frames::BreakEvent;
 use shatter_core::particles::{Bonds, ParticleSet};
 
 use crate::bond_table::{BondBlock, EntryValues, chunk_size};
@@ -108,15 +109,6 @@ impl BondLookup for BondIndex {
             Err(_) => false,
         }
     }
-}
-
-/// A bond that broke: the step it broke in and its id.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct BreakEvent {
-    /// The step (1-based: the first step is step 1).
-    pub step: u64,
-    /// The bond id (entry index in the particle file's CSR, lower particle's row).
-    pub bond: u64,
 }
 
 /// A running simulation on the CPU.

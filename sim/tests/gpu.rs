@@ -8,10 +8,10 @@ mod scenarios;
 use std::collections::BTreeSet;
 
 use shatter_core::config::PipelineConfig;
+use shatter_core::frames::BreakEvent;
 use shatter_core::particles::ParticleSet;
 use shatter_gpu::GpuContext;
 use shatter_sim::gpu::{GpuOptions, GpuSimulation};
-use shatter_sim::simulation::BreakEvent;
 use shatter_sim::{Backend, Dynamics, Model, Simulation, art};
 
 fn gpu() -> &'static GpuContext {

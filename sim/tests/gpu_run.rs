@@ -9,11 +9,11 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use shatter_core::config::PipelineConfig;
 use shatter_core::config::sim::Backend as BackendChoice;
 use shatter_core::particles::ParticleSet;
-use shatter_core::{NoProgress, Progress};
+use shatter_core::{NoProgress, OutputLayout, Progress};
 use shatter_gpu::{AdapterChoice, GpuContext};
 use shatter_sim::backend::BackendError;
 use shatter_sim::gpu::{GpuOptions, GpuSimulation};
-use shatter_sim::run::{PARTICLES_FILE, RunOptions, run_with};
+use shatter_sim::sim_driver::{RunOptions, run_with};
 use shatter_sim::{Backend, Model, art, create_backend};
 
 fn gpu() -> &'static GpuContext {
@@ -50,7 +50,7 @@ stiffness_pa = 3e7
     let config = PipelineConfig::load(&path).expect("config");
     let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
     std::fs::create_dir_all(config.output_dir()).expect("output folder");
-    particles.write(&config.output_dir().join(PARTICLES_FILE)).expect("particles");
+    particles.write(&OutputLayout::of(&config).particles()).expect("particles");
     config
 }
 
@@ -130,7 +130,7 @@ fn a_run_resumed_on_another_backend_is_warned_about() {
     let mut config = scene(dir.path());
     config.sim.frames = 3;
     let options = RunOptions { backend: Some(BackendChoice::Cpu), ..RunOptions::default() };
-    shatter_sim::run::run(&config, options, &NoProgress).expect("cpu run");
+    shatter_sim::sim_driver::run_sim(&config, options, &NoProgress).expect("cpu run");
     let options = RunOptions { resume: true, ..RunOptions::default() };
     let report = run_with(&config, options, &NoProgress, &on_gpu).expect("resume on the GPU");
     assert!(report.warnings.iter().any(|w| w.contains("the checkpoint was written by CPU")), "{:?}", report.warnings);
@@ -140,7 +140,7 @@ fn a_run_resumed_on_another_backend_is_warned_about() {
 fn the_backend_is_the_one_asked_for() {
     let dir = tempfile::tempdir().expect("tempdir");
     let config = scene(dir.path());
-    let particles = ParticleSet::read(&config.output_dir().join(PARTICLES_FILE)).expect("particles");
+    let particles = ParticleSet::read(&OutputLayout::of(&config).particles()).expect("particles");
     let (cpu, _) = create_backend(&config, &particles, BackendChoice::Cpu).expect("cpu");
     assert!(cpu.describe().starts_with("CPU"), "{}", cpu.describe());
     // What `gpu` and `auto` give depends on the machine (and SHATTER_GPU_ALLOW_SOFTWARE).
@@ -173,13 +173,13 @@ fn the_initial_velocity_carries_the_body_on_both_backends() {
     config.sim.gravity_m_s2 = [0.0; 3];
     let velocity = [1.5f32, -4.0, 0.25];
     config.sim.initial_velocity_m_s = velocity.map(f64::from);
-    let particles = ParticleSet::read(&config.output_dir().join(PARTICLES_FILE)).expect("particles");
-    let last = shatter_sim::run::frame_path(&config.output_dir().join("frames"), 4);
+    let particles = ParticleSet::read(&OutputLayout::of(&config).particles()).expect("particles");
+    let last = OutputLayout::of(&config).frame_points(4);
     let options = RunOptions { backend: Some(BackendChoice::Cpu), ..RunOptions::default() };
-    let cpu = shatter_sim::run::run(&config, options, &NoProgress).expect("cpu run");
-    let on_cpu = shatter_sim::frames::PointFrame::read(&last).expect("cpu frame");
+    let cpu = shatter_sim::sim_driver::run_sim(&config, options, &NoProgress).expect("cpu run");
+    let on_cpu = shatter_core::frames::PointFrame::read(&last).expect("cpu frame");
     let gpu = run_with(&config, RunOptions::default(), &NoProgress, &on_gpu).expect("gpu run");
-    let on_gpu = shatter_sim::frames::PointFrame::read(&last).expect("gpu frame");
+    let on_gpu = shatter_core::frames::PointFrame::read(&last).expect("gpu frame");
     assert!(cpu.backend.starts_with("CPU") && gpu.backend.starts_with("GPU"));
     // a free body in uniform motion: every particle moved by v t and still moves at v
     let t = on_cpu.time_s as f32;

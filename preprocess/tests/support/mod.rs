@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 use shatter_core::config::PipelineConfig;
-use shatter_preprocess::mesh::TriangleMesh;
+use shatter_geometry::mesh::TriangleMesh;
 use shatter_preprocess::repair::repair;
 
 /// The repository's mesh folder.

@@ -15,7 +15,9 @@ use super::types::{Params, SCAN_BLOCK, STATUS_EVENTS_OFFSET, STATUS_REBUILD_OFFS
 use crate::backend::Backend;
 use crate::contact::SKIN_FRACTION;
 use crate::model::{Model, MovingSphere};
-use crate::simulation::{BreakEvent, Dynamics, Energy};
+use shatter_core::frames::BreakEvent;
+
+use crate::simulation::{Dynamics, Energy};
 
 /// Steps recorded into one submission.
 pub const BATCH: u64 = 64;

@@ -10,7 +10,7 @@ use shatter_core::NoProgress;
 use shatter_core::config::PipelineConfig;
 use shatter_core::particles::ParticleSet;
 use shatter_core::random::SplitMix64;
-use shatter_render::post::FragmentTracker;
+use shatter_post::FragmentTracker;
 
 fn plate() -> ParticleSet {
     let text = r#"

@@ -1,110 +1,20 @@
-//! What `shatter sim` writes per frame: a binary PLY point cache (position, velocity, damage;
-//! readable by Blender and Houdini) and the append-only bond-break log.
-//!
-//! Both are checksummed: the PLY header carries a CRC-32 of its body in a comment (see
-//! [`shatter_core::ply`]), and each block of the break log carries one of its records. Formats:
-//! docs/FORMATS.md.
+//! The append-only bond-break log, `frames/breaks.log`: one checksummed block of (step, bond)
+//! records per frame, from which the intact bond set at any frame is exact.
 
 use std::fs::{File, OpenOptions};
 use std::io::{Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
-use shatter_core::ply::{Column, PlyError, PointCache};
-use shatter_core::stage_file::write_atomically;
+use super::{FrameFileError, invalid, io_error};
+use crate::stage_file::write_atomically;
 
-use crate::simulation::BreakEvent;
-
-/// Why a frame file or the break log could not be written or read. Every variant names the file.
-#[derive(Debug, thiserror::Error)]
-pub enum FrameFileError {
-    /// The operating system refused an operation.
-    #[error("{path}: cannot {action}: {source}")]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// What was being done.
-        action: &'static str,
-        /// The I/O error.
-        source: std::io::Error,
-    },
-    /// A point cache could not be read or written.
-    #[error(transparent)]
-    Ply(#[from] PlyError),
-    /// The file is not what it should be.
-    #[error("{path}: {what}")]
-    Invalid {
-        /// The file.
-        path: PathBuf,
-        /// What is wrong.
-        what: String,
-    },
-}
-
-fn io_error<'a>(path: &'a Path, action: &'static str) -> impl FnOnce(std::io::Error) -> FrameFileError + 'a {
-    move |source| FrameFileError::Io { path: path.to_path_buf(), action, source }
-}
-
-fn invalid(path: &Path, what: impl Into<String>) -> FrameFileError {
-    FrameFileError::Invalid { path: path.to_path_buf(), what: what.into() }
-}
-
-/// One frame of the point cache.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PointFrame {
-    /// Frame number (1 is the rest state).
-    pub frame: u32,
-    /// Steps simulated to reach it.
+/// A bond that broke: the step it broke in and its id.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BreakEvent {
+    /// The step (1-based: the first step is step 1).
     pub step: u64,
-    /// Simulated time, seconds.
-    pub time_s: f64,
-    /// Positions, metres (x, y, z arrays).
-    pub position: [Vec<f32>; 3],
-    /// Velocities, m/s.
-    pub velocity: [Vec<f32>; 3],
-    /// Fraction of each particle's bonds that are broken.
-    pub damage: Vec<f32>,
-}
-
-const COORDINATES: [&str; 3] = ["x", "y", "z"];
-const VELOCITIES: [&str; 3] = ["vx", "vy", "vz"];
-
-impl PointFrame {
-    /// Writes the frame as a checksummed binary PLY (x, y, z, vx, vy, vz, damage), atomically.
-    pub fn write(&self, path: &Path) -> Result<(), FrameFileError> {
-        let mut columns = Vec::with_capacity(7);
-        for (name, values) in COORDINATES.iter().zip(&self.position).chain(VELOCITIES.iter().zip(&self.velocity)) {
-            columns.push((name.to_string(), Column::Float(values.clone())));
-        }
-        columns.push(("damage".to_string(), Column::Float(self.damage.clone())));
-        let cache = PointCache {
-            comments: vec![
-                ("frame".into(), self.frame.to_string()),
-                ("step".into(), self.step.to_string()),
-                ("time_s".into(), format!("{:e}", self.time_s)),
-            ],
-            columns,
-        };
-        Ok(cache.write(path)?)
-    }
-
-    /// Reads a frame written by [`PointFrame::write`], checking its header, size and checksum.
-    pub fn read(path: &Path) -> Result<PointFrame, FrameFileError> {
-        let cache = PointCache::read(path)?;
-        let missing = |what: &str| invalid(path, format!("not a shatter point cache: no {what}"));
-        let number = |key: &str| cache.comment(key).ok_or_else(|| missing(key));
-        let frame = number("frame")?.parse().map_err(|_| missing("valid frame number"))?;
-        let step = number("step")?.parse().map_err(|_| missing("valid step"))?;
-        let time_s = number("time_s")?.parse().map_err(|_| missing("valid time"))?;
-        let column = |name: &str| cache.floats(name).map(<[f32]>::to_vec).ok_or_else(|| missing(name));
-        Ok(PointFrame {
-            frame,
-            step,
-            time_s,
-            position: [column("x")?, column("y")?, column("z")?],
-            velocity: [column("vx")?, column("vy")?, column("vz")?],
-            damage: column("damage")?,
-        })
-    }
+    /// The bond id (entry index in the particle file's CSR, lower particle's row).
+    pub bond: u64,
 }
 
 const LOG_MAGIC: &[u8; 8] = b"SHBREAKS";
@@ -227,33 +137,6 @@ impl BreakLog {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn frame() -> PointFrame {
-        PointFrame {
-            frame: 3,
-            step: 1000,
-            time_s: 1.25e-4,
-            position: [vec![1.0, 2.0], vec![3.0, 4.0], vec![5.0, 6.0]],
-            velocity: [vec![0.5, -0.5], vec![0.0, 1.0], vec![2.0, 3.0]],
-            damage: vec![0.0, 0.25],
-        }
-    }
-
-    #[test]
-    fn frames_round_trip_and_corruption_is_caught() {
-        let dir = tempfile::tempdir().expect("tempdir");
-        let path = dir.path().join("points.0003.ply");
-        frame().write(&path).expect("write");
-        assert_eq!(PointFrame::read(&path).expect("read"), frame());
-        let bytes = std::fs::read(&path).expect("bytes");
-        let last = bytes.len() - 1;
-        let mut flipped = bytes.clone();
-        flipped[last] ^= 4;
-        std::fs::write(&path, &flipped).expect("write");
-        assert!(PointFrame::read(&path).expect_err("flip").to_string().contains("corrupted"));
-        std::fs::write(&path, &bytes[..bytes.len() - 5]).expect("write");
-        assert!(PointFrame::read(&path).expect_err("cut").to_string().contains("truncated"));
-    }
 
     #[test]
     fn the_break_log_appends_truncates_and_checks() {

@@ -3,7 +3,7 @@
 //! Fig. 4 for cells with embedded surface triangles. Written as plain functions of plain data to
 //! read like their twins in `shaders/trace.wgsl`.
 
-use crate::kdtree::Aabb;
+use crate::element_kdtree::Aabb;
 
 /// A plane [nx, ny, nz, d] with unit outward normal n: inside where n . x <= d.
 pub type Plane = [f32; 4];

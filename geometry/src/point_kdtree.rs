@@ -15,21 +15,21 @@ enum Node {
 
 /// A balanced k-d tree, split at the median of the widest axis, stored depth first.
 #[derive(Debug, Clone)]
-pub struct KdTree {
+pub struct PointKdTree {
     nodes: Vec<Node>,
     points: Vec<DVec3>,
     ids: Vec<u32>,
 }
 
-impl KdTree {
+impl PointKdTree {
     /// Builds the tree over `points` (their indices are what queries return).
-    pub fn new(points: &[DVec3]) -> KdTree {
+    pub fn new(points: &[DVec3]) -> PointKdTree {
         assert!(u32::try_from(points.len()).is_ok(), "a k-d tree holds at most u32::MAX points");
         let mut ids: Vec<u32> = (0..points.len() as u32).collect();
         let mut nodes = Vec::with_capacity(2 * points.len() / LEAF_SIZE + 1);
         build(points, &mut ids, 0, &mut nodes);
         let permuted = ids.iter().map(|&id| points[id as usize]).collect();
-        KdTree { nodes, points: permuted, ids }
+        PointKdTree { nodes, points: permuted, ids }
     }
 
     /// Appends to `found` the index of every point within `radius_sq` (squared distance,
@@ -126,7 +126,7 @@ mod tests {
     #[test]
     fn range_queries_match_brute_force() {
         let points = scatter(3000);
-        let tree = KdTree::new(&points);
+        let tree = PointKdTree::new(&points);
         for (q, centre) in points.iter().enumerate().step_by(37) {
             for radius in [0.0, 0.1, 0.25, 0.7] {
                 let mut found = Vec::new();
@@ -143,8 +143,8 @@ mod tests {
     #[test]
     fn empty_and_tiny_trees_work() {
         let mut found = Vec::new();
-        KdTree::new(&[]).within(DVec3::ZERO, 1.0, &mut found);
-        KdTree::new(&[DVec3::ONE]).within(DVec3::ONE, 0.0, &mut found);
+        PointKdTree::new(&[]).within(DVec3::ZERO, 1.0, &mut found);
+        PointKdTree::new(&[DVec3::ONE]).within(DVec3::ONE, 0.0, &mut found);
         assert_eq!(found, [0]);
     }
 }

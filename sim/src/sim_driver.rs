@@ -5,32 +5,18 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use serde::{Deserialize, Serialize};
-use shatter_core::particles::ParticleSet;
-use shatter_core::stage_file::{StageFileError, StageKind, StageReader, StageWriter};
-use shatter_core::{PipelineConfig, Progress};
-
+use shatter_core::checkpoint::{self, CheckpointMeta, CheckpointState, StateRef};
 use shatter_core::config::sim::Backend as BackendChoice;
+use shatter_core::frames::{BreakLog, FrameFileError, PointFrame};
+use shatter_core::layout::is_points_name;
+use shatter_core::particles::ParticleSet;
+use shatter_core::stage_file::StageFileError;
+use shatter_core::{OutputLayout, PipelineConfig, Progress};
 use shatter_gpu::GpuError;
 
 use crate::SimError;
 use crate::backend::{Backend, BackendError, create_backend};
-use crate::frames::{BreakLog, FrameFileError, PointFrame};
 use crate::simulation::Dynamics;
-
-/// The particle file's name in the output folder.
-pub const PARTICLES_FILE: &str = "particles.shp";
-/// The checkpoint's name in the output folder.
-pub const CHECKPOINT_FILE: &str = "sim.checkpoint.shp";
-/// The folder of frames in the output folder.
-pub const FRAMES_DIR: &str = "frames";
-/// The break log's name in the frames folder.
-pub const BREAK_LOG_FILE: &str = "breaks.log";
-
-/// The point cache of frame `frame` in `frames_dir`.
-pub fn frame_path(frames_dir: &Path, frame: u32) -> PathBuf {
-    frames_dir.join(format!("points.{frame:04}.ply"))
-}
 
 /// How a run starts.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -134,79 +120,10 @@ pub struct RunReport {
     pub frames_dir: PathBuf,
 }
 
-/// Scalars of a checkpoint.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CheckpointMeta {
-    /// The last frame written before the checkpoint.
-    pub frame: u32,
-    /// Steps simulated.
-    pub step: u64,
-    /// Length of the break log at the checkpoint, bytes.
-    pub break_log_bytes: u64,
-    /// Bonds broken so far.
-    pub broken_bonds: u64,
-    /// Hash of the [sim] and [material] settings.
-    pub settings_hash: u32,
-    /// Checksum of the particle file simulated.
-    pub particles_checksum: u32,
-    /// Work done by external forces, joules.
-    pub external_work_j: f64,
-    /// Kinetic plus bond energy at the start, joules.
-    pub initial_energy_j: f64,
-    /// The backend that wrote it ("CPU (N threads)", "GPU: adapter"; empty in older files). A
-    /// run resumed on another kind of backend continues correctly but not bit for bit.
-    #[serde(default)]
-    pub backend: String,
-}
-
-/// Reads a checkpoint's scalars and particle count (for `shatter inspect`).
-pub fn checkpoint_summary(path: &Path) -> Result<(CheckpointMeta, usize), StageFileError> {
-    let mut input = StageReader::open(path, StageKind::Checkpoint)?;
-    let meta: CheckpointMeta = input.read_json("meta")?;
-    let particles = input.read_rows::<f32>("disp_x")?.len();
-    Ok((meta, particles))
-}
-
 /// A hash of everything that shapes the simulation besides the particle file.
 fn settings_hash(config: &PipelineConfig) -> u32 {
     let settings = serde_json::json!({ "sim": config.sim, "material": config.material });
     crc32fast::hash(settings.to_string().as_bytes())
-}
-
-fn write_checkpoint(path: &Path, meta: &CheckpointMeta, dynamics: &Dynamics) -> Result<(), StageFileError> {
-    let mut out = StageWriter::create(path, StageKind::Checkpoint)?;
-    out.write_json("meta", meta)?;
-    for (name, values) in [("disp", &dynamics.disp), ("vel", &dynamics.vel), ("force", &dynamics.force)] {
-        for (axis, values) in ["x", "y", "z"].iter().zip(values) {
-            out.write_rows(&format!("{name}_{axis}"), values)?;
-        }
-    }
-    out.write_rows("boost", &dynamics.boost)?;
-    out.finish()
-}
-
-fn read_checkpoint(path: &Path, n: usize) -> Result<(CheckpointMeta, Dynamics), StageFileError> {
-    let mut input = StageReader::open(path, StageKind::Checkpoint)?;
-    let meta: CheckpointMeta = input.read_json("meta")?;
-    let mut read_xyz = |name: &str| -> Result<[Vec<f32>; 3], StageFileError> {
-        let mut axes = [Vec::new(), Vec::new(), Vec::new()];
-        for (axis, values) in ["x", "y", "z"].iter().zip(axes.iter_mut()) {
-            *values = input.read_rows(&format!("{name}_{axis}"))?;
-        }
-        Ok(axes)
-    };
-    let disp = read_xyz("disp")?;
-    let vel = read_xyz("vel")?;
-    let force = read_xyz("force")?;
-    let boost: Vec<f32> = input.read_rows("boost")?;
-    let lengths_ok = disp.iter().chain(&vel).chain(&force).all(|a| a.len() == n) && boost.len() == n;
-    if !lengths_ok {
-        return Err(input.malformed(format!("the checkpoint does not hold {n} particles")));
-    }
-    input.finish()?;
-    let dynamics = Dynamics { step: meta.step, disp, vel, force, boost, external_work_j: meta.external_work_j };
-    Ok((meta, dynamics))
 }
 
 /// The state is finite: every displacement and velocity.
@@ -228,12 +145,12 @@ pub type BackendFactory<'a> =
 
 /// Runs the simulation of `config` on the particle file in its output folder, on the backend
 /// `options.backend` (or the config's `sim.backend`) chooses.
-pub fn run(config: &PipelineConfig, options: RunOptions, progress: &dyn Progress) -> Result<RunReport, RunError> {
+pub fn run_sim(config: &PipelineConfig, options: RunOptions, progress: &dyn Progress) -> Result<RunReport, RunError> {
     let choice = options.backend.unwrap_or(config.sim.backend);
     run_with(config, options, progress, &|config, particles| create_backend(config, particles, choice))
 }
 
-/// [`run`] on the backend `make` builds (tests: a GPU context of their own choosing).
+/// [`run_sim`] on the backend `make` builds (tests: a GPU context of their own choosing).
 /// `options.backend` is ignored.
 pub fn run_with(
     config: &PipelineConfig,
@@ -242,9 +159,8 @@ pub fn run_with(
     make: BackendFactory,
 ) -> Result<RunReport, RunError> {
     let started = Instant::now();
-    let output = config.output_dir();
-    let particles_path = output.join(PARTICLES_FILE);
-    let (particles, particles_checksum) = ParticleSet::read_with_checksum(&particles_path)?;
+    let layout = OutputLayout::of(config);
+    let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
     let (mut simulation, fallback) = make(config, &particles)?;
 
     let mut warnings: Vec<String> = fallback.into_iter().collect();
@@ -256,14 +172,14 @@ pub fn run_with(
         warnings.push(format!("sim.dt_s = {:e} s exceeds the stable time step {stable_dt_s:e} s", config.sim.dt_s));
     }
 
-    let frames_dir = output.join(FRAMES_DIR);
+    let frames_dir = layout.frames_dir();
     std::fs::create_dir_all(&frames_dir).map_err(|source| FrameFileError::Io {
         path: frames_dir.clone(),
         action: "create the folder",
         source,
     })?;
-    let checkpoint_path = output.join(CHECKPOINT_FILE);
-    let log_path = frames_dir.join(BREAK_LOG_FILE);
+    let checkpoint_path = layout.checkpoint();
+    let log_path = layout.break_log();
     let hash = settings_hash(config);
     let total_frames = config.sim.frames;
 
@@ -272,7 +188,7 @@ pub fn run_with(
         warnings.push("no checkpoint to resume from: starting from the beginning".to_string());
     }
     let (mut log, start_frame, mut broken_bonds, initial_energy_j) = if resumable {
-        let (meta, dynamics) = read_checkpoint(&checkpoint_path, simulation.len())?;
+        let (meta, state) = checkpoint::read(&checkpoint_path, simulation.len())?;
         let mismatch = |what: &str| RunError::CheckpointMismatch { path: checkpoint_path.clone(), what: what.into() };
         if meta.particles_checksum != particles_checksum {
             return Err(mismatch("the particle file changed since this checkpoint"));
@@ -296,6 +212,8 @@ pub fn run_with(
         let mut broken: Vec<u64> =
             BreakLog::read(&log_path)?.iter().flat_map(|block| block.events.iter().map(|e| e.bond)).collect();
         broken.sort_unstable();
+        let CheckpointState { disp, vel, force, boost } = state;
+        let dynamics = Dynamics { step: meta.step, disp, vel, force, boost, external_work_j: meta.external_work_j };
         simulation.restore(dynamics, &broken)?;
         (log, meta.frame, meta.broken_bonds, meta.initial_energy_j)
     } else {
@@ -306,7 +224,7 @@ pub fn run_with(
         if initial_velocity != [0.0; 3] {
             simulation.set_velocity(&|_, _| initial_velocity)?;
         }
-        write_frame(simulation.as_ref(), &frames_dir, 1)?;
+        write_frame(simulation.as_ref(), &layout, 1)?;
         (log, 1, 0, simulation.energy().total_j())
     };
 
@@ -339,7 +257,7 @@ pub fn run_with(
             progress.finish();
             return Err(RunError::Unstable { frame, step: dynamics.step, what, last_good: frame - 1 });
         }
-        write_frame(simulation.as_ref(), &frames_dir, frame)?;
+        write_frame(simulation.as_ref(), &layout, frame)?;
         log.append(frame, &events)?;
         if frame % config.sim.checkpoint_every_frames == 0 || frame == total_frames {
             let meta = CheckpointMeta {
@@ -353,7 +271,9 @@ pub fn run_with(
                 initial_energy_j,
                 backend: simulation.describe(),
             };
-            write_checkpoint(&checkpoint_path, &meta, dynamics)?;
+            let state =
+                StateRef { disp: &dynamics.disp, vel: &dynamics.vel, force: &dynamics.force, boost: &dynamics.boost };
+            checkpoint::write(&checkpoint_path, &meta, state)?;
         }
         progress.message(&format!(
             "frame {frame}/{total_frames}, {broken_bonds} broken bonds, kinetic energy {:.3e} J",
@@ -375,7 +295,7 @@ pub fn run_with(
     })
 }
 
-fn write_frame(simulation: &dyn Backend, frames_dir: &Path, frame: u32) -> Result<(), FrameFileError> {
+fn write_frame(simulation: &dyn Backend, layout: &OutputLayout, frame: u32) -> Result<(), FrameFileError> {
     let dynamics = simulation.dynamics();
     PointFrame {
         frame,
@@ -385,7 +305,7 @@ fn write_frame(simulation: &dyn Backend, frames_dir: &Path, frame: u32) -> Resul
         velocity: dynamics.vel.clone(),
         damage: simulation.damage(),
     }
-    .write(&frame_path(frames_dir, frame))
+    .write(&layout.frame_points(frame))
 }
 
 /// Removes the point caches of an earlier run (a fresh run may write fewer frames).
@@ -397,52 +317,10 @@ fn remove_old_frames(frames_dir: &Path) -> Result<(), FrameFileError> {
     })?;
     for entry in entries.flatten() {
         let name = entry.file_name().to_string_lossy().into_owned();
-        if name.starts_with("points.") && name.ends_with(".ply") {
+        if is_points_name(&name) {
             let path = entry.path();
             std::fs::remove_file(&path).map_err(|source| FrameFileError::Io { path, action: "remove", source })?;
         }
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use shatter_core::random::SplitMix64;
-
-    #[test]
-    fn a_checkpoint_restores_its_scalars_bit_for_bit() {
-        let dir = tempfile::tempdir().expect("tempdir");
-        let path = dir.path().join(CHECKPOINT_FILE);
-        let mut rng = SplitMix64::new(11);
-        for _ in 0..200 {
-            // work sums have all 53 bits of mantissa in use; a best-effort JSON float parser
-            // rounds some of them to a neighbour, and a resumed run then differs in the last bit
-            let work_j = rng.next_f64() * 10.0_f64.powi((rng.next_f64() * 12.0) as i32 - 6);
-            let meta = CheckpointMeta {
-                frame: 3,
-                step: 120,
-                break_log_bytes: 64,
-                broken_bonds: 7,
-                settings_hash: 1,
-                particles_checksum: 2,
-                external_work_j: work_j,
-                initial_energy_j: work_j * std::f64::consts::PI,
-                backend: "CPU (2 threads)".to_owned(),
-            };
-            let dynamics = Dynamics {
-                step: 120,
-                disp: [vec![1.0], vec![2.0], vec![3.0]],
-                vel: [vec![0.5], vec![0.25], vec![0.125]],
-                force: [vec![0.0], vec![-1.0], vec![1.0]],
-                boost: vec![0.0],
-                external_work_j: work_j,
-            };
-            write_checkpoint(&path, &meta, &dynamics).expect("write");
-            let (read_meta, read_dynamics) = read_checkpoint(&path, 1).expect("read");
-            assert_eq!(read_meta.external_work_j.to_bits(), work_j.to_bits());
-            assert_eq!(read_meta, meta);
-            assert_eq!(read_dynamics, dynamics);
-        }
-    }
 }

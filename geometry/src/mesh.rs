@@ -217,11 +217,11 @@ fn describe_obj_error(error: &tobj::LoadError) -> String {
 }
 
 #[cfg(test)]
-pub(crate) mod tests {
+mod tests {
     use super::*;
 
-    /// An axis-aligned unit cube with outward winding, corners at 0 and `size`.
-    pub(crate) fn cube(size: f64) -> TriangleMesh {
+    /// An axis-aligned cube with outward winding, corners at 0 and `size`.
+    fn cube(size: f64) -> TriangleMesh {
         let mut mesh = TriangleMesh::cuboid([size; 3]);
         mesh.map_positions(|p| p + DVec3::splat(0.5 * size));
         mesh

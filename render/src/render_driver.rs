@@ -10,20 +10,15 @@ use shatter_core::config::sim::Backend;
 use shatter_core::fragments::FragmentFrame;
 use shatter_core::particles::ParticleSet;
 use shatter_core::stage_file::StageFileError;
-use shatter_core::{PipelineConfig, Progress};
+use shatter_core::{OutputLayout, PipelineConfig, Progress};
 use shatter_gpu::{AdapterChoice, GpuContext, GpuError};
-use shatter_sim::run::PARTICLES_FILE;
 
+use crate::element_kdtree::Aabb;
 use crate::gpu_trace::GpuTracer;
 use crate::image_out::{ImageError, write_exr, write_png};
-use crate::kdtree::Aabb;
 use crate::lighting::{EnvironmentMap, LightingError, key_light, sh_project};
-use crate::post::{FRAGMENTS_DIR, fragments_path};
 use crate::scene::{Camera, SceneGeometry};
 use crate::trace::{FloorLook, Look, Pixel, render};
-
-/// The folder `shatter render` writes into, inside the output folder.
-pub const RENDER_DIR: &str = "render";
 
 /// Why rendering failed.
 #[derive(Debug, thiserror::Error)]
@@ -146,11 +141,6 @@ pub fn parse_frames(text: &str, last: u32) -> Result<Vec<u32>, String> {
     Ok(frames)
 }
 
-/// The file of frame `frame` with extension `extension`.
-pub fn frame_file(folder: &Path, scene: &str, frame: u32, extension: &str) -> PathBuf {
-    folder.join(format!("{scene}.{frame:04}.{extension}"))
-}
-
 /// The look of a scene from its config.
 pub fn look(render: &RenderConfig) -> Result<Look, RenderError> {
     let environment = match &render.environment {
@@ -217,7 +207,7 @@ pub fn camera(render: &RenderConfig, particles: &ParticleSet) -> Camera {
 
 /// Renders the frames `frames` (all of `sim.frames` when None) of `config` on `backend` (the
 /// config's `render.backend` when None), calling `after_frame` when each frame is written.
-pub fn run(
+pub fn run_render(
     config: &PipelineConfig,
     frames: Option<&[u32]>,
     backend: Option<Backend>,
@@ -230,19 +220,18 @@ pub fn run(
         Some(frames) => frames.to_vec(),
         None => (1..=config.sim.frames).collect(),
     };
-    let output = config.output_dir();
-    let particles = ParticleSet::read(&output.join(PARTICLES_FILE))?;
+    let layout = OutputLayout::of(config);
+    let particles = ParticleSet::read(&layout.particles())?;
     let look = look(render_config)?;
     let camera = camera(render_config, &particles);
     let tracer = Tracer::new(backend.unwrap_or(render_config.backend))?;
-    let folder = output.join(RENDER_DIR);
+    let folder = layout.render_dir();
     std::fs::create_dir_all(&folder).map_err(|source| ImageError::Io { path: folder.clone(), source })?;
-    let fragments_dir = output.join(FRAGMENTS_DIR);
     let [width, height] = render_config.resolution;
     let samples = render_config.samples_per_pixel;
     progress.start("render", frames.len() as u64);
     for &frame in &frames {
-        let path = fragments_path(&fragments_dir, frame);
+        let path = layout.fragments(frame);
         let fragments = if path.is_file() {
             Some(FragmentFrame::read(&path)?)
         } else if frame == 1 {
@@ -263,22 +252,10 @@ pub fn run(
         let scene = SceneGeometry::build(&particles, fragments.as_ref());
         let pixels = tracer.render(&scene, &look, &camera, samples)?;
         let comment = format!("shatter render: scene {}, frame {frame}", config.scene.name);
-        write_exr(
-            &frame_file(&folder, &config.scene.name, frame, "exr"),
-            width as usize,
-            height as usize,
-            &pixels,
-            &comment,
-        )?;
+        write_exr(&layout.render_frame(frame, "exr"), width as usize, height as usize, &pixels, &comment)?;
         if render_config.previews {
             let exposure = render_config.preview_exposure_stops as f32;
-            write_png(
-                &frame_file(&folder, &config.scene.name, frame, "png"),
-                width as usize,
-                height as usize,
-                &pixels,
-                exposure,
-            )?;
+            write_png(&layout.render_frame(frame, "png"), width as usize, height as usize, &pixels, exposure)?;
         }
         after_frame(frame).map_err(|source| RenderError::AfterFrame { frame, source })?;
         progress.advance(1);

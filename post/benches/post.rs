@@ -13,7 +13,7 @@ use shatter_core::config::PipelineConfig;
 use shatter_core::fragments::{FragmentFrame, FragmentMeta};
 use shatter_core::ply::{Column, PointCache};
 use shatter_core::random::SplitMix64;
-use shatter_render::post::FragmentTracker;
+use shatter_post::FragmentTracker;
 
 fn main() {
     let text = r#"

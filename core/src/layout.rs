@@ -1,0 +1,134 @@
+//! Every path in a scene's output folder, in one place. Stages find each other's files only
+//! through [`OutputLayout`]; docs/FORMATS.md describes what each file holds.
+//!
+//! ```text
+//! <output_dir>/
+//!   particles.shp              preprocess
+//!   sim.checkpoint.shp         sim (resume)
+//!   frames/points.####.ply     sim: positions, velocities, damage
+//!   frames/breaks.log          sim: (step, bond) per frame, append-only
+//!   fragments/fragments.####.shp   post: fragment ids and rigid motions
+//!   fragments/points.####.ply  post: positions with fragment ids
+//!   fragments/fragments.usda   post: the USD shot
+//!   render/<scene>.####.exr    render (and .png previews)
+//!   stamps.json                `shatter run`: what each stage last finished with
+//! ```
+
+use std::path::{Path, PathBuf};
+
+use crate::PipelineConfig;
+
+/// The paths of one scene's output folder.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct OutputLayout {
+    root: PathBuf,
+    scene: String,
+}
+
+impl OutputLayout {
+    /// The layout of the folder `root` for the scene named `scene` (rendered frames carry the
+    /// scene's name).
+    pub fn new(root: impl Into<PathBuf>, scene: &str) -> OutputLayout {
+        OutputLayout { root: root.into(), scene: scene.to_owned() }
+    }
+
+    /// The layout of a config's `scene.output_dir` for its `scene.name`.
+    pub fn of(config: &PipelineConfig) -> OutputLayout {
+        OutputLayout::new(config.output_dir(), &config.scene.name)
+    }
+
+    /// The output folder itself.
+    pub fn root(&self) -> &Path {
+        &self.root
+    }
+
+    /// The particle file `shatter preprocess` writes.
+    pub fn particles(&self) -> PathBuf {
+        self.root.join("particles.shp")
+    }
+
+    /// The simulation's checkpoint.
+    pub fn checkpoint(&self) -> PathBuf {
+        self.root.join("sim.checkpoint.shp")
+    }
+
+    /// The folder of the simulation's frames and break log.
+    pub fn frames_dir(&self) -> PathBuf {
+        self.root.join("frames")
+    }
+
+    /// The simulation's point cache of `frame`.
+    pub fn frame_points(&self, frame: u32) -> PathBuf {
+        self.frames_dir().join(points_name(frame))
+    }
+
+    /// The bond-break log.
+    pub fn break_log(&self) -> PathBuf {
+        self.frames_dir().join("breaks.log")
+    }
+
+    /// The folder `shatter post` writes into.
+    pub fn fragments_dir(&self) -> PathBuf {
+        self.root.join("fragments")
+    }
+
+    /// The fragments file of `frame`.
+    pub fn fragments(&self, frame: u32) -> PathBuf {
+        self.fragments_dir().join(format!("fragments.{frame:04}.shp"))
+    }
+
+    /// The point cache with fragment ids of `frame`.
+    pub fn fragment_points(&self, frame: u32) -> PathBuf {
+        self.fragments_dir().join(points_name(frame))
+    }
+
+    /// The USD shot.
+    pub fn usd(&self) -> PathBuf {
+        self.fragments_dir().join("fragments.usda")
+    }
+
+    /// The folder of rendered frames.
+    pub fn render_dir(&self) -> PathBuf {
+        self.root.join("render")
+    }
+
+    /// The rendered image of `frame` with the file extension `extension` ("exr", "png"):
+    /// `<scene>.####.<extension>`.
+    pub fn render_frame(&self, frame: u32, extension: &str) -> PathBuf {
+        self.render_dir().join(format!("{}.{frame:04}.{extension}", self.scene))
+    }
+
+    /// What `shatter run` records of each finished stage.
+    pub fn stamps(&self) -> PathBuf {
+        self.root.join("stamps.json")
+    }
+}
+
+/// True for a point cache's file name, `points.####.ply` (sim and post both write them).
+pub fn is_points_name(name: &str) -> bool {
+    name.starts_with("points.") && name.ends_with(".ply")
+}
+
+fn points_name(frame: u32) -> String {
+    format!("points.{frame:04}.ply")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paths_are_the_documented_ones() {
+        let layout = OutputLayout::new("out/plate", "plate");
+        assert_eq!(layout.particles(), Path::new("out/plate/particles.shp"));
+        assert_eq!(layout.checkpoint(), Path::new("out/plate/sim.checkpoint.shp"));
+        assert_eq!(layout.frame_points(7), Path::new("out/plate/frames/points.0007.ply"));
+        assert_eq!(layout.break_log(), Path::new("out/plate/frames/breaks.log"));
+        assert_eq!(layout.fragments(12), Path::new("out/plate/fragments/fragments.0012.shp"));
+        assert_eq!(layout.fragment_points(3), Path::new("out/plate/fragments/points.0003.ply"));
+        assert_eq!(layout.usd(), Path::new("out/plate/fragments/fragments.usda"));
+        assert_eq!(layout.render_frame(240, "exr"), Path::new("out/plate/render/plate.0240.exr"));
+        assert_eq!(layout.stamps(), Path::new("out/plate/stamps.json"));
+        assert!(is_points_name("points.0001.ply") && !is_points_name("fragments.0001.shp"));
+    }
+}

@@ -1,0 +1,23 @@
+//! The post stage of shatter, `shatter post` (section 4 "Alignment" of Levine et al.): per
+//! frame, the fragments (connected components of the element adjacency graph over intact bonds,
+//! by breadth-first search), their stable ids, their mass-weighted rigid motions (Kabsch),
+//! optional smoothing, statistics; and the exports: a fragments file per frame, point caches
+//! with fragment ids, a USD shot.
+//!
+//! - [`components`]: the adjacency graph, BFS and stable ids.
+//! - [`kabsch`]: the mass-weighted best rigid motion.
+//! - [`smoothing`]: smoothing of sudden transform changes.
+//! - [`tracker`]: all of the above, frame after frame.
+//! - [`surfaces`], [`usd`]: the pieces' surfaces and the USD shot.
+//! - [`post_driver`]: the stage's driver.
+
+pub mod components;
+pub mod kabsch;
+pub mod post_driver;
+pub mod smoothing;
+pub mod surfaces;
+pub mod tracker;
+pub mod usd;
+
+pub use post_driver::{PostError, PostReport, run_post};
+pub use tracker::{FragmentTracker, TrackedFrame};

@@ -1,0 +1,170 @@
+//! The `shatter post` driver: reads the simulation's frames and break log, tracks the fragments
+//! frame by frame and writes the fragments files, the point caches with fragment ids and the
+//! USD shot.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use shatter_core::fragments::{FragmentFrame, FragmentMeta};
+use shatter_core::frames::{BreakLog, FrameFileError, PointFrame};
+use shatter_core::particles::ParticleSet;
+use shatter_core::ply::{Column, PlyError, PointCache};
+use shatter_core::stage_file::StageFileError;
+use shatter_core::{OutputLayout, PipelineConfig, Progress};
+
+use crate::components::size_histogram;
+use crate::kabsch::RigidMotion;
+use crate::surfaces;
+use crate::tracker::FragmentTracker;
+use crate::usd::{PieceTransform, write_usda};
+
+/// Why post failed.
+#[derive(Debug, thiserror::Error)]
+pub enum PostError {
+    /// The simulation's outputs are missing or do not belong to the particle file (exit code 2).
+    #[error("{0}")]
+    MissingInput(String),
+    /// A stage file could not be read or written.
+    #[error(transparent)]
+    StageFile(#[from] StageFileError),
+    /// A frame or the break log could not be read.
+    #[error(transparent)]
+    FrameFile(#[from] FrameFileError),
+    /// A point cache could not be written.
+    #[error(transparent)]
+    Ply(#[from] PlyError),
+    /// The USD file could not be written.
+    #[error("{path}: cannot write: {source}")]
+    Usd {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+}
+
+impl PostError {
+    /// True when the user must run an earlier stage again.
+    pub fn is_bad_input(&self) -> bool {
+        matches!(self, PostError::MissingInput(_))
+    }
+}
+
+/// What a post run did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PostReport {
+    /// Frames processed.
+    pub frames: u32,
+    /// Fragments in the last frame.
+    pub fragments: usize,
+    /// Fragment sizes in the last frame: (at least this many elements, fragments).
+    pub size_histogram: Vec<(u32, u32)>,
+    /// Where the outputs are.
+    pub folder: PathBuf,
+    /// Wall time, seconds.
+    pub wall_s: f64,
+}
+
+/// Runs the post stage of `config` on its simulation outputs.
+pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<PostReport, PostError> {
+    let started = Instant::now();
+    let layout = OutputLayout::of(config);
+    let particles = ParticleSet::read(&layout.particles())?;
+    let total = config.sim.frames;
+    for frame in 1..=total {
+        if !layout.frame_points(frame).is_file() {
+            return Err(PostError::MissingInput(format!(
+                "{}: missing (sim.frames = {total}); run `shatter sim` first",
+                layout.frame_points(frame).display()
+            )));
+        }
+    }
+    let blocks = BreakLog::read(&layout.break_log())?;
+    let out_dir = layout.fragments_dir();
+    std::fs::create_dir_all(&out_dir).map_err(|source| PostError::Usd { path: out_dir.clone(), source })?;
+    let mass: Vec<f64> = particles.volume_m3.iter().map(|v| f64::from(*v) * config.material.density_kg_m3).collect();
+    let mut tracker = FragmentTracker::new(&particles, mass);
+    let smoothing = config.post.smoothing_frames;
+    let mut history: Vec<(usize, Vec<RigidMotion>)> = Vec::new();
+    let mut last = None;
+    progress.start("post", u64::from(total));
+    for frame in 1..=total {
+        for block in blocks.iter().filter(|b| b.frame == frame) {
+            for event in &block.events {
+                tracker.break_bond(event.bond);
+            }
+        }
+        let points = PointFrame::read(&layout.frame_points(frame))?;
+        if points.damage.len() != particles.len() {
+            return Err(PostError::MissingInput(format!(
+                "{}: {} points, but the particle file has {}; run `shatter sim` again",
+                layout.frame_points(frame).display(),
+                points.damage.len(),
+                particles.len()
+            )));
+        }
+        let position = [&points.position[0][..], &points.position[1][..], &points.position[2][..]];
+        let tracked = tracker.track(position, smoothing);
+        let fragments = FragmentFrame {
+            meta: FragmentMeta { frame, step: points.step, time_s: points.time_s, smoothed: smoothing > 0.0 },
+            fragment_of: tracked.fragment_of.clone(),
+            rotation: tracked.motion.iter().map(|m| m.rotation.as_quat().to_array()).collect(),
+            translation_m: tracked.motion.iter().map(|m| m.translation.to_array()).collect(),
+            elements: tracked.elements.clone(),
+            mass_kg: tracked.mass_kg.clone(),
+        };
+        fragments.write(&layout.fragments(frame))?;
+        if config.post.point_caches {
+            write_point_cache(&layout.fragment_points(frame), &points, &tracked.fragment_of)?;
+        }
+        history.push((tracked.motion.len(), tracked.motion.clone()));
+        progress.advance(1);
+        progress.message(&format!("frame {frame}/{total}: {} fragments", tracked.motion.len()));
+        last = Some(tracked);
+    }
+    progress.finish();
+    let last = last.ok_or_else(|| PostError::MissingInput("sim.frames is 0".into()))?;
+    if config.post.usd {
+        let pieces = last.motion.len();
+        let meshes = surfaces::piece_surfaces(&particles, &last.fragment_of, pieces);
+        let transforms: Vec<Vec<PieceTransform>> = history
+            .iter()
+            .map(|(count, motions)| {
+                (0..pieces as u32)
+                    .map(|piece| {
+                        let m = motions[tracker.ancestor(piece, *count) as usize];
+                        PieceTransform { rotation: m.rotation, translation: m.translation }
+                    })
+                    .collect()
+            })
+            .collect();
+        let path = layout.usd();
+        write_usda(&path, &meshes, &transforms, 1, config.scene.frames_per_second)
+            .map_err(|source| PostError::Usd { path, source })?;
+    }
+    Ok(PostReport {
+        frames: total,
+        fragments: last.motion.len(),
+        size_histogram: size_histogram(&last.elements),
+        folder: out_dir,
+        wall_s: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// A point cache of the fragments folder: positions and fragment ids.
+fn write_point_cache(path: &Path, points: &PointFrame, fragment_of: &[u32]) -> Result<(), PlyError> {
+    let cache = PointCache {
+        comments: vec![
+            ("frame".into(), points.frame.to_string()),
+            ("step".into(), points.step.to_string()),
+            ("time_s".into(), format!("{:e}", points.time_s)),
+        ],
+        columns: vec![
+            ("x".into(), Column::Float(points.position[0].clone())),
+            ("y".into(), Column::Float(points.position[1].clone())),
+            ("z".into(), Column::Float(points.position[2].clone())),
+            ("fragment".into(), Column::Int(fragment_of.iter().map(|f| *f as i32).collect())),
+        ],
+    };
+    cache.write(path)
+}
