@@ -5,7 +5,7 @@ mod inspect;
 mod pipeline;
 mod post;
 mod preprocess;
-mod progress;
+mod progress_bars;
 mod render;
 mod sim;
 mod stamps;
@@ -119,7 +119,7 @@ fn load_config(arg: &ConfigArg) -> Result<PipelineConfig, Failure> {
         eprintln!("warning: {}: {key} is set but has no effect", arg.config.display());
     }
     // A run killed mid-write leaves hidden temporary files; the next run of the scene clears them.
-    if let Err(error) = shatter_core::stage_file::remove_abandoned_temporaries(config.output_dir()) {
+    if let Err(error) = shatter_core::atomic_file::remove_abandoned_temporaries(config.output_dir()) {
         eprintln!("warning: {}: cannot clear abandoned temporary files: {error}", config.output_dir().display());
     }
     Ok(config)

@@ -3,7 +3,7 @@
 use shatter_core::PipelineConfig;
 
 use crate::Failure;
-use crate::progress::Bars;
+use crate::progress_bars::Bars;
 
 /// Runs the post stage.
 pub fn run(config: &PipelineConfig) -> Result<(), Failure> {

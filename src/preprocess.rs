@@ -6,7 +6,7 @@ use anyhow::Context;
 use shatter_core::{OutputLayout, PipelineConfig};
 
 use crate::Failure;
-use crate::progress::Bars;
+use crate::progress_bars::Bars;
 
 /// Preprocesses the scene and writes its particle file.
 pub fn run(config: &PipelineConfig) -> Result<(), Failure> {

@@ -4,7 +4,7 @@ use shatter_core::PipelineConfig;
 use shatter_render::render_driver::{AfterFrame, RenderError, parse_frames, run_render};
 
 use crate::Failure;
-use crate::progress::Bars;
+use crate::progress_bars::Bars;
 use crate::sim::BackendArg;
 
 /// Command-line choices of `shatter render`.

@@ -1,11 +1,11 @@
 //! `shatter sim`: particles to frames and the bond-break log.
 
 use shatter_core::PipelineConfig;
-use shatter_core::config::sim::Backend;
+use shatter_core::config::sim::BackendChoice;
 use shatter_sim::sim_driver::{RunOptions, run_sim};
 
 use crate::Failure;
-use crate::progress::Bars;
+use crate::progress_bars::Bars;
 
 /// Command-line choices of `shatter sim`.
 #[derive(Debug, Clone, clap::Args)]
@@ -38,23 +38,18 @@ pub enum BackendArg {
 
 impl BackendArg {
     /// The config's backend value.
-    pub fn backend(self) -> Backend {
+    pub fn backend(self) -> BackendChoice {
         match self {
-            BackendArg::Auto => Backend::Auto,
-            BackendArg::Cpu => Backend::Cpu,
-            BackendArg::Gpu => Backend::Gpu,
+            BackendArg::Auto => BackendChoice::Auto,
+            BackendArg::Cpu => BackendChoice::Cpu,
+            BackendArg::Gpu => BackendChoice::Gpu,
         }
     }
 }
 
 /// Runs the simulation stage.
 pub fn run(config: &PipelineConfig, args: &SimArgs) -> Result<(), Failure> {
-    let backend = match args.backend {
-        Some(BackendArg::Auto) => Backend::Auto,
-        Some(BackendArg::Cpu) => Backend::Cpu,
-        Some(BackendArg::Gpu) => Backend::Gpu,
-        None => config.sim.backend,
-    };
+    let backend = args.backend.map_or(config.sim.backend, BackendArg::backend);
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(threads) = args.threads {
         pool = pool.num_threads(threads);

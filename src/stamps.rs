@@ -76,7 +76,7 @@ impl Stamps {
 
     fn save(&self) -> anyhow::Result<()> {
         let text = serde_json::to_vec_pretty(&self.entries)?;
-        shatter_core::stage_file::write_atomically(&self.path, &[&text])
+        shatter_core::atomic_file::write_atomically(&self.path, &[&text])
             .with_context(|| format!("{}: cannot record what is up to date", self.path.display()))
     }
 }

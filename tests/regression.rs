@@ -13,7 +13,7 @@
 
 use std::path::{Path, PathBuf};
 
-use shatter_core::config::sim::Backend;
+use shatter_core::config::sim::BackendChoice;
 use shatter_core::{NoProgress, OutputLayout, PipelineConfig};
 use shatter_sim::sim_driver::RunOptions;
 
@@ -55,8 +55,8 @@ fn render_key_frames(shot: &Shot, output: &Path) -> Vec<(u32, image::RgbImage)> 
     assert!(last <= config.sim.frames, "{}: key frame {last} is past the scene's frames", shot.scene);
     config.scene.output_dir = output.to_path_buf();
     config.sim.frames = last;
-    config.sim.backend = Backend::Cpu;
-    config.render.backend = Backend::Cpu;
+    config.sim.backend = BackendChoice::Cpu;
+    config.render.backend = BackendChoice::Cpu;
     config.render.resolution = RESOLUTION;
     config.render.samples_per_pixel = 2;
     config.render.previews = true;
@@ -65,13 +65,13 @@ fn render_key_frames(shot: &Shot, output: &Path) -> Vec<(u32, image::RgbImage)> 
     let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
     std::fs::create_dir_all(output).expect("output folder");
     particles.write(&layout.particles()).expect("particle file");
-    let options = RunOptions { backend: Some(Backend::Cpu), ..RunOptions::default() };
+    let options = RunOptions { backend: Some(BackendChoice::Cpu), ..RunOptions::default() };
     shatter_sim::sim_driver::run_sim(&config, options, &NoProgress).expect("sim");
     shatter_post::run_post(&config, &NoProgress).expect("post");
     shatter_render::render_driver::run_render(
         &config,
         Some(shot.key_frames),
-        Some(Backend::Cpu),
+        Some(BackendChoice::Cpu),
         &NoProgress,
         &mut |_| Ok(()),
     )

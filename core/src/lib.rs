@@ -1,6 +1,7 @@
 //! Shared types of the shatter pipeline.
 //!
 //! - [`config`]: the `pipeline.toml` schema, parsing and validation.
+//! - [`atomic_file`]: files written whole or not at all (temporary name, fsync, rename).
 //! - [`stage_file`]: the versioned, checksummed, atomically written binary container that every
 //!   stage file uses.
 //! - [`layout`]: every path in a scene's output folder.
@@ -13,6 +14,7 @@
 //! - [`progress`]: how library code reports progress to the CLI.
 //! - [`random`]: seeded, order-independent randomness.
 
+pub mod atomic_file;
 pub mod checkpoint;
 pub mod config;
 pub mod fragments;

@@ -9,7 +9,7 @@ use std::fs::File;
 use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
 
-use crate::stage_file::write_atomically;
+use crate::atomic_file::write_atomically;
 
 /// Why a PLY file could not be written or read. Every variant names the file.
 #[derive(Debug, thiserror::Error)]

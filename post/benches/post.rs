@@ -2,7 +2,7 @@
 //! cores): components over intact adjacency, stable ids, Kabsch per fragment, and writing the
 //! frame's fragments file and point cache.
 //!
-//! `cargo bench -p shatter-render --bench post`
+//! `cargo bench -p shatter-post --bench post`
 
 use std::path::Path;
 use std::time::Instant;

@@ -73,7 +73,7 @@ pub fn write_usda(
         out.extend_from_slice(prim.as_bytes());
     }
     out.extend_from_slice(b"}\n");
-    shatter_core::stage_file::write_atomically(path, &[&out])
+    shatter_core::atomic_file::write_atomically(path, &[&out])
 }
 
 fn join(out: &mut String, items: impl Iterator<Item = String>) {

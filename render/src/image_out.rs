@@ -67,7 +67,7 @@ pub fn write_exr(path: &Path, width: usize, height: usize, pixels: &[Pixel], com
         .write()
         .to_buffered(&mut bytes)
         .map_err(|error| ImageError::Format { path: path.to_path_buf(), what: error.to_string() })?;
-    shatter_core::stage_file::write_atomically(path, &[bytes.get_ref()])
+    shatter_core::atomic_file::write_atomically(path, &[bytes.get_ref()])
         .map_err(|source| ImageError::Io { path: path.to_path_buf(), source })
 }
 
@@ -135,7 +135,7 @@ pub fn write_png(
     image
         .write_to(&mut bytes, image::ImageFormat::Png)
         .map_err(|error| ImageError::Format { path: path.to_path_buf(), what: error.to_string() })?;
-    shatter_core::stage_file::write_atomically(path, &[bytes.get_ref()])
+    shatter_core::atomic_file::write_atomically(path, &[bytes.get_ref()])
         .map_err(|source| ImageError::Io { path: path.to_path_buf(), source })
 }
 

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 use shatter_core::config::render::RenderConfig;
-use shatter_core::config::sim::Backend;
+use shatter_core::config::sim::BackendChoice;
 use shatter_core::fragments::FragmentFrame;
 use shatter_core::particles::ParticleSet;
 use shatter_core::stage_file::StageFileError;
@@ -85,15 +85,15 @@ enum Tracer {
 
 impl Tracer {
     /// The tracer `backend` asks for: `auto` takes a hardware GPU when there is one.
-    fn new(backend: Backend) -> Result<Tracer, RenderError> {
+    fn new(backend: BackendChoice) -> Result<Tracer, RenderError> {
         let gpu = |context: GpuContext| -> Result<Tracer, RenderError> {
             let tracer = GpuTracer::new(&context)?;
             Ok(Tracer::Gpu(Box::new((context, tracer))))
         };
         match backend {
-            Backend::Cpu => Ok(Tracer::Cpu),
-            Backend::Gpu => gpu(GpuContext::new(AdapterChoice::from_env())?),
-            Backend::Auto => match GpuContext::new(AdapterChoice::from_env()) {
+            BackendChoice::Cpu => Ok(Tracer::Cpu),
+            BackendChoice::Gpu => gpu(GpuContext::new(AdapterChoice::from_env())?),
+            BackendChoice::Auto => match GpuContext::new(AdapterChoice::from_env()) {
                 Ok(context) => gpu(context),
                 Err(_) => Ok(Tracer::Cpu),
             },
@@ -210,7 +210,7 @@ pub fn camera(render: &RenderConfig, particles: &ParticleSet) -> Camera {
 pub fn run_render(
     config: &PipelineConfig,
     frames: Option<&[u32]>,
-    backend: Option<Backend>,
+    backend: Option<BackendChoice>,
     progress: &dyn Progress,
     after_frame: AfterFrame,
 ) -> Result<RenderReport, RenderError> {

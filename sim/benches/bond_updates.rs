@@ -12,7 +12,7 @@ use std::time::Instant;
 
 use shatter_core::NoProgress;
 use shatter_core::config::PipelineConfig;
-use shatter_sim::Simulation;
+use shatter_sim::CpuSimulation;
 
 fn config(side: usize) -> PipelineConfig {
     let size = side as f64 * 0.001;
@@ -43,7 +43,7 @@ gravity_m_s2 = [0.0, 0.0, 0.0]
 fn time_ours(config: &PipelineConfig, particles: &shatter_core::ParticleSet, steps: usize, threads: usize) -> f64 {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("pool");
     pool.install(|| {
-        let mut sim = Simulation::from_config(config, particles).expect("simulation");
+        let mut sim = CpuSimulation::from_config(config, particles).expect("simulation");
         sim.set_velocity(|i, _| {
             let h = shatter_core::random::splitmix64(i as u64);
             [0, 1, 2].map(|k| ((h >> (16 * k)) & 0xffff) as f32 / 65535.0 * 2e-3 - 1e-3)

@@ -1,23 +1,49 @@
-//! What `shatter sim` needs of a backend, whichever runs the steps: the CPU [`Simulation`] or the
-//! GPU [`GpuSimulation`]. The frame loop, checkpoints, resume and stability checks in
-//! [`crate::sim_driver`] see only this trait.
+//! What `shatter sim` needs of a backend, whichever runs the steps: the CPU
+//! [`CpuSimulation`](crate::CpuSimulation) or the GPU [`GpuSimulation`](crate::GpuSimulation). The
+//! frame loop, checkpoints, resume and stability checks in [`crate::sim_driver`] see only this
+//! trait; [`crate::backend_choice`] makes one.
 //!
 //! Host-side state ([`Backend::dynamics`], energy, damage) is current after
 //! [`Backend::finish_frame`] (and after construction, [`Backend::restore`] and the `set_*`
 //! calls): the GPU backend reads its state back only then, never inside the step loop.
 
-use glam::DVec3;
-use shatter_core::PipelineConfig;
-use shatter_core::config::sim::Backend as BackendChoice;
-use shatter_core::particles::ParticleSet;
-use shatter_gpu::{AdapterChoice, GpuContext, GpuError};
+use std::error::Error;
+use std::fmt;
 
-use crate::gpu::{GpuOptions, GpuSimulation};
-use crate::model::Model;
+use glam::DVec3;
 use shatter_core::frames::BreakEvent;
 
-use crate::simulation::{Dynamics, Energy, Simulation};
-use crate::{SimError, art};
+use crate::model::Model;
+use crate::state::{Dynamics, Energy};
+
+/// A backend failed while running (e.g. the GPU reported an error mid-run). It carries the
+/// backend's own error, and reads (as text and as a source chain) exactly as that error does.
+#[derive(Debug)]
+pub struct DeviceError(Box<dyn Error + Send + Sync>);
+
+impl DeviceError {
+    /// Wraps a backend's error.
+    pub fn new(error: impl Error + Send + Sync + 'static) -> DeviceError {
+        DeviceError(Box::new(error))
+    }
+
+    /// The backend's error, e.g. to downcast it to the backend's own error type.
+    pub fn inner(&self) -> &(dyn Error + Send + Sync + 'static) {
+        self.0.as_ref()
+    }
+}
+
+impl fmt::Display for DeviceError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        fmt::Display::fmt(&self.0, f)
+    }
+}
+
+impl Error for DeviceError {
+    fn source(&self) -> Option<&(dyn Error + 'static)> {
+        self.0.source()
+    }
+}
 
 /// A simulation backend.
 pub trait Backend {
@@ -32,10 +58,10 @@ pub trait Backend {
     /// The model.
     fn model(&self) -> &Model;
     /// Advances `steps` steps of velocity Verlet.
-    fn advance(&mut self, steps: u64) -> Result<(), GpuError>;
+    fn advance(&mut self, steps: u64) -> Result<(), DeviceError>;
     /// At a frame boundary: brings the host-side state up to date and returns the bonds broken
     /// since the last call, in the order (step, bond id).
-    fn finish_frame(&mut self) -> Result<Vec<BreakEvent>, GpuError>;
+    fn finish_frame(&mut self) -> Result<Vec<BreakEvent>, DeviceError>;
     /// The state (as of the last frame boundary).
     fn dynamics(&self) -> &Dynamics;
     /// Kinetic and bond energy.
@@ -72,127 +98,38 @@ pub trait Backend {
     /// The largest stable time step, seconds.
     fn stable_dt_s(&self) -> f64;
     /// Replaces the state with a checkpoint's; `broken_bonds` (sorted ids) are marked broken.
-    fn restore(&mut self, dynamics: Dynamics, broken_bonds: &[u64]) -> Result<(), GpuError>;
+    fn restore(&mut self, dynamics: Dynamics, broken_bonds: &[u64]) -> Result<(), DeviceError>;
     /// Sets velocities (initial conditions, tests).
-    fn set_velocity(&mut self, velocity: &dyn Fn(usize, [f32; 3]) -> [f32; 3]) -> Result<(), GpuError>;
+    fn set_velocity(&mut self, velocity: &dyn Fn(usize, [f32; 3]) -> [f32; 3]) -> Result<(), DeviceError>;
     /// Sets displacements and recomputes the forces (bonds may break, at the current step).
-    fn set_displacement(&mut self, displacement: &dyn Fn(usize, [f32; 3]) -> [f32; 3]) -> Result<(), GpuError>;
+    fn set_displacement(&mut self, displacement: &dyn Fn(usize, [f32; 3]) -> [f32; 3]) -> Result<(), DeviceError>;
 }
 
-impl Backend for Simulation {
-    fn describe(&self) -> String {
-        format!("CPU ({} threads)", rayon::current_num_threads())
-    }
+#[cfg(test)]
+mod tests {
+    use super::*;
 
-    fn len(&self) -> usize {
-        Simulation::len(self)
-    }
+    /// An error with a source, as a backend's error may be.
+    #[derive(Debug)]
+    struct Outer(std::io::Error);
 
-    fn model(&self) -> &Model {
-        Simulation::model(self)
-    }
-
-    fn advance(&mut self, steps: u64) -> Result<(), GpuError> {
-        for _ in 0..steps {
-            self.step();
+    impl fmt::Display for Outer {
+        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            write!(f, "outer: {}", self.0)
         }
-        Ok(())
     }
 
-    fn finish_frame(&mut self) -> Result<Vec<BreakEvent>, GpuError> {
-        Ok(self.take_breaks())
-    }
-
-    fn dynamics(&self) -> &Dynamics {
-        Simulation::dynamics(self)
-    }
-
-    fn energy(&self) -> Energy {
-        Simulation::energy(self)
-    }
-
-    fn bond_energy_per_particle(&self) -> Vec<f64> {
-        Simulation::bond_energy_per_particle(self)
-    }
-
-    fn positions(&self) -> [Vec<f32>; 3] {
-        Simulation::positions(self)
-    }
-
-    fn damage(&self) -> Vec<f32> {
-        Simulation::damage(self)
-    }
-
-    fn mass(&self) -> &[f32] {
-        Simulation::mass(self)
-    }
-
-    fn rest(&self) -> [&[f32]; 3] {
-        Simulation::rest(self)
-    }
-
-    fn time_s(&self) -> f64 {
-        Simulation::time_s(self)
-    }
-
-    fn stable_dt_s(&self) -> f64 {
-        Simulation::stable_dt_s(self)
-    }
-
-    fn restore(&mut self, dynamics: Dynamics, broken_bonds: &[u64]) -> Result<(), GpuError> {
-        Simulation::restore(self, dynamics, broken_bonds);
-        Ok(())
-    }
-
-    fn set_velocity(&mut self, velocity: &dyn Fn(usize, [f32; 3]) -> [f32; 3]) -> Result<(), GpuError> {
-        Simulation::set_velocity(self, velocity);
-        Ok(())
-    }
-
-    fn set_displacement(&mut self, displacement: &dyn Fn(usize, [f32; 3]) -> [f32; 3]) -> Result<(), GpuError> {
-        Simulation::set_displacement(self, displacement);
-        Ok(())
-    }
-}
-
-/// Why no backend could be made.
-#[derive(Debug, thiserror::Error)]
-pub enum BackendError {
-    /// The config or particle file cannot make a sound run.
-    #[error(transparent)]
-    Input(#[from] SimError),
-    /// `--backend gpu` without a usable GPU, or a GPU failure while setting up.
-    #[error(transparent)]
-    Gpu(#[from] GpuError),
-}
-
-/// The backend `choice` asks for, for a config and its particles: `Cpu` the CPU path; `Gpu` the
-/// GPU (an error naming what was found when there is none); `Auto` a hardware GPU when wgpu
-/// finds one, else the CPU. Software adapters (Mesa lavapipe) count only with
-/// `SHATTER_GPU_ALLOW_SOFTWARE=1` (see [`AdapterChoice::from_env`]). Also returns a warning when
-/// `Auto` found a GPU but could not use it and fell back to the CPU.
-pub fn create_backend(
-    config: &PipelineConfig,
-    particles: &ParticleSet,
-    choice: BackendChoice,
-) -> Result<(Box<dyn Backend>, Option<String>), BackendError> {
-    let gpu = match choice {
-        BackendChoice::Cpu => None,
-        BackendChoice::Gpu => Some(GpuContext::new(AdapterChoice::from_env())?),
-        BackendChoice::Auto => GpuContext::new(AdapterChoice::from_env()).ok(),
-    };
-    let Some(ctx) = gpu else {
-        return Ok((Box::new(Simulation::from_config(config, particles)?), None));
-    };
-    let model = Model::new(config, particles)?;
-    let factors = art::threshold_factors(&config.sim, particles, config.scene.seed)?;
-    let correction = config.sim.stiffness_correction;
-    match GpuSimulation::new(ctx.into(), particles, model, factors.as_deref(), correction, &GpuOptions::default()) {
-        Ok(simulation) => Ok((Box::new(simulation), None)),
-        Err(error) if choice == BackendChoice::Auto => {
-            let warning = format!("the GPU could not run this scene ({error}); running on the CPU");
-            Ok((Box::new(Simulation::from_config(config, particles)?), Some(warning)))
+    impl Error for Outer {
+        fn source(&self) -> Option<&(dyn Error + 'static)> {
+            Some(&self.0)
         }
-        Err(error) => Err(error.into()),
+    }
+
+    #[test]
+    fn a_device_error_reads_as_the_backends_error() {
+        let error = DeviceError::new(Outer(std::io::Error::other("lost")));
+        assert_eq!(error.to_string(), "outer: lost");
+        assert_eq!(error.source().map(ToString::to_string), Some("lost".to_string()));
+        assert!(error.inner().downcast_ref::<Outer>().is_some());
     }
 }

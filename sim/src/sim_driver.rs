@@ -1,12 +1,13 @@
 //! `shatter sim`: runs a scene's simulation frame by frame, writing point caches, the break log
 //! and checkpoints; resumes from the last checkpoint; stops on instability with the last good
-//! checkpoint intact. The same loop drives either backend (see [`crate::backend`]).
+//! checkpoint intact. The same loop drives either backend (see [`crate::backend`]); which one is
+//! [`crate::backend_choice`]'s call.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use shatter_core::checkpoint::{self, CheckpointMeta, CheckpointState, StateRef};
-use shatter_core::config::sim::Backend as BackendChoice;
+use shatter_core::config::sim::BackendChoice;
 use shatter_core::frames::{BreakLog, FrameFileError, PointFrame};
 use shatter_core::layout::is_points_name;
 use shatter_core::particles::ParticleSet;
@@ -15,8 +16,9 @@ use shatter_core::{OutputLayout, PipelineConfig, Progress};
 use shatter_gpu::GpuError;
 
 use crate::SimError;
-use crate::backend::{Backend, BackendError, create_backend};
-use crate::simulation::Dynamics;
+use crate::backend::{Backend, DeviceError};
+use crate::backend_choice::{BackendError, create_backend};
+use crate::state::Dynamics;
 
 /// How a run starts.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -74,9 +76,12 @@ pub enum RunError {
     /// A frame file or the break log could not be read or written.
     #[error(transparent)]
     FrameFile(#[from] FrameFileError),
-    /// No GPU for `--backend gpu`, or the GPU failed.
+    /// No GPU for `--backend gpu`, or the GPU failed while the backend was being set up.
     #[error(transparent)]
     Gpu(#[from] GpuError),
+    /// The backend failed while running (e.g. the GPU reported an error mid-run).
+    #[error(transparent)]
+    Device(#[from] DeviceError),
 }
 
 impl From<BackendError> for RunError {

@@ -12,7 +12,7 @@ use shatter_core::frames::BreakEvent;
 use shatter_core::particles::ParticleSet;
 use shatter_gpu::GpuContext;
 use shatter_sim::gpu::{GpuOptions, GpuSimulation};
-use shatter_sim::{Backend, Dynamics, Model, Simulation, art};
+use shatter_sim::{Backend, CpuSimulation, Dynamics, Model, art};
 
 fn gpu() -> &'static GpuContext {
     GpuContext::shared_for_tests().unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"))
@@ -65,7 +65,7 @@ fn field_error(a: &[Vec<f32>; 3], b: &[Vec<f32>; 3]) -> f64 {
 #[test]
 fn gpu_and_cpu_agree_on_a_struck_plate() {
     let (config, particles) = struck_plate();
-    let mut cpu = Simulation::from_config(&config, &particles).expect("cpu");
+    let mut cpu = CpuSimulation::from_config(&config, &particles).expect("cpu");
     let (cpu_breaks, cpu_states) = run(&mut cpu, 100, 10);
     let mut gpu = gpu_simulation(&config, &particles, &GpuOptions::default());
     let (gpu_breaks, gpu_states) = run(&mut gpu, 100, 10);
@@ -142,12 +142,12 @@ struct Lockstep {
 /// `steps` steps, each taken by both backends from the CPU's state. Asserts that a bond breaks
 /// on one backend only when its stretch was within 1e-6 (8 f32 ulps) of its threshold.
 fn lockstep(config: &PipelineConfig, particles: &ParticleSet, steps: u64) -> Lockstep {
-    let cpu = Simulation::from_config(config, particles).expect("cpu");
+    let cpu = CpuSimulation::from_config(config, particles).expect("cpu");
     lockstep_from(config, particles, cpu, steps)
 }
 
 /// [`lockstep`] from a given CPU simulation's state.
-fn lockstep_from(config: &PipelineConfig, particles: &ParticleSet, mut cpu: Simulation, steps: u64) -> Lockstep {
+fn lockstep_from(config: &PipelineConfig, particles: &ParticleSet, mut cpu: CpuSimulation, steps: u64) -> Lockstep {
     let model = Model::new(config, particles).expect("model");
     let mut gpu = gpu_simulation(config, particles, &GpuOptions::default());
     let bonds = &particles.bonds;
@@ -216,7 +216,7 @@ fn every_step_of_a_slab_on_the_floor_under_an_indenter_agrees_with_the_cpu() {
     )
     .replace("gravity_m_s2 = [0.0, 0.0, 0.0]", "gravity_m_s2 = [0.0, -9.81, 0.0]");
     let (config, particles) = scenarios::load(&text);
-    let mut cpu = Simulation::from_config(&config, &particles).expect("cpu");
+    let mut cpu = CpuSimulation::from_config(&config, &particles).expect("cpu");
     cpu.set_velocity(|_, _| [0.0, -3.0, 0.0]);
     let out = lockstep_from(&config, &particles, cpu, 300);
     assert!(out.breaks > 0, "the indenter breaks bonds");

@@ -7,11 +7,11 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use shatter_core::config::PipelineConfig;
-use shatter_core::config::sim::Backend as BackendChoice;
+use shatter_core::config::sim::BackendChoice;
 use shatter_core::particles::ParticleSet;
 use shatter_core::{NoProgress, OutputLayout, Progress};
 use shatter_gpu::{AdapterChoice, GpuContext};
-use shatter_sim::backend::BackendError;
+use shatter_sim::backend_choice::BackendError;
 use shatter_sim::gpu::{GpuOptions, GpuSimulation};
 use shatter_sim::sim_driver::{RunOptions, run_with};
 use shatter_sim::{Backend, Model, art, create_backend};

@@ -7,10 +7,10 @@ mod scenarios;
 use scenarios::{block, max_force};
 use shatter_core::config::PipelineConfig;
 use shatter_core::particles::ParticleSet;
-use shatter_sim::{Backend, LayoutChoice, Simulation};
+use shatter_sim::{Backend, CpuSimulation, LayoutChoice};
 
-fn simulation(config: &PipelineConfig, particles: &ParticleSet) -> Simulation {
-    Simulation::from_config(config, particles).expect("simulation")
+fn simulation(config: &PipelineConfig, particles: &ParticleSet) -> CpuSimulation {
+    CpuSimulation::from_config(config, particles).expect("simulation")
 }
 
 fn cpu(config: &PipelineConfig, particles: &ParticleSet) -> Box<dyn Backend> {
@@ -19,8 +19,8 @@ fn cpu(config: &PipelineConfig, particles: &ParticleSet) -> Box<dyn Backend> {
     Box::new(sim)
 }
 
-fn rows_only(config: &PipelineConfig, particles: &ParticleSet) -> Simulation {
-    let sim = Simulation::from_config_with_layout(config, particles, LayoutChoice::RowsOnly).expect("simulation");
+fn rows_only(config: &PipelineConfig, particles: &ParticleSet) -> CpuSimulation {
+    let sim = CpuSimulation::from_config_with_layout(config, particles, LayoutChoice::RowsOnly).expect("simulation");
     assert!(!sim.on_lattice());
     sim
 }
@@ -82,7 +82,7 @@ fn the_lattice_kernel_gives_the_row_kernels_forces_and_breaks() {
         let h = shatter_core::random::splitmix64((i * 3 + axis) as u64);
         (h % 20001) as f32 / 10000.0 - 1.0
     };
-    let displace = |sim: &mut Simulation| {
+    let displace = |sim: &mut CpuSimulation| {
         let s0 = particles.meta.mean_critical_stretch as f32;
         sim.set_displacement(|i, _| [0, 1, 2].map(|axis| 1.2e-3 * s0 * random(i, axis)));
         let mut breaks: Vec<u64> = sim.take_breaks().into_iter().map(|event| event.bond).collect();
@@ -112,7 +112,7 @@ fn the_lattice_kernel_gives_the_row_kernels_forces_and_breaks() {
 #[test]
 fn the_lattice_and_row_layouts_agree_on_a_struck_plate() {
     let (config, particles) = struck_plate();
-    let run = |mut sim: Simulation| {
+    let run = |mut sim: CpuSimulation| {
         let mut breaks = Vec::new();
         for _ in 0..160 {
             sim.step();

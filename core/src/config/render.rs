@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::sim::Backend;
+use super::sim::BackendChoice;
 use super::{Checker, ConfigError};
 
 /// `[render]`.
@@ -12,7 +12,7 @@ use super::{Checker, ConfigError};
 #[serde(deny_unknown_fields, default)]
 pub struct RenderConfig {
     /// Where the ray tracer runs.
-    pub backend: Backend,
+    pub backend: BackendChoice,
     /// Image width and height in pixels.
     pub resolution: [u32; 2],
     /// Samples per pixel (antialiasing, glass paths); the first goes through the pixel centre and
@@ -42,7 +42,7 @@ pub struct RenderConfig {
 impl Default for RenderConfig {
     fn default() -> Self {
         RenderConfig {
-            backend: Backend::Auto,
+            backend: BackendChoice::Auto,
             resolution: [960, 540],
             samples_per_pixel: 4,
             max_bounces: 8,

@@ -14,7 +14,7 @@ pub const DEFAULT_DT_S: f64 = 1.0 / 8_388_608.0;
 #[serde(deny_unknown_fields, default)]
 pub struct SimConfig {
     /// Which backend runs the simulation.
-    pub backend: Backend,
+    pub backend: BackendChoice,
     /// Time step, seconds.
     pub dt_s: f64,
     /// Steps between written frames.
@@ -54,7 +54,7 @@ pub struct SimConfig {
 impl Default for SimConfig {
     fn default() -> Self {
         SimConfig {
-            backend: Backend::Auto,
+            backend: BackendChoice::Auto,
             dt_s: DEFAULT_DT_S,
             steps_per_frame: 500,
             frames: 48,
@@ -78,7 +78,7 @@ impl Default for SimConfig {
 /// Where the simulation runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
-pub enum Backend {
+pub enum BackendChoice {
     /// A hardware GPU when one is found, else the CPU.
     Auto,
     /// The CPU (rayon).

@@ -6,7 +6,7 @@ use std::io::{Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 use super::{FrameFileError, invalid, io_error};
-use crate::stage_file::write_atomically;
+use crate::atomic_file::write_atomically;
 
 /// A bond that broke: the step it broke in and its id.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -1,15 +1,16 @@
-//! The GPU backend (wgpu, WGSL): the CPU model of [`crate::simulation`] with one particle per
-//! invocation, after section 3 of Levine et al.
+//! The GPU backend (wgpu, WGSL): the CPU model of [`crate::cpu_simulation`] with one particle
+//! per invocation, after section 3 of Levine et al.
 //!
 //! # Kernels
 //!
 //! One entry point per file in `sim/shaders/`, each with a CPU twin of the same name in
-//! [`twins`]. A step is, in one compute pass (and a batch of up to [`BATCH`] steps in one
+//! [`crate::twins`]. A step is, in one compute pass (and a batch of up to [`BATCH`] steps in one
 //! submission):
 //!
 //! 1. `kick_drift` (position update; from the second step of a batch on, compiled with
-//!    `LAND_FIRST`: the previous step's velocity update fused in): v += dt/2 F/m, u += dt v; packs the compression
-//!    boost next to u; flags the contact lists stale when a particle moved half the skin.
+//!    `LAND_FIRST`: the previous step's velocity update fused in): v += dt/2 F/m, u += dt v; packs
+//!    the compression boost next to u; flags the contact lists stale when a particle moved half
+//!    the skin.
 //! 2. Contact (when K_c > 0): `contact_plan` turns the stale flag into indirect dispatch sizes (zero
 //!    when the lists are fresh, so the rebuild costs little); the rebuild `contact_count`,
 //!    `scan_blocks`, `scan_block_sums`, `scan_add`, `contact_scatter`, `contact_rank`,
@@ -37,14 +38,28 @@
 //! counters are read; if a capacity (break events of the frame, contact candidates per particle)
 //! overflowed, the buffers grow and the frame is replayed from a GPU-side snapshot of its start:
 //! the result is the same as with large enough buffers from the start.
+//!
+//! # Files
+//!
+//! - `gpu_simulation.rs`: [`GpuSimulation`], its construction and its [`crate::Backend`] impl.
+//! - `sim_buffers.rs`: its buffers, their creation and the upload of host-side state.
+//! - `bind_groups.rs`: which buffers each kernel binds.
+//! - `stepping.rs`: batches of steps and the force pass, recorded as dispatches.
+//! - `snapshot.rs`: readback at frame boundaries, the snapshot and the replay after an overflow.
+//! - [`shaders`]: the WGSL sources and their compilation; [`wgsl_structs`]: host mirrors of the
+//!   WGSL structs.
+//! - The bond layout is [`crate::bond_layouts::gpu_layout`].
 
-pub mod layout;
+mod bind_groups;
+mod gpu_simulation;
 pub mod shaders;
-mod simulation;
-pub mod twins;
-pub mod types;
+mod sim_buffers;
+mod snapshot;
+mod stepping;
+pub mod wgsl_structs;
 
 #[cfg(test)]
 mod tests;
 
-pub use simulation::{BATCH, GpuHandle, GpuOptions, GpuSimulation};
+pub use gpu_simulation::{GpuHandle, GpuOptions, GpuSimulation};
+pub use stepping::BATCH;

@@ -9,10 +9,10 @@ use shatter_core::config::sim::StiffnessCorrection;
 use shatter_core::random::SplitMix64;
 use shatter_gpu::{GpuContext, wgpu};
 
-use super::layout::BondLayout;
 use super::shaders;
-use super::twins::{self, I4, U4, V4};
-use super::types::{Params, SCAN_BLOCK, SLICE, Status, WG};
+use super::wgsl_structs::{Params, SCAN_BLOCK, SLICE, Status, WG};
+use crate::bond_layouts::gpu_layout::GpuBondLayout;
+use crate::twins::{self, I4, U4, V4};
 
 fn gpu() -> &'static GpuContext {
     GpuContext::shared_for_tests().unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"))
@@ -63,7 +63,7 @@ fn flat(v: &[V4]) -> Vec<f32> {
 struct Scene {
     n: usize,
     params: Params,
-    layout: BondLayout,
+    layout: GpuBondLayout,
     body: Vec<V4>,
     vel: Vec<V4>,
     force: Vec<V4>,
@@ -98,8 +98,8 @@ bulk_modulus_pa = 14.9e9
         let mut rng = SplitMix64::new(seed);
         let mut uniform = |lo: f64, hi: f64| (lo + (hi - lo) * rng.next_f64()) as f32;
         let c = 18.0 * 14.9e9 / (std::f64::consts::PI * 0.003f64.powi(4));
-        let mut layout =
-            BondLayout::new(&particles, c, 1.0, None, StiffnessCorrection::Energy, max_binding_bytes).expect("layout");
+        let mut layout = GpuBondLayout::new(&particles, c, 1.0, None, StiffnessCorrection::Energy, max_binding_bytes)
+            .expect("layout");
         let mass = 2.2e-6f32;
         let body: Vec<V4> = (0..n)
             .flat_map(|i| {
@@ -509,7 +509,8 @@ fn force_kernels_match_their_twins() {
     twin_events.sort_unstable();
     assert_eq!(gpu_events, twin_events);
     assert!(twin_events.iter().all(|e| e[0] == 7));
-    // Both ends of every bond that broke agree: each broken entry's twin entry is broken.
+    // Both ends of every bond that broke agree: each broken entry's reverse entry (the same bond
+    // seen from its other end) is broken.
     let bit = |i: usize, k: usize| {
         let (range, word, bit) = scene.layout.bit_of(i, k);
         bits_after[range].1[word] & (1 << bit) != 0

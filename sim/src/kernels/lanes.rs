@@ -5,7 +5,7 @@
 // Indexed loops: one per operation, each a vector instruction.
 #![allow(clippy::needless_range_loop)]
 
-pub use crate::bond_table::LANES;
+pub use crate::bond_layouts::row_layout::LANES;
 
 /// Eight f32 lanes.
 pub type Lanes = [f32; LANES];

@@ -1,5 +1,6 @@
-//! The spring kernel for the lattice layout ([`crate::lattice_table`]): the same bond force and
-//! break test as the row kernel, eight sites at a time, their partners eight consecutive slots.
+//! The spring kernel for the lattice layout ([`crate::bond_layouts::lattice_layout`]): the same
+//! bond force and break test as the row kernel, eight sites at a time, their partners eight
+//! consecutive slots.
 //! Plain lane arithmetic ([`super::lanes`]) that the compiler turns into vector instructions:
 //! with no gathers, there is nothing for explicit intrinsics to add.
 
@@ -7,7 +8,7 @@ use shatter_core::config::sim::BreakRule;
 
 use super::lanes::{BondLanes, LANES, Lanes, add, bond_lanes, min, mul, sub};
 use super::springs::{ChunkForces, break_bound, effective_threshold};
-use crate::lattice_table::{LatticeChunk, SlotInputs};
+use crate::bond_layouts::lattice_layout::{LatticeChunk, SlotInputs};
 
 /// Eight consecutive values of `values` from `start`.
 #[inline(always)]

@@ -2,7 +2,7 @@
 //! (position update, spring forces, collisions, body forces, velocity update). Each works on one
 //! chunk of particles and writes only that chunk's outputs.
 
-// Indexed loops mirror the shaders these kernels are twins of.
+// Indexed loops, as in the WGSL kernels of the same passes.
 #![allow(clippy::needless_range_loop)]
 
 mod lanes;

@@ -3,14 +3,14 @@
 //! `springs_avx2` holds the same row kernel in explicit AVX2 instructions; both give the same
 //! bits.
 
-// Indexed loops mirror the shader this kernel is the twin of.
+// Indexed loops, as in the WGSL kernel of the same pass.
 #![allow(clippy::needless_range_loop)]
 
 use shatter_core::config::sim::BreakRule;
 
 use super::lanes::{BondLanes, bond_lanes};
-use crate::bond_table::BondChunk;
-pub(super) use crate::bond_table::LANES;
+use crate::bond_layouts::row_layout::BondChunk;
+pub(super) use crate::bond_layouts::row_layout::LANES;
 
 /// One chunk's outputs of the force pass (per particle of the row layout's chunk, per slot of
 /// the lattice layout's).
@@ -173,7 +173,7 @@ pub(super) fn break_bound(rule: BreakRule, boost: f32) -> f32 {
 /// The portable block kernel: one block of particle `local`'s row (internal or external). The
 /// arithmetic runs lane by lane over fixed-size arrays, which the compiler turns into SIMD
 /// instructions where it can; gathers and the rare breaks stay scalar. Padding lanes are inert
-/// (see [`crate::bond_table::BondBlock`]).
+/// (see [`crate::bond_layouts::row_layout::BondBlock`]).
 #[inline(always)]
 fn bond_block(
     chunk: &mut BondChunk,
@@ -230,7 +230,7 @@ mod tests {
     use shatter_core::random::SplitMix64;
 
     use super::*;
-    use crate::bond_table::BondEntry;
+    use crate::bond_layouts::row_layout::BondEntry;
 
     /// A chunk of 40 particles (from index 100 of 300) with random rows of 0 to 20 bonds, inside
     /// and outside the chunk, random rest vectors, stiffnesses (some broken) and thresholds set

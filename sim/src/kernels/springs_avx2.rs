@@ -19,7 +19,7 @@ use shatter_core::config::sim::BreakRule;
 use super::springs::{
     BlockContext, ChunkForces, LANES, LaneSums, ParticleRecord, break_bound, break_lanes, spring_rows,
 };
-use crate::bond_table::BondChunk;
+use crate::bond_layouts::row_layout::BondChunk;
 
 /// [`super::spring_forces`] with the AVX2 row kernel, if this CPU has AVX2 (detected once, then
 /// cached by the standard library). Returns whether it ran.

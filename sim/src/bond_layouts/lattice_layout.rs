@@ -1,5 +1,5 @@
-//! The bond layout for particles on a cubic lattice (the grid sampler's), where eight bonds can
-//! be computed without a gather.
+//! The lattice layout of the CPU's bonds, for particles on a cubic lattice (the grid sampler's),
+//! where eight bonds can be computed without a gather.
 //!
 //! Every lattice row (the sites of one y and z) gets a segment of slots, one per site along x,
 //! with [`GHOST`] empty slots on either side. A brick is eight consecutive sites of a row; a block
@@ -10,16 +10,18 @@
 //! offset) are the inert padding of [`BondBlock`].
 //!
 //! Rows are grouped into chunks by rectangular tiles of y and z, each chunk a contiguous range of
-//! slots. As in [`crate::bond_table`], a bond whose two particles share a chunk is stored once
-//! (at its positive offset) and applied to both ends; one that crosses chunks is stored and
-//! computed on both sides. Chunks depend only on the particle set, never on the thread count.
+//! slots. As in the row layout ([`super::row_layout`]), a bond whose two particles share a chunk
+//! is stored once (at its positive offset) and applied to both ends; one that crosses chunks is
+//! stored and computed on both sides. Chunks depend only on the particle set, never on the thread
+//! count.
 
 use std::collections::HashMap;
 
 use rayon::prelude::*;
 use shatter_core::particles::ParticleSet;
 
-use crate::bond_table::{BondBlock, BondEntry, EntryValues, LANES, PADDING};
+use super::EntryValues;
+use super::row_layout::{BondBlock, BondEntry, LANES, PADDING};
 
 /// Empty slots on each side of a row: bonds may reach at most this many sites along x.
 pub const GHOST: usize = 8;
@@ -51,7 +53,7 @@ pub struct LatticeChunk {
     pub partner_slot: Vec<u32>,
     /// The blocks (`neighbor` holds each lane's partner particle).
     pub blocks: Vec<BondBlock>,
-    /// Each lane's bond id (see [`crate::bond_table::BondChunk::bond_id`]).
+    /// Each lane's bond id (see [`super::row_layout::BondChunk::bond_id`]).
     pub bond_id: Vec<u64>,
     /// Ids of bonds this chunk saw break in the current step, each once (scratch, reused).
     pub breaks: Vec<u64>,
@@ -79,7 +81,7 @@ const SKEW_BYTES: usize = 256;
 
 /// The lattice kernel's per-slot arrays in one allocation: its inputs (displacement x, y, z and
 /// boost) and its outputs (force x, y, z, newtons, and the smallest stretch of the slot's intact
-/// bonds). Each array starts [`SKEW_BYTES`] further into a 4 KiB page than the one before, so
+/// bonds). Each array starts `SKEW_BYTES` further into a 4 KiB page than the one before, so
 /// that a load from one array never waits on a store to another at the same slot because their
 /// addresses agree in the low 12 bits (4K aliasing), wherever the allocator puts them.
 #[derive(Debug, Clone, PartialEq)]

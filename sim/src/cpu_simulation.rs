@@ -1,4 +1,5 @@
-//! The CPU simulation: state in structure-of-arrays form, advanced by velocity Verlet.
+//! The CPU simulation: state in structure-of-arrays form, advanced by velocity Verlet; the
+//! production backend and the reference for the GPU one.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -7,68 +8,16 @@ use shatter_core::config::sim::{BreakRule, StiffnessCorrection};
 use shatter_core::frames::BreakEvent;
 use shatter_core::particles::{Bonds, ParticleSet};
 
-use crate::bond_table::{BondBlock, EntryValues, chunk_size};
+use crate::backend::{Backend, DeviceError};
+use crate::bond_layouts::EntryValues;
+use crate::bond_layouts::lattice_layout::{LatticeTable, NO_PARTICLE, SlotInputs};
+use crate::bond_layouts::layout_choice::{LayoutChoice, SpringTable};
+use crate::bond_layouts::row_layout::{BondBlock, chunk_size};
 use crate::contact::ContactList;
 use crate::kernels::{self, BodyForces, BondLookup, ChunkForces, ParticleRecord, SphereNow};
-use crate::lattice_table::{LatticeTable, NO_PARTICLE, SlotInputs};
 use crate::model::{Model, MovingSphere};
-use crate::spring_table::{LayoutChoice, SpringTable};
+use crate::state::{Dynamics, Energy, kinetic_energy_j};
 use crate::{SimError, art};
-
-/// The mutable state of a run, everything a checkpoint must hold.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Dynamics {
-    /// Steps taken.
-    pub step: u64,
-    /// Displacements u, metres (x, y, z arrays).
-    pub disp: [Vec<f32>; 3],
-    /// Velocities, m/s.
-    pub vel: [Vec<f32>; 3],
-    /// Forces at the current step, newtons.
-    pub force: [Vec<f32>; 3],
-    /// Compression boost of each particle's thresholds for the next step.
-    pub boost: Vec<f32>,
-    /// Work done on the body by external forces so far, joules.
-    pub external_work_j: f64,
-}
-
-/// Energies of the current state, joules.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Energy {
-    /// 1/2 sum m v^2.
-    pub kinetic_j: f64,
-    /// sum over intact bonds of 1/2 k s^2 L.
-    pub bond_j: f64,
-}
-
-impl Energy {
-    /// Kinetic plus bond energy.
-    pub fn total_j(&self) -> f64 {
-        self.kinetic_j + self.bond_j
-    }
-}
-
-/// 1/2 sum m v^2 in f64, summed per chunk of `chunk_size` particles in particle order and then
-/// over chunks, so that it does not depend on the thread count.
-pub(crate) fn kinetic_energy_j(mass: &[f32], vel: &[Vec<f32>; 3], chunk_size: usize) -> f64 {
-    mass.par_chunks(chunk_size)
-        .enumerate()
-        .map(|(c, masses)| {
-            let first = c * chunk_size;
-            masses
-                .iter()
-                .enumerate()
-                .map(|(local, m)| {
-                    let i = first + local;
-                    let v2: f64 = (0..3).map(|a| f64::from(vel[a][i]).powi(2)).sum();
-                    0.5 * f64::from(*m) * v2
-                })
-                .sum::<f64>()
-        })
-        .collect::<Vec<f64>>()
-        .iter()
-        .sum()
-}
 
 /// Bond lookups for contact: "are i and j bonded and intact?", from the particle file's CSR and
 /// a bitset of broken bond ids.
@@ -113,7 +62,7 @@ impl BondLookup for BondIndex {
 
 /// A running simulation on the CPU.
 #[derive(Debug, Clone)]
-pub struct Simulation {
+pub struct CpuSimulation {
     model: Model,
     rest: [Vec<f32>; 3],
     mass: Vec<f32>,
@@ -134,7 +83,7 @@ pub struct Simulation {
     chunk_power: Vec<f64>,
 }
 
-impl Simulation {
+impl CpuSimulation {
     /// A body at rest in its reference shape. `factors` are art-direction multipliers of the
     /// thresholds, one per particle-file bond entry.
     pub fn new(
@@ -142,18 +91,18 @@ impl Simulation {
         model: Model,
         factors: Option<&[f32]>,
         correction: StiffnessCorrection,
-    ) -> Simulation {
-        Simulation::with_layout(particles, model, factors, correction, LayoutChoice::Fastest)
+    ) -> CpuSimulation {
+        CpuSimulation::with_layout(particles, model, factors, correction, LayoutChoice::Fastest)
     }
 
-    /// [`Simulation::new`] with a say in the bond layout.
+    /// [`CpuSimulation::new`] with a say in the bond layout.
     fn with_layout(
         particles: &ParticleSet,
         model: Model,
         factors: Option<&[f32]>,
         correction: StiffnessCorrection,
         layout: LayoutChoice,
-    ) -> Simulation {
+    ) -> CpuSimulation {
         let n = particles.len();
         let (constant, scale) = (model.bond_constant, model.threshold_scale);
         let values = EntryValues::new(particles, constant, scale, factors, correction);
@@ -169,7 +118,7 @@ impl Simulation {
         let bond_count = (0..n).map(|i| particles.bonds.row(i).len() as u32).collect();
         let contacts = (model.contact_stiffness_pa > 0.0).then(|| ContactList::new(n, model.contact_distance_m));
         let zeros = || [vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]];
-        let mut simulation = Simulation {
+        let mut simulation = CpuSimulation {
             model,
             rest,
             mass,
@@ -201,20 +150,20 @@ impl Simulation {
 
     /// The simulation a config describes for a particle set: its model, art direction and
     /// stiffness correction.
-    pub fn from_config(config: &PipelineConfig, particles: &ParticleSet) -> Result<Simulation, SimError> {
-        Simulation::from_config_with_layout(config, particles, LayoutChoice::Fastest)
+    pub fn from_config(config: &PipelineConfig, particles: &ParticleSet) -> Result<CpuSimulation, SimError> {
+        CpuSimulation::from_config_with_layout(config, particles, LayoutChoice::Fastest)
     }
 
-    /// [`Simulation::from_config`] with a say in the bond layout (tests run both).
+    /// [`CpuSimulation::from_config`] with a say in the bond layout (tests run both).
     pub fn from_config_with_layout(
         config: &PipelineConfig,
         particles: &ParticleSet,
         layout: LayoutChoice,
-    ) -> Result<Simulation, SimError> {
+    ) -> Result<CpuSimulation, SimError> {
         let model = Model::new(config, particles)?;
         let factors = art::threshold_factors(&config.sim, particles, config.scene.seed)?;
         let correction = config.sim.stiffness_correction;
-        Ok(Simulation::with_layout(particles, model, factors.as_deref(), correction, layout))
+        Ok(CpuSimulation::with_layout(particles, model, factors.as_deref(), correction, layout))
     }
 
     /// Number of particles.
@@ -233,7 +182,7 @@ impl Simulation {
         self.table.entries()
     }
 
-    /// True when the force pass runs on the lattice layout ([`crate::lattice_table`]).
+    /// True when the force pass runs on the lattice layout ([`crate::bond_layouts::lattice_layout`]).
     pub fn on_lattice(&self) -> bool {
         matches!(self.table, SpringTable::Lattice(_))
     }
@@ -418,7 +367,7 @@ impl Simulation {
     /// Also sets the next step's compression boosts and records breaks. Returns the power the
     /// external forces deliver at the current velocities, watts.
     fn compute_forces(&mut self) -> f64 {
-        let Simulation {
+        let CpuSimulation {
             model,
             rest,
             mass,
@@ -602,4 +551,80 @@ fn lattice_forces(lattice: &mut LatticeTable, disp: [&[f32]; 3], boost: &[f32], 
             let mut out = ChunkForces { force: [fx, fy, fz], min_stretch };
             kernels::lattice_spring_forces(chunk, &inputs, particle_of, rule, &mut out);
         });
+}
+
+impl Backend for CpuSimulation {
+    fn describe(&self) -> String {
+        format!("CPU ({} threads)", rayon::current_num_threads())
+    }
+
+    fn len(&self) -> usize {
+        CpuSimulation::len(self)
+    }
+
+    fn model(&self) -> &Model {
+        CpuSimulation::model(self)
+    }
+
+    fn advance(&mut self, steps: u64) -> Result<(), DeviceError> {
+        for _ in 0..steps {
+            self.step();
+        }
+        Ok(())
+    }
+
+    fn finish_frame(&mut self) -> Result<Vec<BreakEvent>, DeviceError> {
+        Ok(self.take_breaks())
+    }
+
+    fn dynamics(&self) -> &Dynamics {
+        CpuSimulation::dynamics(self)
+    }
+
+    fn energy(&self) -> Energy {
+        CpuSimulation::energy(self)
+    }
+
+    fn bond_energy_per_particle(&self) -> Vec<f64> {
+        CpuSimulation::bond_energy_per_particle(self)
+    }
+
+    fn positions(&self) -> [Vec<f32>; 3] {
+        CpuSimulation::positions(self)
+    }
+
+    fn damage(&self) -> Vec<f32> {
+        CpuSimulation::damage(self)
+    }
+
+    fn mass(&self) -> &[f32] {
+        CpuSimulation::mass(self)
+    }
+
+    fn rest(&self) -> [&[f32]; 3] {
+        CpuSimulation::rest(self)
+    }
+
+    fn time_s(&self) -> f64 {
+        CpuSimulation::time_s(self)
+    }
+
+    fn stable_dt_s(&self) -> f64 {
+        CpuSimulation::stable_dt_s(self)
+    }
+
+    fn restore(&mut self, dynamics: Dynamics, broken_bonds: &[u64]) -> Result<(), DeviceError> {
+        CpuSimulation::restore(self, dynamics, broken_bonds);
+        Ok(())
+    }
+
+    fn set_velocity(&mut self, velocity: &dyn Fn(usize, [f32; 3]) -> [f32; 3]) -> Result<(), DeviceError> {
+        CpuSimulation::set_velocity(self, velocity);
+        Ok(())
+    }
+
+    fn set_displacement(&mut self, displacement: &dyn Fn(usize, [f32; 3]) -> [f32; 3]) -> Result<(), DeviceError> {
+        CpuSimulation::set_displacement(self, displacement);
+        Ok(())
+    }
 }

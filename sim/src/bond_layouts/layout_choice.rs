@@ -4,10 +4,11 @@
 use rayon::prelude::*;
 use shatter_core::particles::ParticleSet;
 
-use crate::bond_table::{self, BondBlock, BondTable, EntryValues, LANES, PADDING};
-use crate::lattice_table::LatticeTable;
+use super::EntryValues;
+use super::lattice_layout::LatticeTable;
+use super::row_layout::{self, BondBlock, BondTable, LANES, PADDING};
 
-/// Which layouts [`SpringTable::new`] may choose.
+/// Which layouts a CPU simulation may run on: what [`SpringTable`] may choose from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LayoutChoice {
     /// The lattice layout where it applies, else the row layout.
@@ -46,7 +47,7 @@ impl SpringTable {
             }
             SpringTable::Lattice(table) => {
                 for chunk in &mut table.chunks {
-                    bond_table::mark_broken(&mut chunk.blocks, &chunk.bond_id, sorted_ids);
+                    row_layout::mark_broken(&mut chunk.blocks, &chunk.bond_id, sorted_ids);
                 }
             }
         }
@@ -90,7 +91,9 @@ impl SpringTable {
         }
     }
 
-    /// [`SpringTable::for_each_entry_of_chunk`] over all chunks, in chunk order.
+    /// `for_each_entry_of_chunk` over all chunks, in chunk order: `entry(i, block, lane, internal)`
+    /// for every stored bond entry (padding skipped), particle i's bond to `block.neighbor[lane]`,
+    /// `internal` when it is stored once for both ends.
     pub fn for_each_entry(&self, mut entry: impl FnMut(usize, &BondBlock, usize, bool)) {
         for c in 0..self.chunk_count() {
             self.for_each_entry_of_chunk(c, &mut entry);

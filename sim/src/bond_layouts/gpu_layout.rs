@@ -23,8 +23,8 @@ use rayon::prelude::*;
 use shatter_core::config::sim::StiffnessCorrection;
 use shatter_core::particles::ParticleSet;
 
-use super::types::{Range, SLICE, WG};
-use crate::bond_table::EntryValues;
+use super::EntryValues;
+use crate::gpu::wgsl_structs::{Range, SLICE, WG};
 
 /// One range's bond arrays.
 #[derive(Debug, Clone, PartialEq)]
@@ -43,7 +43,7 @@ pub struct RangeLayout {
 
 /// The whole layout.
 #[derive(Debug, Clone, PartialEq)]
-pub struct BondLayout {
+pub struct GpuBondLayout {
     /// Per particle: first entry (within its range; add 32 per k), first bit word (within its
     /// range), row length, and the row's first entry in the particle file (bond ids).
     pub rows: Vec<[u32; 4]>,
@@ -55,7 +55,7 @@ pub struct BondLayout {
 
 /// Why a layout cannot be built.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum LayoutError {
+pub enum GpuLayoutError {
     /// More bond entries than 32-bit indices reach.
     #[error("{0} bond entries: the GPU backend indexes bonds with 32 bits (at most 4,294,967,295 entries)")]
     TooManyEntries(u64),
@@ -76,10 +76,10 @@ pub enum LayoutError {
     },
 }
 
-impl BondLayout {
+impl GpuBondLayout {
     /// Lays out the bonds of `particles` with bond constant `c`, thresholds scaled by
     /// `threshold_scale` and `factors` (one per file entry), and the stiffness correction: the
-    /// same per-entry values as the CPU's [`crate::bond_table::BondTable`]. Each range's arrays
+    /// same per-entry values as the CPU's [`super::row_layout::BondTable`]. Each range's arrays
     /// hold at most `max_binding_bytes`.
     pub fn new(
         particles: &ParticleSet,
@@ -88,12 +88,12 @@ impl BondLayout {
         factors: Option<&[f32]>,
         correction: StiffnessCorrection,
         max_binding_bytes: u64,
-    ) -> Result<BondLayout, LayoutError> {
+    ) -> Result<GpuBondLayout, GpuLayoutError> {
         let n = particles.len();
         let bonds = &particles.bonds;
         let total = bonds.neighbor.len() as u64;
         if total > u64::from(u32::MAX) {
-            return Err(LayoutError::TooManyEntries(total));
+            return Err(GpuLayoutError::TooManyEntries(total));
         }
         let degree = |i: usize| if i < n { bonds.row(i).len() } else { 0 };
         let slices = n.div_ceil(SLICE);
@@ -113,7 +113,7 @@ impl BondLayout {
         for (g, range) in range_of_group.iter_mut().enumerate() {
             let add = 4 * group_entries(g).max(1);
             if add > max_binding_bytes {
-                return Err(LayoutError::GroupTooLarge {
+                return Err(GpuLayoutError::GroupTooLarge {
                     first: g * WG,
                     end: ((g + 1) * WG).min(n),
                     bytes: add,
@@ -215,7 +215,7 @@ impl BondLayout {
             });
             first_workgroup += workgroups;
         }
-        Ok(BondLayout { rows, ranges: layouts, range_of_group })
+        Ok(GpuBondLayout { rows, ranges: layouts, range_of_group })
     }
 
     /// Spring-kernel workgroups over all ranges.

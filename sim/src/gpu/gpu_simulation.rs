@@ -1,0 +1,406 @@
+//! The GPU simulation itself: its handle on the device, its options, its state and its
+//! construction, and what it does as a [`Backend`]. The other files of this module hold its
+//! buffers, bind groups, stepping, and snapshot and replay.
+
+use std::ops::Deref;
+
+use rayon::prelude::*;
+use shatter_core::config::sim::{BreakRule, StiffnessCorrection};
+use shatter_core::frames::BreakEvent;
+use shatter_core::particles::ParticleSet;
+use shatter_gpu::{DispatchGrid, GpuContext, GpuError};
+
+use super::bind_groups::BindGroups;
+use super::shaders::Kernels;
+use super::sim_buffers::{Buffers, RangeBuffers};
+use super::snapshot::Replay;
+use super::wgsl_structs::{Params, SCAN_BLOCK, SLICE, WG};
+use crate::backend::{Backend, DeviceError};
+use crate::bond_layouts::gpu_layout::{GpuBondLayout, GpuLayoutError};
+use crate::bond_layouts::row_layout::chunk_size;
+use crate::contact::SKIN_FRACTION;
+use crate::model::{Model, MovingSphere};
+use crate::state::{Dynamics, Energy, kinetic_energy_j};
+
+/// The GPU context a simulation runs on: its own, or one shared for the life of the process
+/// (tests).
+#[derive(Debug)]
+pub enum GpuHandle {
+    /// A context owned by the simulation.
+    Owned(Box<GpuContext>),
+    /// A context that outlives it.
+    Shared(&'static GpuContext),
+}
+
+impl Deref for GpuHandle {
+    type Target = GpuContext;
+
+    fn deref(&self) -> &GpuContext {
+        match self {
+            GpuHandle::Owned(ctx) => ctx,
+            GpuHandle::Shared(ctx) => ctx,
+        }
+    }
+}
+
+impl From<GpuContext> for GpuHandle {
+    fn from(ctx: GpuContext) -> GpuHandle {
+        GpuHandle::Owned(Box::new(ctx))
+    }
+}
+
+impl From<&'static GpuContext> for GpuHandle {
+    fn from(ctx: &'static GpuContext) -> GpuHandle {
+        GpuHandle::Shared(ctx)
+    }
+}
+
+/// Tuning of the GPU backend; the defaults suit production runs.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct GpuOptions {
+    /// Cap on the bytes of one storage binding of a bond array (default: the adapter's limit).
+    /// Tests lower it to exercise the splitting of bond arrays across bindings.
+    pub max_binding_bytes: Option<u64>,
+    /// Contact candidates stored per particle at the start (grown, with a replay of the frame,
+    /// when a particle needs more).
+    pub contact_cap: u32,
+    /// Break events one frame may hold at the start (grown, with a replay of the frame, when
+    /// more break); default min(bonds, 2^20).
+    pub event_capacity: Option<u32>,
+}
+
+impl Default for GpuOptions {
+    fn default() -> GpuOptions {
+        GpuOptions { max_binding_bytes: None, contact_cap: 16, event_capacity: None }
+    }
+}
+
+/// A running simulation on the GPU: the same model and results (to f32 rounding) as the CPU
+/// [`crate::CpuSimulation`], one particle per invocation. See the module docs of [`crate::gpu`].
+#[derive(Debug)]
+pub struct GpuSimulation {
+    pub(super) ctx: GpuHandle,
+    pub(super) model: Model,
+    pub(super) kernels: Kernels,
+    pub(super) buffers: Buffers,
+    pub(super) ranges: Vec<RangeBuffers>,
+    pub(super) groups: BindGroups,
+    pub(super) params: Params,
+    pub(super) particle_grid: DispatchGrid,
+    /// Static sphere data (heading and radius; stiffness), projectiles then indenters.
+    pub(super) spheres: Vec<MovingSphere>,
+    pub(super) rest: [Vec<f32>; 3],
+    pub(super) mass: Vec<f32>,
+    pub(super) inverse_mass: Vec<f32>,
+    bond_count: Vec<u32>,
+    pub(super) rows: Vec<[u32; 4]>,
+    pub(super) offsets: Vec<u64>,
+    pub(super) neighbor: Vec<u32>,
+    pub(super) range_words: Vec<usize>,
+    pub(super) range_of_group: Vec<u32>,
+    pub(super) stored_entries: usize,
+    stable_dt_s: f64,
+    /// Host-side state as of the last frame boundary.
+    pub(super) dynamics: Dynamics,
+    pub(super) broken: Vec<u32>,
+    pub(super) bond_energy: Vec<f64>,
+    pub(super) events: Vec<BreakEvent>,
+    /// What ran since the snapshot (replayed after an overflow).
+    pub(super) history: Vec<Replay>,
+    /// Steps taken (the GPU clock mirrors it).
+    pub(super) step: u64,
+}
+
+fn layout_error(error: GpuLayoutError) -> GpuError {
+    GpuError::Split { message: error.to_string() }
+}
+
+impl GpuSimulation {
+    /// A body at rest in its reference shape, on the GPU. `factors` are art-direction multipliers
+    /// of the thresholds, one per particle-file bond entry.
+    pub fn new(
+        ctx: GpuHandle,
+        particles: &ParticleSet,
+        model: Model,
+        factors: Option<&[f32]>,
+        correction: StiffnessCorrection,
+        options: &GpuOptions,
+    ) -> Result<GpuSimulation, GpuError> {
+        let n = particles.len();
+        if n == 0 {
+            return Err(GpuError::Split { message: "the particle set is empty".into() });
+        }
+        let binding = ctx.max_storage_binding_bytes();
+        let max_binding = options.max_binding_bytes.map_or(binding, |limit| limit.min(binding));
+        let layout =
+            GpuBondLayout::new(particles, model.bond_constant, model.threshold_scale, factors, correction, max_binding)
+                .map_err(layout_error)?;
+        if 32 * n as u64 > binding {
+            return Err(GpuError::Split {
+                message: format!(
+                    "{n} particles need {} bytes of particle records, more than one storage binding of {} holds \
+                     ({binding} bytes)",
+                    32 * n,
+                    ctx.describe()
+                ),
+            });
+        }
+        let rest = [0, 1, 2].map(|axis| particles.rest_position_m.iter().map(|p| p[axis]).collect::<Vec<f32>>());
+        let mass: Vec<f32> = particles.volume_m3.iter().map(|v| (f64::from(*v) * model.density_kg_m3) as f32).collect();
+        let inverse_mass: Vec<f32> = mass.iter().map(|m| 1.0 / m).collect();
+        let bond_count: Vec<u32> = (0..n).map(|i| particles.bonds.row(i).len() as u32).collect();
+        let stable_dt_s = stable_dt(&layout, &particles.bonds.rest_length_m, &mass);
+        let spheres: Vec<MovingSphere> = model.projectiles.iter().chain(&model.indenters).copied().collect();
+
+        let contact = model.contact_stiffness_pa > 0.0;
+        let table = (2 * n).next_power_of_two().max(16);
+        let scan_blocks = table.div_ceil(SCAN_BLOCK);
+        let particle_grid = ctx.dispatch_grid(n.div_ceil(WG) as u64)?;
+        let table_grid = ctx.dispatch_grid(table.div_ceil(WG) as u64)?;
+        let block_grid = ctx.dispatch_grid(scan_blocks as u64)?;
+        let distance = model.contact_distance_m;
+        let skin = SKIN_FRACTION * distance;
+        let unique = particles.bonds.unique_count();
+        let event_capacity = options.event_capacity.unwrap_or(unique.clamp(16, 1 << 20) as u32).max(1);
+        let params = Params {
+            n: n as u32,
+            batch_first_step: 0,
+            dt: model.dt_s as f32,
+            half_dt: 0.5 * model.dt_s as f32,
+            alpha: model.alpha,
+            break_rule: match model.break_rule {
+                BreakRule::Max => 0,
+                BreakRule::Min => 1,
+            },
+            gravity_x: model.gravity_m_s2[0],
+            gravity_y: model.gravity_m_s2[1],
+            gravity_z: model.gravity_m_s2[2],
+            contact_enabled: u32::from(contact),
+            contact_stiffness: model.contact_stiffness_pa,
+            contact_distance: distance,
+            skin_limit: if contact { 0.25 * skin * skin } else { f32::MAX },
+            reach: distance + skin,
+            inverse_cell: 1.0 / (2.0 * (distance + skin)),
+            table_mask: (table - 1) as u32,
+            contact_cap: options.contact_cap.max(1),
+            floor_enabled: u32::from(model.floor.is_some()),
+            floor_height: model.floor.map_or(0.0, |f| f.height_m),
+            restitution: model.floor.map_or(0.0, |f| f.restitution),
+            projectiles: model.projectiles.len() as u32,
+            indenters: model.indenters.len() as u32,
+            event_capacity,
+            power_count: layout.workgroups(),
+            particle_grid_x: particle_grid.x,
+            particle_grid_y: particle_grid.y,
+            table_grid_x: table_grid.x,
+            table_grid_y: table_grid.y,
+            block_grid_x: block_grid.x,
+            block_grid_y: block_grid.y,
+            scan_blocks: scan_blocks as u32,
+            pad: 0,
+        };
+
+        let kernels = Kernels::new(&ctx)?;
+        let buffers = Buffers::new(&ctx, particles, &mass, &inverse_mass, &spheres, &params, &layout)?;
+        let mut ranges = Vec::with_capacity(layout.ranges.len());
+        for part in &layout.ranges {
+            ranges.push(RangeBuffers::new(&ctx, part)?);
+        }
+        let range_words = ranges.iter().map(|r| r.words).collect();
+        let stored_entries = layout.stored_entries();
+        let zero3 = || [vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]];
+        let groups = BindGroups::new(&ctx, &kernels, &buffers, &ranges, contact)?;
+        let mut simulation = GpuSimulation {
+            model,
+            kernels,
+            buffers,
+            ranges,
+            groups,
+            params,
+            particle_grid,
+            spheres,
+            rest,
+            mass,
+            inverse_mass,
+            bond_count,
+            rows: layout.rows,
+            offsets: particles.bonds.offsets.clone(),
+            neighbor: particles.bonds.neighbor.clone(),
+            range_words,
+            range_of_group: layout.range_of_group,
+            stored_entries,
+            stable_dt_s,
+            dynamics: Dynamics {
+                step: 0,
+                disp: zero3(),
+                vel: zero3(),
+                force: zero3(),
+                boost: vec![0.0; n],
+                external_work_j: 0.0,
+            },
+            broken: vec![0; n],
+            bond_energy: vec![0.0; n],
+            events: Vec::new(),
+            history: Vec::new(),
+            step: 0,
+            ctx,
+        };
+        simulation.standalone_force_pass()?;
+        Ok(simulation)
+    }
+
+    /// The adapter.
+    pub fn describe(&self) -> String {
+        self.ctx.describe()
+    }
+
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.mass.len()
+    }
+
+    /// True without particles (never: construction refuses an empty set).
+    pub fn is_empty(&self) -> bool {
+        self.mass.is_empty()
+    }
+
+    /// Bond ranges (one binding each per bond array).
+    pub fn ranges(&self) -> usize {
+        self.ranges.len()
+    }
+
+    /// Bond entries stored (both directions, padding of the sliced layout included).
+    pub fn stored_entries(&self) -> usize {
+        self.stored_entries
+    }
+
+    /// Contact candidates stored per particle now.
+    pub fn contact_cap(&self) -> u32 {
+        self.params.contact_cap
+    }
+
+    /// Break events one frame may hold now.
+    pub fn event_capacity(&self) -> u32 {
+        self.params.event_capacity
+    }
+}
+
+/// min over particles of sqrt(2 m_i / sum_j k_ij / L_ij), as the CPU's `stable_dt_s`.
+fn stable_dt(layout: &GpuBondLayout, rest_length: &[f32], mass: &[f32]) -> f64 {
+    let n = mass.len();
+    (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let row = layout.rows[i];
+            let part = &layout.ranges[layout.range_of(i)];
+            let stiffness: f64 = (0..row[2] as usize)
+                .map(|k| {
+                    let e = row[0] as usize + k * SLICE;
+                    f64::from(part.stiffness[e]) / f64::from(rest_length[row[3] as usize + k])
+                })
+                .sum();
+            if stiffness > 0.0 { (2.0 * f64::from(mass[i]) / stiffness).sqrt() } else { f64::INFINITY }
+        })
+        .reduce(|| f64::INFINITY, f64::min)
+}
+
+/// A GPU error met while running, as the backend-neutral error of [`Backend`].
+impl From<GpuError> for DeviceError {
+    fn from(error: GpuError) -> DeviceError {
+        DeviceError::new(error)
+    }
+}
+
+impl Backend for GpuSimulation {
+    fn describe(&self) -> String {
+        format!("GPU: {}", self.ctx.describe())
+    }
+
+    fn len(&self) -> usize {
+        self.mass.len()
+    }
+
+    fn model(&self) -> &Model {
+        &self.model
+    }
+
+    fn advance(&mut self, steps: u64) -> Result<(), DeviceError> {
+        self.advance_steps(steps)?;
+        self.history.push(Replay::Steps(steps));
+        Ok(())
+    }
+
+    fn finish_frame(&mut self) -> Result<Vec<BreakEvent>, DeviceError> {
+        self.sync()?;
+        Ok(std::mem::take(&mut self.events))
+    }
+
+    fn dynamics(&self) -> &Dynamics {
+        &self.dynamics
+    }
+
+    fn energy(&self) -> Energy {
+        let size = chunk_size(self.len());
+        let kinetic_j = kinetic_energy_j(&self.mass, &self.dynamics.vel, size);
+        Energy { kinetic_j, bond_j: self.bond_energy.iter().sum() }
+    }
+
+    fn bond_energy_per_particle(&self) -> Vec<f64> {
+        self.bond_energy.clone()
+    }
+
+    fn positions(&self) -> [Vec<f32>; 3] {
+        [0, 1, 2].map(|a| self.rest[a].iter().zip(&self.dynamics.disp[a]).map(|(x, u)| x + u).collect())
+    }
+
+    fn damage(&self) -> Vec<f32> {
+        self.broken
+            .iter()
+            .zip(&self.bond_count)
+            .map(|(broken, count)| if *count == 0 { 0.0 } else { *broken as f32 / *count as f32 })
+            .collect()
+    }
+
+    fn mass(&self) -> &[f32] {
+        &self.mass
+    }
+
+    fn rest(&self) -> [&[f32]; 3] {
+        [&self.rest[0], &self.rest[1], &self.rest[2]]
+    }
+
+    fn stable_dt_s(&self) -> f64 {
+        self.stable_dt_s
+    }
+
+    fn restore(&mut self, dynamics: Dynamics, broken_bonds: &[u64]) -> Result<(), DeviceError> {
+        self.dynamics = dynamics;
+        self.events.clear();
+        self.upload(Some(broken_bonds))?;
+        Ok(self.sync()?)
+    }
+
+    fn set_velocity(&mut self, velocity: &dyn Fn(usize, [f32; 3]) -> [f32; 3]) -> Result<(), DeviceError> {
+        self.sync()?;
+        for i in 0..self.len() {
+            let v = velocity(i, [0, 1, 2].map(|a| self.rest[a][i]));
+            for (axis, value) in v.into_iter().enumerate() {
+                self.dynamics.vel[axis][i] = value;
+            }
+        }
+        self.upload(None)?;
+        Ok(self.sync()?)
+    }
+
+    fn set_displacement(&mut self, displacement: &dyn Fn(usize, [f32; 3]) -> [f32; 3]) -> Result<(), DeviceError> {
+        self.sync()?;
+        for i in 0..self.len() {
+            let u = displacement(i, [0, 1, 2].map(|a| self.rest[a][i]));
+            for (axis, value) in u.into_iter().enumerate() {
+                self.dynamics.disp[axis][i] = value;
+            }
+        }
+        self.upload(None)?;
+        Ok(self.standalone_force_pass()?)
+    }
+}

@@ -1,0 +1,61 @@
+//! Twin of `collisions.wgsl`: the contact force of eq. 6 over each particle's candidates.
+
+use super::common::{U4, V4, add, dot3, scale, sub, xyz};
+use crate::gpu::wgsl_structs::{Params, Range, SLICE};
+
+/// `bonded` of `collisions.wgsl`: an intact bond between the row's particle and j.
+fn bonded(row: U4, j: u32, neighbor: &[u32], bits: &[u32]) -> bool {
+    let (mut lo, mut hi) = (0u32, row[2]);
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if neighbor[(row[0] + mid * SLICE as u32) as usize] < j {
+            lo = mid + 1;
+        } else {
+            hi = mid;
+        }
+    }
+    if lo >= row[2] || neighbor[(row[0] + lo * SLICE as u32) as usize] != j {
+        return false;
+    }
+    bits[(row[1] + (lo >> 5) * SLICE as u32) as usize] & (1 << (lo & 31)) == 0
+}
+
+/// Twin of `collisions.wgsl`.
+pub fn collisions(
+    params: &Params,
+    range: &Range,
+    body: &[V4],
+    rows: &[U4],
+    contact_count: &[u32],
+    contact_list: &[u32],
+    contact_force: &mut [V4],
+    neighbor: &[u32],
+    bits: &[u32],
+) {
+    for local in 0..range.count as usize {
+        let i = range.first as usize + local;
+        let count = contact_count[i] as usize;
+        if count == 0 {
+            continue;
+        }
+        let row = rows[i];
+        let x = xyz(body[2 * i]);
+        let p = add(x, xyz(body[2 * i + 1]));
+        let mut sum = [0.0f32; 3];
+        for m in 0..count {
+            let j = contact_list[i * params.contact_cap as usize + m];
+            let d = sub(p, add(xyz(body[2 * j as usize]), xyz(body[2 * j as usize + 1])));
+            let r2 = dot3(d, d);
+            let xi = sub(x, xyz(body[2 * j as usize]));
+            let reach = crate::contact::contact_reach(params.contact_distance, dot3(xi, xi));
+            if r2 >= reach * reach || r2 == 0.0 || bonded(row, j, neighbor, bits) {
+                continue;
+            }
+            let r = r2.sqrt();
+            let gap = reach - r;
+            let s = params.contact_stiffness * gap * gap / r;
+            sum = add(sum, scale(d, s));
+        }
+        contact_force[i] = [sum[0], sum[1], sum[2], 0.0];
+    }
+}

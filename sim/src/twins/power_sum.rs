@@ -1,0 +1,31 @@
+//! Twin of `power_sum.wgsl`: the step's external power into the work done (a two-float sum).
+
+use crate::gpu::wgsl_structs::{Params, Status};
+
+/// Twin of `power_sum.wgsl`.
+pub fn power_sum(params: &Params, power: &[f32], status: &mut Status) {
+    let mut partial = [0.0f32; 256];
+    for lid in 0..256 {
+        let mut k = lid;
+        while k < params.power_count as usize {
+            partial[lid] += power[k];
+            k += 256;
+        }
+    }
+    let mut stride = 128;
+    while stride > 0 {
+        for lid in 0..stride {
+            partial[lid] += partial[lid + stride];
+        }
+        stride /= 2;
+    }
+    let add = partial[0] * params.dt;
+    let hi = status.work_hi;
+    let s = hi + add;
+    let b = s - hi;
+    let error = (hi - (s - b)) + (add - b);
+    let lo = status.work_lo + error;
+    let total = s + lo;
+    status.work_lo = lo - (total - s);
+    status.work_hi = total;
+}

@@ -1,0 +1,207 @@
+//! Twin of `spring_forces.wgsl`: spring forces fused with body forces: each particle's bonds
+//! (stretch, break, force), the contact force, gravity, projectiles and indenters; the next boost;
+//! break events; each workgroup's external power.
+
+use super::common::{U4, V4, add, dot3, scale, sub, xyz};
+use crate::gpu::wgsl_structs::{Params, Range, SLICE, Status, WG};
+
+/// `cube_root` of `spring_forces.wgsl`: pow, then one Newton step.
+pub fn cube_root(x: f32) -> f32 {
+    if x <= 0.0 {
+        return 0.0;
+    }
+    let c = x.powf(1.0 / 3.0);
+    c - (c * c * c - x) / (3.0 * c * c)
+}
+
+/// `projectile_force` of `spring_forces.wgsl`.
+fn projectile_force(spheres: &[V4], s: usize, c: [f32; 3], p: [f32; 3]) -> [f32; 3] {
+    let heading = spheres[2 * s];
+    let radius = heading[3];
+    let stiffness = spheres[2 * s + 1][0];
+    let d = sub(p, c);
+    let r = dot3(d, d).sqrt();
+    if !(r >= 0.75 * radius && r <= 1.5 * radius) {
+        return [0.0; 3];
+    }
+    let shape = 16.0 * (r - 0.75 * radius) * (r - 1.5 * radius) * (r - 1.5 * radius);
+    let root = cube_root(shape);
+    let magnitude = stiffness * root * root;
+    let away = d.map(|x| x / r);
+    let mut direction = add(away, xyz(heading));
+    let norm = dot3(direction, direction).sqrt();
+    if norm > 1e-6 {
+        direction = direction.map(|x| x / norm);
+    } else {
+        direction = away;
+    }
+    scale(direction, magnitude)
+}
+
+/// `indenter_force` of `spring_forces.wgsl`.
+fn indenter_force(spheres: &[V4], s: usize, c: [f32; 3], p: [f32; 3]) -> [f32; 3] {
+    let radius = spheres[2 * s][3];
+    let stiffness = spheres[2 * s + 1][0];
+    let d = sub(p, c);
+    let r = dot3(d, d).sqrt();
+    if r >= radius || r == 0.0 {
+        return [0.0; 3];
+    }
+    let gap = radius - r;
+    scale(d, stiffness * gap * gap / r)
+}
+
+/// Twin of `spring_forces.wgsl` (the workgroup power sums in the shader's tree order).
+pub fn spring_forces(
+    params: &Params,
+    range: &Range,
+    body: &[V4],
+    vel: &[V4],
+    force: &mut [V4],
+    boost_next: &mut [f32],
+    rows: &[U4],
+    broken_count: &mut [u32],
+    contact_count: &[u32],
+    contact_force: &[V4],
+    neighbor: &[u32],
+    stiffness: &[f32],
+    threshold: &[f32],
+    bits: &mut [u32],
+    power: &mut [f32],
+    status: &mut Status,
+    spheres: &[V4],
+    events: &mut [[u32; 2]],
+) {
+    let wg = WG;
+    for group in 0..range.workgroups as usize {
+        let mut partial = [0.0f32; WG];
+        for lid in 0..wg {
+            let local = group * wg + lid;
+            if local < range.count as usize {
+                partial[lid] = particle(
+                    params,
+                    range.first as usize + local,
+                    body,
+                    vel,
+                    force,
+                    boost_next,
+                    rows,
+                    broken_count,
+                    contact_count,
+                    contact_force,
+                    neighbor,
+                    stiffness,
+                    threshold,
+                    bits,
+                    status,
+                    spheres,
+                    events,
+                );
+            }
+        }
+        let mut stride = wg / 2;
+        while stride > 0 {
+            for lid in 0..stride {
+                partial[lid] += partial[lid + stride];
+            }
+            stride /= 2;
+        }
+        power[range.first_workgroup as usize + group] = partial[0];
+    }
+}
+
+/// `particle` of `spring_forces.wgsl`: all forces on particle i; returns F_ext . v.
+fn particle(
+    params: &Params,
+    i: usize,
+    body: &[V4],
+    vel: &[V4],
+    force: &mut [V4],
+    boost_next: &mut [f32],
+    rows: &[U4],
+    broken_count: &mut [u32],
+    contact_count: &[u32],
+    contact_force: &[V4],
+    neighbor: &[u32],
+    stiffness: &[f32],
+    threshold: &[f32],
+    bits: &mut [u32],
+    status: &mut Status,
+    spheres: &[V4],
+    events: &mut [[u32; 2]],
+) -> f32 {
+    let own = body[2 * i];
+    let record = body[2 * i + 1];
+    let row = rows[i];
+    let step = status.step;
+    let mut f = [0.0f32; 3];
+    let mut smallest = 0.0f32;
+    let mut broke = 0u32;
+    let mut word = 0u32;
+    let mut changed = false;
+    for k in 0..row[2] {
+        let bit = k & 31;
+        let w = (row[1] + (k >> 5) * SLICE as u32) as usize;
+        if bit == 0 {
+            word = bits[w];
+            changed = false;
+        }
+        if word & (1 << bit) == 0 {
+            let e = (row[0] + k * SLICE as u32) as usize;
+            let j = neighbor[e] as usize;
+            let other = body[2 * j];
+            let other_record = body[2 * j + 1];
+            let xi = sub(xyz(other), xyz(own));
+            let eta = sub(xyz(other_record), xyz(record));
+            let y = add(xi, eta);
+            let length = dot3(y, y).sqrt();
+            let rest = dot3(xi, xi).sqrt();
+            let growth = 2.0 * dot3(xi, eta) + dot3(eta, eta);
+            let denominator = rest * (length + rest) * length;
+            let inverse = if denominator > 0.0 { 1.0 / denominator } else { 0.0 };
+            let k_ij = stiffness[e];
+            let s = if k_ij > 0.0 { growth * length * inverse } else { 0.0 };
+            let boost =
+                if params.break_rule != 0 { record[3].min(other_record[3]) } else { record[3].max(other_record[3]) };
+            if s > threshold[e] + boost {
+                word |= 1 << bit;
+                changed = true;
+                broke += 1;
+                if i < j {
+                    let slot = status.events;
+                    status.events += 1;
+                    if slot < params.event_capacity {
+                        events[slot as usize] = [step, row[3] + k];
+                    }
+                }
+            } else {
+                f = add(f, scale(y, k_ij * growth * inverse));
+                smallest = smallest.min(s);
+            }
+        }
+        if changed && (bit == 31 || k + 1 == row[2]) {
+            bits[w] = word;
+            changed = false;
+        }
+    }
+    if broke != 0 {
+        broken_count[i] += broke;
+    }
+    boost_next[i] = smallest * -params.alpha;
+    if params.contact_enabled != 0 && contact_count[i] != 0 {
+        f = add(f, xyz(contact_force[i]));
+    }
+    let p = add(xyz(own), xyz(record));
+    let mut external = scale([params.gravity_x, params.gravity_y, params.gravity_z], own[3]);
+    let spheres_now = (params.projectiles + params.indenters) as usize;
+    let centres = 2 * spheres_now + (step - params.batch_first_step) as usize * spheres_now;
+    for s in 0..params.projectiles as usize {
+        external = add(external, projectile_force(spheres, s, xyz(spheres[centres + s]), p));
+    }
+    for s in params.projectiles as usize..spheres_now {
+        external = add(external, indenter_force(spheres, s, xyz(spheres[centres + s]), p));
+    }
+    let total = add(f, external);
+    force[i] = [total[0], total[1], total[2], 0.0];
+    dot3(external, xyz(vel[i]))
+}
