@@ -14,7 +14,7 @@ pub(crate) fn temporary_path(path: &Path) -> PathBuf {
 }
 
 /// Deletes the temporary files that killed processes left in `folder` and its subfolders (two
-/// levels deep, as deep as a scene's output goes): files named like [`temporary_path`]'s whose
+/// levels deep, as deep as a scene's output goes): files named like `temporary_path`'s whose
 /// process no longer runs. A file of a live process (another run writing here) is left alone.
 /// Returns how many were deleted; a folder that does not exist has none.
 pub fn remove_abandoned_temporaries(folder: &Path) -> io::Result<usize> {

@@ -21,7 +21,7 @@ pub struct CheckpointMeta {
     pub break_log_bytes: u64,
     /// Bonds broken so far.
     pub broken_bonds: u64,
-    /// Hash of the [sim] and [material] settings.
+    /// Hash of the `[sim]` and `[material]` settings.
     pub settings_hash: u32,
     /// Checksum of the particle file simulated.
     pub particles_checksum: u32,
@@ -48,7 +48,7 @@ pub struct CheckpointState {
     pub boost: Vec<f32>,
 }
 
-/// The borrowed per-particle arrays [`write`] stores: displacement, velocity, force (x, y, z
+/// The borrowed per-particle arrays [`write()`] stores: displacement, velocity, force (x, y, z
 /// arrays) and boost.
 #[derive(Debug, Clone, Copy)]
 pub struct StateRef<'a> {

@@ -31,7 +31,7 @@ fn matrix(transform: &PieceTransform) -> [[f64; 4]; 4] {
     ]
 }
 
-/// Writes `path` (atomically): meshes[p] with transforms[frame index][p], frames numbered from
+/// Writes `path` (atomically): `meshes[p]` with `transforms[frame index][p]`, frames numbered from
 /// `first_frame`, `fps` time codes per second.
 pub fn write_usda(
     path: &Path,
