@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use shatter_core::NoProgress;
 use shatter_preprocess::bonds::{BondParams, build_bonds};
-use shatter_preprocess::grid::fill_box;
+use shatter_preprocess::samplers::grid::fill_box;
 
 fn main() {
     let side: usize = std::env::args().skip(1).find_map(|arg| arg.parse().ok()).unwrap_or(100);

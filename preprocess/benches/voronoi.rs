@@ -11,10 +11,10 @@ use std::time::Instant;
 
 use glam::DVec3;
 use shatter_geometry::mesh::TriangleMesh;
-use shatter_preprocess::blue_noise::{poisson_disk, poisson_disk_with_count};
+use shatter_preprocess::clipped_voronoi::clipped_voronoi;
 use shatter_preprocess::mesh_query::MeshQuery;
 use shatter_preprocess::repair::repair;
-use shatter_preprocess::voronoi::clipped_voronoi;
+use shatter_preprocess::samplers::blue_noise::{poisson_disk, poisson_disk_with_count};
 
 fn main() {
     println!("Voronoi sampler benchmark, {} threads available", rayon::current_num_threads());

@@ -4,8 +4,6 @@
 
 use glam::DVec3;
 
-use crate::grid::morton_code;
-
 /// Cells per axis of the quantization (21 bits, the Morton code's width per axis).
 const CELLS: f64 = (1u64 << 21) as f64;
 
@@ -27,9 +25,31 @@ pub fn z_order(points: &[DVec3]) -> Vec<u32> {
     keyed.into_iter().map(|(_, i)| i).collect()
 }
 
+/// Interleaves the low 21 bits of each coordinate: x in bit 0, y in bit 1, z in bit 2, ...
+pub(crate) fn morton_code(cell: [usize; 3]) -> u64 {
+    fn spread(v: usize) -> u64 {
+        let mut x = (v as u64) & 0x1f_ffff;
+        x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
+        x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
+        x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
+        x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
+        (x | (x << 2)) & 0x1249_2492_4924_9249
+    }
+    spread(cell[0]) | (spread(cell[1]) << 1) | (spread(cell[2]) << 2)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn morton_code_interleaves_bits() {
+        assert_eq!(morton_code([1, 0, 0]), 1);
+        assert_eq!(morton_code([0, 1, 0]), 2);
+        assert_eq!(morton_code([0, 0, 1]), 4);
+        assert_eq!(morton_code([3, 3, 3]), 63);
+        assert_eq!(morton_code([(1 << 21) - 1, 0, 0]), 0x1249_2492_4924_9249);
+    }
 
     #[test]
     fn points_follow_the_z_curve_and_ties_keep_their_order() {

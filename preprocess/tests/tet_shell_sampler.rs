@@ -20,7 +20,7 @@ use shatter_geometry::mesh::TriangleMesh;
 use shatter_preprocess::inside::{FillRule, inside_cells};
 use shatter_preprocess::lattice::Lattice;
 use shatter_preprocess::mesh_query::MeshQuery;
-use shatter_preprocess::tet_shell::{CORE, ShellParams, shell_points};
+use shatter_preprocess::samplers::tet_shell::{CORE, ShellParams, shell_points};
 use shatter_preprocess::{Preprocessed, preprocess};
 use support::load;
 

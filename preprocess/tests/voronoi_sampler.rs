@@ -9,9 +9,9 @@ use std::time::Instant;
 use glam::DVec3;
 use shatter_geometry::PointKdTree;
 use shatter_geometry::mesh::TriangleMesh;
-use shatter_preprocess::blue_noise::poisson_disk_with_count;
+use shatter_preprocess::clipped_voronoi::{ClippedVoronoi, bisector, clipped_voronoi};
 use shatter_preprocess::mesh_query::MeshQuery;
-use shatter_preprocess::voronoi::{ClippedVoronoi, bisector, clipped_voronoi};
+use shatter_preprocess::samplers::blue_noise::poisson_disk_with_count;
 use support::polytope_vertices;
 
 mod support;

@@ -2,9 +2,16 @@
 //! a box or the inside of a closed mesh; adjacent cubes share a face.
 
 use glam::DVec3;
+use shatter_core::Progress;
+use shatter_core::config::PipelineConfig;
+use shatter_core::particles::{Elements, ParticleSet};
 
+use crate::bonds::{BondParams, build_bonds};
 use crate::inside::{FillRule, InsideCells, inside_cells};
 use crate::lattice::Lattice;
+use crate::order::morton_code;
+use crate::preprocess_driver::PreprocessError;
+use crate::samplers::particle_assembly::{Placement, particle_meta};
 use shatter_geometry::mesh::TriangleMesh;
 
 /// The largest lattice (in cells, filled or not) the grid sampler will allocate.
@@ -96,32 +103,52 @@ fn sample_cells(lattice: Lattice, keep: impl Fn(usize) -> bool) -> GridSample {
     GridSample { lattice, cells, adjacency }
 }
 
-/// Interleaves the low 21 bits of each coordinate: x in bit 0, y in bit 1, z in bit 2, ...
-pub(crate) fn morton_code(cell: [usize; 3]) -> u64 {
-    fn spread(v: usize) -> u64 {
-        let mut x = (v as u64) & 0x1f_ffff;
-        x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
-        x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
-        x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
-        x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
-        (x | (x << 2)) & 0x1249_2492_4924_9249
+// The sample as particles, for the dispatch in `samplers/mod.rs`.
+
+/// A lattice too large for the spacing, as an error of the `geometry.spacing_m` setting.
+pub(super) fn spacing_error(spacing: f64) -> impl Fn(GridError) -> PreprocessError {
+    move |GridError::TooLarge(message)| PreprocessError::Setting {
+        key: "geometry.spacing_m",
+        value: spacing.to_string(),
+        message,
     }
-    spread(cell[0]) | (spread(cell[1]) << 1) | (spread(cell[2]) << 2)
+}
+
+/// Cube particles on the lattice: world positions, volumes, masses, bonds and face adjacency.
+pub(super) fn grid_particles(config: &PipelineConfig, sample: &GridSample, progress: &dyn Progress) -> ParticleSet {
+    let lambda = config.geometry.spacing_m;
+    let delta = config.horizon_m();
+    let placement = Placement::new(&config.geometry.transform);
+    let points = sample.points();
+    let rest_position_m: Vec<[f32; 3]> = points.iter().map(|p| placement.world(*p)).collect();
+    let volume = lambda.powi(3);
+    let mean_threshold = config.material.mean_critical_stretch(delta);
+    let params = BondParams {
+        delta_m: delta,
+        mean_threshold,
+        jitter: config.material.threshold_jitter,
+        seed: config.scene.seed,
+    };
+    let bonds = build_bonds(&points, &rest_position_m, &params, progress);
+    let n = points.len();
+    ParticleSet {
+        meta: particle_meta(config, lambda, delta, mean_threshold),
+        rest_position_m,
+        volume_m3: vec![volume as f32; n],
+        mass_kg: vec![(volume * config.material.density_kg_m3) as f32; n],
+        elements: Elements::Cubes {
+            half_size_m: vec![(lambda * 0.5) as f32; n],
+            orientation: placement.rotation.as_quat().to_array(),
+        },
+        bonds,
+        adjacency: sample.adjacency.clone(),
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::test_meshes::cube;
-
-    #[test]
-    fn morton_code_interleaves_bits() {
-        assert_eq!(morton_code([1, 0, 0]), 1);
-        assert_eq!(morton_code([0, 1, 0]), 2);
-        assert_eq!(morton_code([0, 0, 1]), 4);
-        assert_eq!(morton_code([3, 3, 3]), 63);
-        assert_eq!(morton_code([(1 << 21) - 1, 0, 0]), 0x1249_2492_4924_9249);
-    }
 
     #[test]
     fn a_box_snaps_to_whole_cubes_and_knows_its_faces() {

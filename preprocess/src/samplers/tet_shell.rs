@@ -19,8 +19,8 @@
 //!    surface, wherever it exists.
 //! 3. **Thinning**: the projected candidates in a seeded random order; each is kept when no kept
 //!    point of its layer is closer than `r` (with a relative margin of 1e-12 on the squared
-//!    distance that covers its rounding, as [`crate::blue_noise`] does). This is Poisson disk
-//!    sampling on the layer: no two points of a layer are closer than `r`, and the candidates
+//!    distance that covers its rounding, as [`blue_noise`](super::blue_noise) does). This is Poisson
+//!    disk sampling on the layer: no two points of a layer are closer than `r`, and the candidates
 //!    being dense, every point of the layer is within about `r` of a kept point.
 //!
 //! A layer that comes out empty (the solid is nowhere thicker than twice its depth) ends the
@@ -29,8 +29,8 @@
 //! Points of different layers are at least `h (1 - 2e-9)` apart, because the distance to the
 //! surface changes by at most the distance moved (it is 1-Lipschitz). So no two points are closer
 //! than `min(r, h)` (up to that margin). With `filled_core`, blue-noise points
-//! ([`crate::blue_noise::poisson_disk`] at `r`) deeper than one more layer spacing under the
-//! innermost layer fill the core.
+//! ([`blue_noise::poisson_disk`](super::blue_noise::poisson_disk) at `r`) deeper than one more
+//! layer spacing under the innermost layer fill the core.
 //!
 //! # Tets
 //!
@@ -55,13 +55,17 @@
 use glam::DVec3;
 use rayon::prelude::*;
 use robust::{Coord3D, orient3d};
+use shatter_core::config::PipelineConfig;
+use shatter_core::particles::{Elements, ParticleSet};
 use shatter_core::random::{SplitMix64, splitmix64};
 use shatter_core::{NoProgress, Progress};
 
-use crate::blue_noise::{MAX_GRID_CUBES, poisson_disk};
 use crate::delaunay::{DelaunayError, NO_NEIGHBOR, tet_volume, tetrahedralize};
 use crate::mesh_query::MeshQuery;
 use crate::order::z_order;
+use crate::preprocess_driver::PreprocessError;
+use crate::samplers::blue_noise::{MAX_GRID_CUBES, poisson_disk};
+use crate::samplers::particle_assembly::{Placement, assemble, check_count};
 use shatter_geometry::mesh::TriangleMesh;
 
 /// Candidates per `r^2` of surface area (`r` the point spacing). Thinning keeps about 0.6 per
@@ -79,7 +83,7 @@ pub const MAX_CANDIDATES: usize = 1 << 27;
 /// Projection steps a candidate gets to settle on its layer.
 const MAX_PROJECTION_STEPS: usize = 8;
 
-/// Relative margin on the squared minimum distance (as in [`crate::blue_noise`]).
+/// Relative margin on the squared minimum distance (as in [`blue_noise`](super::blue_noise)).
 const DISTANCE_MARGIN: f64 = 1e-12;
 
 /// The most cells the thinning grid allocates (larger grids use larger cells).
@@ -525,6 +529,71 @@ pub fn thin(points: &[DVec3], r: f64) -> Option<Vec<DVec3>> {
         }
     }
     Some(kept)
+}
+
+// The shell as particles, for the dispatch in `samplers/mod.rs`.
+
+/// The tets of the layered shell as particles: barycentres, tet volumes, the tets in the world.
+pub(super) fn tet_shell_particles(
+    config: &PipelineConfig,
+    mesh: &TriangleMesh,
+    query: &MeshQuery,
+    progress: &dyn Progress,
+    notes: &mut Vec<String>,
+) -> Result<ParticleSet, PreprocessError> {
+    let geometry = &config.geometry;
+    let params = ShellParams {
+        spacing: geometry.spacing_m,
+        layers: geometry.tet_shell_layers(),
+        layer_spacing: geometry.tet_shell_layer_spacing_m(),
+        filled_core: geometry.tet_shell.filled_core,
+        seed: config.scene.seed,
+        keep_thick_surface_tets: true,
+    };
+    if f64::from(params.layers) <= geometry.horizon_factor {
+        notes.push(format!(
+            "geometry.tet_shell.layers = {} is not more than geometry.horizon_factor = {}: the shell is thinner than \
+             the horizon (Levine et al. found that the layers should outnumber N)",
+            params.layers, geometry.horizon_factor
+        ));
+    }
+    let placement = Placement::new(&geometry.transform);
+    let shell = tet_shell(mesh, query, &params, &|p| placement.world(p), progress);
+    let shell = shell.map_err(|error| match error {
+        ShellError::TooFine { .. } | ShellError::Empty => PreprocessError::Setting {
+            key: "geometry.spacing_m",
+            value: geometry.spacing_m.to_string(),
+            message: error.to_string(),
+        },
+        ShellError::Delaunay(_) => PreprocessError::Sampler { sampler: "tet_shell", message: error.to_string() },
+    })?;
+    check_count("geometry.spacing_m", geometry.spacing_m.to_string(), shell.tets.len())?;
+    notes.push(shell_note(&shell, &params));
+    let TetShell { points, tets, barycentres, volumes, adjacency, .. } = shell;
+    let vertices_m = tets.iter().map(|tet| tet.map(|v| placement.world(points.points[v as usize]))).collect();
+    let elements = Elements::Tets { vertices_m };
+    Ok(assemble(config, geometry.spacing_m, &barycentres, &volumes, elements, adjacency, progress, notes))
+}
+
+/// What the shell is made of, for the user.
+fn shell_note(shell: &TetShell, params: &ShellParams) -> String {
+    let removed = &shell.removed;
+    let core = if params.filled_core { format!(" and {} core points", shell.points.core) } else { String::new() };
+    format!(
+        "tet shell: {} layers {:.4e} m apart ({} points per layer from the surface in){core}; {} of {} Delaunay \
+         tets kept (left out: {} on the surface only, {} on the innermost layer only, {} outside the mesh, {} \
+         deeper than the innermost layer, {} flat in f32)",
+        params.layers,
+        params.layer_spacing,
+        shell.points.per_layer.iter().map(|n| n.to_string()).collect::<Vec<_>>().join(", "),
+        shell.tets.len(),
+        shell.delaunay_tets,
+        removed.outer,
+        removed.inner,
+        removed.outside,
+        removed.deep,
+        removed.flat,
+    )
 }
 
 #[cfg(test)]

@@ -1,0 +1,133 @@
+//! The samplers, each turning the source's volume into particles of its own kind, and the dispatch
+//! that runs the one the scene asks for:
+//!
+//! - [`grid`]: cubes of side lambda on a regular lattice (the paper's glass plate);
+//! - [`tet_shell`]: the tets of a Delaunay tetrahedralization of layers under the surface (the
+//!   paper's vase);
+//! - [`voronoi`]: clipped Voronoi cells of blue-noise sites (the paper's dragon);
+//! - [`blue_noise`]: the Poisson disk points the last two start from.
+//!
+//! Each sampler's file also holds the glue that makes its sample a
+//! [`ParticleSet`](shatter_core::particles::ParticleSet); what they share (the placement into the
+//! world, bonds, masses and the file's scalars) is in [`particle_assembly`]. A new sampler is a
+//! file here and one arm of the dispatch in `sample_geometry` below.
+
+pub mod blue_noise;
+pub mod grid;
+pub mod particle_assembly;
+pub mod tet_shell;
+pub mod voronoi;
+
+use glam::DVec3;
+use shatter_core::Progress;
+use shatter_core::config::{GeometrySource, PipelineConfig, Sampler, TransformConfig};
+use shatter_geometry::mesh::{MeshError, TriangleMesh};
+
+use crate::inside::FillRule;
+use crate::mesh_query::MeshQuery;
+use crate::preprocess_driver::{PreprocessError, Preprocessed};
+use crate::repair::{MeshReport, repair};
+
+/// Turns the scene's geometry into particles: loads and repairs a mesh source (or takes the box),
+/// runs the configured sampler in the sampling frame and makes its sample a particle set (the body
+/// of [`crate::preprocess`]).
+pub(crate) fn sample_geometry(
+    config: &PipelineConfig,
+    progress: &dyn Progress,
+) -> Result<Preprocessed, PreprocessError> {
+    let geometry = &config.geometry;
+    let spacing = geometry.spacing_m;
+    let mut notes = Vec::new();
+    let mut mesh_report = None;
+    let sample = match geometry.sampler {
+        Sampler::Grid => match &geometry.source {
+            GeometrySource::Box => {
+                let size = geometry.box_size_m.unwrap_or_else(|| unreachable!("validated: a box has a size"));
+                let (sample, snapped) = grid::fill_box(size, spacing).map_err(grid::spacing_error(spacing))?;
+                if size.iter().zip(&snapped).any(|(want, got)| (want - got).abs() > 1e-9 * want) {
+                    notes.push(format!("box snapped to whole cubes: {snapped:?} m (asked for {size:?} m)"));
+                }
+                sample
+            }
+            GeometrySource::Mesh(path) => {
+                progress.start("load mesh", 0);
+                let mesh = load_repaired(path, &geometry.transform, geometry.mesh_repair.min_body_volume_fraction);
+                progress.finish();
+                let (mesh, report) = mesh?;
+                progress.start("fill", 0);
+                let filled = grid::fill_mesh(&mesh, spacing, report.fill_rule);
+                progress.finish();
+                let (sample, inside) = filled.map_err(grid::spacing_error(spacing))?;
+                if inside.voted_cells > 0 {
+                    notes.push(format!(
+                        "{} lattice lines passed through holes in the mesh; {} cells were decided by lines along other axes",
+                        inside.leaky_lines, inside.voted_cells
+                    ));
+                }
+                mesh_report = Some(report);
+                sample
+            }
+        },
+        Sampler::TetShell | Sampler::Voronoi => {
+            let (mesh, report) = match &geometry.source {
+                GeometrySource::Mesh(path) => {
+                    progress.start("load mesh", 0);
+                    let loaded =
+                        load_repaired(path, &geometry.transform, geometry.mesh_repair.min_body_volume_fraction);
+                    progress.finish();
+                    let (mesh, report) = loaded?;
+                    (mesh, Some(report))
+                }
+                GeometrySource::Box => {
+                    let size = geometry.box_size_m.unwrap_or_else(|| unreachable!("validated: a box has a size"));
+                    (TriangleMesh::cuboid(size), None)
+                }
+            };
+            let rule = report.as_ref().map_or(FillRule::NonZero, |report| report.fill_rule);
+            let query = MeshQuery::with_fill_rule(&mesh, rule);
+            let particles = if geometry.sampler == Sampler::TetShell {
+                tet_shell::tet_shell_particles(config, &mesh, &query, progress, &mut notes)?
+            } else {
+                voronoi::voronoi_particles(config, &mesh, &query, progress, &mut notes)?
+            };
+            return Ok(Preprocessed { particles, mesh_report: report, notes });
+        }
+    };
+    if sample.cells.is_empty() {
+        return Err(PreprocessError::Setting {
+            key: "geometry.spacing_m",
+            value: spacing.to_string(),
+            message: "no lattice cell centre lies inside the geometry: the spacing is too coarse for it".into(),
+        });
+    }
+    if u32::try_from(sample.cells.len()).is_err() {
+        return Err(PreprocessError::Setting {
+            key: "geometry.spacing_m",
+            value: spacing.to_string(),
+            message: format!("{} particles: at most {} are supported", sample.cells.len(), u32::MAX),
+        });
+    }
+    let particles = grid::grid_particles(config, &sample, progress);
+    Ok(Preprocessed { particles, mesh_report, notes })
+}
+
+/// Loads the mesh, brings it into the sampling frame (recentred, scaled to metres) and repairs it.
+fn load_repaired(
+    path: &std::path::Path,
+    transform: &TransformConfig,
+    min_body_volume_fraction: f64,
+) -> Result<(TriangleMesh, MeshReport), PreprocessError> {
+    let (mut mesh, stats) = TriangleMesh::load_obj(path)?;
+    let (lo, hi) = mesh.bounds();
+    let centre = if transform.recenter { (lo + hi) * 0.5 } else { DVec3::ZERO };
+    mesh.map_positions(|p| (p - centre) * transform.scale);
+    let (mesh, report) = repair(&mesh, stats, min_body_volume_fraction);
+    if mesh.triangles.is_empty() {
+        return Err(MeshError::NoVolume {
+            path: path.to_path_buf(),
+            reason: "the mesh encloses no volume (is it an open surface?)".into(),
+        }
+        .into());
+    }
+    Ok((mesh, report))
+}
