@@ -6,12 +6,11 @@ use shatter_core::Progress;
 use shatter_core::config::PipelineConfig;
 use shatter_core::particles::{Elements, ParticleSet};
 
-use crate::bonds::{BondParams, build_bonds};
 use crate::inside::{FillRule, InsideCells, inside_cells};
 use crate::lattice::Lattice;
 use crate::order::morton_code;
 use crate::preprocess_driver::PreprocessError;
-use crate::samplers::particle_assembly::{Placement, particle_meta};
+use crate::samplers::particle_assembly::{Placement, assemble};
 use shatter_geometry::mesh::TriangleMesh;
 
 /// The largest lattice (in cells, filled or not) the grid sampler will allocate.
@@ -115,34 +114,21 @@ pub(super) fn spacing_error(spacing: f64) -> impl Fn(GridError) -> PreprocessErr
 }
 
 /// Cube particles on the lattice: world positions, volumes, masses, bonds and face adjacency.
-pub(super) fn grid_particles(config: &PipelineConfig, sample: &GridSample, progress: &dyn Progress) -> ParticleSet {
+pub(super) fn grid_particles(
+    config: &PipelineConfig,
+    sample: &GridSample,
+    progress: &dyn Progress,
+    notes: &mut Vec<String>,
+) -> ParticleSet {
     let lambda = config.geometry.spacing_m;
-    let delta = config.horizon_m();
-    let placement = Placement::new(&config.geometry.transform);
     let points = sample.points();
-    let rest_position_m: Vec<[f32; 3]> = points.iter().map(|p| placement.world(*p)).collect();
-    let volume = lambda.powi(3);
-    let mean_threshold = config.material.mean_critical_stretch(delta);
-    let params = BondParams {
-        delta_m: delta,
-        mean_threshold,
-        jitter: config.material.threshold_jitter,
-        seed: config.scene.seed,
-    };
-    let bonds = build_bonds(&points, &rest_position_m, &params, progress);
     let n = points.len();
-    ParticleSet {
-        meta: particle_meta(config, lambda, delta, mean_threshold),
-        rest_position_m,
-        volume_m3: vec![volume as f32; n],
-        mass_kg: vec![(volume * config.material.density_kg_m3) as f32; n],
-        elements: Elements::Cubes {
-            half_size_m: vec![(lambda * 0.5) as f32; n],
-            orientation: placement.rotation.as_quat().to_array(),
-        },
-        bonds,
-        adjacency: sample.adjacency.clone(),
-    }
+    let elements = Elements::Cubes {
+        half_size_m: vec![(lambda * 0.5) as f32; n],
+        orientation: Placement::new(&config.geometry.transform).rotation.as_quat().to_array(),
+    };
+    let volumes = vec![lambda.powi(3); n];
+    assemble(config, lambda, &points, &volumes, elements, sample.adjacency.clone(), progress, notes)
 }
 
 #[cfg(test)]

@@ -27,6 +27,7 @@ use crate::inside::FillRule;
 use crate::mesh_query::MeshQuery;
 use crate::preprocess_driver::{PreprocessError, Preprocessed};
 use crate::repair::{MeshReport, repair};
+use crate::samplers::particle_assembly::check_count;
 
 /// Turns the scene's geometry into particles: loads and repairs a mesh source (or takes the box),
 /// runs the configured sampler in the sampling frame and makes its sample a particle set (the body
@@ -100,14 +101,8 @@ pub(crate) fn sample_geometry(
             message: "no lattice cell centre lies inside the geometry: the spacing is too coarse for it".into(),
         });
     }
-    if u32::try_from(sample.cells.len()).is_err() {
-        return Err(PreprocessError::Setting {
-            key: "geometry.spacing_m",
-            value: spacing.to_string(),
-            message: format!("{} particles: at most {} are supported", sample.cells.len(), u32::MAX),
-        });
-    }
-    let particles = grid::grid_particles(config, &sample, progress);
+    check_count("geometry.spacing_m", spacing.to_string(), sample.cells.len())?;
+    let particles = grid::grid_particles(config, &sample, progress, &mut notes);
     Ok(Preprocessed { particles, mesh_report, notes })
 }
 

@@ -36,7 +36,7 @@ impl Placement {
 }
 
 /// The particle file's scalars for a sampler with minimum distance `lambda` and horizon `delta`.
-pub(super) fn particle_meta(config: &PipelineConfig, lambda: f64, delta: f64, mean_threshold: f64) -> ParticleMeta {
+fn particle_meta(config: &PipelineConfig, lambda: f64, delta: f64, mean_threshold: f64) -> ParticleMeta {
     ParticleMeta {
         scene_name: config.scene.name.clone(),
         source: config.geometry.source.to_string(),
