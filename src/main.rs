@@ -14,7 +14,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use shatter_core::{ConfigError, PipelineConfig};
+use shatter_core::output_lock::OutputLock;
+use shatter_core::{ConfigError, OutputLayout, PipelineConfig};
 use shatter_post::PostError;
 use shatter_preprocess::PreprocessError;
 use shatter_render::render_driver::RenderError;
@@ -113,25 +114,44 @@ impl<E: Into<anyhow::Error>> From<E> for Failure {
     }
 }
 
-fn load_config(arg: &ConfigArg) -> Result<PipelineConfig, Failure> {
+/// The scene of a command that writes into its output folder: its config, and the folder's lock,
+/// held until the command ends (one writer per folder; a second fails at once, exit code 1).
+fn open_scene(arg: &ConfigArg) -> Result<(PipelineConfig, OutputLock), Failure> {
     let config = PipelineConfig::load(&arg.config)?;
     for key in config.unused_keys() {
         eprintln!("warning: {}: {key} is set but has no effect", arg.config.display());
     }
+    let lock = OutputLock::acquire(&OutputLayout::of(&config))?;
     // A run killed mid-write leaves hidden temporary files; the next run of the scene clears them.
     if let Err(error) = shatter_core::atomic_file::remove_abandoned_temporaries(config.output_dir()) {
         eprintln!("warning: {}: cannot clear abandoned temporary files: {error}", config.output_dir().display());
     }
-    Ok(config)
+    Ok((config, lock))
 }
 
 fn run(cli: Cli) -> Result<(), Failure> {
+    // Each writing command holds its folder's lock (`_lock`) until it returns.
     match cli.command {
-        Command::Preprocess(arg) => preprocess::run(&load_config(&arg)?),
-        Command::Sim { config, options } => sim::run(&load_config(&config)?, &options),
-        Command::Post(arg) => post::run(&load_config(&arg)?),
-        Command::Render { config, options } => render::run(&load_config(&config)?, &options),
-        Command::Run { config, options, until } => pipeline::run(&load_config(&config)?, &options, until),
+        Command::Preprocess(arg) => {
+            let (config, _lock) = open_scene(&arg)?;
+            preprocess::run(&config)
+        }
+        Command::Sim { config, options } => {
+            let (config, _lock) = open_scene(&config)?;
+            sim::run(&config, &options)
+        }
+        Command::Post(arg) => {
+            let (config, _lock) = open_scene(&arg)?;
+            post::run(&config)
+        }
+        Command::Render { config, options } => {
+            let (config, _lock) = open_scene(&config)?;
+            render::run(&config, &options)
+        }
+        Command::Run { config, options, until } => {
+            let (config, _lock) = open_scene(&config)?;
+            pipeline::run(&config, &options, until)
+        }
         Command::Inspect { path, json } => inspect::run(&path, json),
     }
 }

@@ -41,7 +41,8 @@ look_at_m = [0.0, 0.0, 0.0]
 "#;
 
 /// Every output file's bytes, by path relative to `out`, skipping the stamp file (its key order
-/// is fixed, but it may hold stale entries of an interrupted run's earlier stages).
+/// is fixed, but it may hold stale entries of an interrupted run's earlier stages) and the lock
+/// file (it holds the last writer's process id).
 fn outputs(dir: &Path) -> Vec<(String, Vec<u8>)> {
     let mut files = Vec::new();
     let mut stack = vec![dir.join("out")];
@@ -52,7 +53,7 @@ fn outputs(dir: &Path) -> Vec<(String, Vec<u8>)> {
                 stack.push(path);
             } else {
                 let name = path.strip_prefix(dir).expect("inside").display().to_string();
-                if !name.ends_with("stamps.json") {
+                if !name.ends_with("stamps.json") && !name.ends_with("shatter.lock") {
                     files.push((name, std::fs::read(&path).expect("read")));
                 }
             }

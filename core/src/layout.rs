@@ -12,6 +12,7 @@
 //!   fragments/fragments.usda   post: the USD shot
 //!   render/<scene>.####.exr    render (and .png previews)
 //!   stamps.json                `shatter run`: what each stage last finished with
+//!   shatter.lock               held by the command writing into the folder (pid inside)
 //! ```
 
 use std::path::{Path, PathBuf};
@@ -102,6 +103,11 @@ impl OutputLayout {
     pub fn stamps(&self) -> PathBuf {
         self.root.join("stamps.json")
     }
+
+    /// The lock file of the folder's one writer (see [`crate::output_lock`]).
+    pub fn lock(&self) -> PathBuf {
+        self.root.join("shatter.lock")
+    }
 }
 
 /// True for a point cache's file name, `points.####.ply` (sim and post both write them).
@@ -129,6 +135,7 @@ mod tests {
         assert_eq!(layout.usd(), Path::new("out/plate/fragments/fragments.usda"));
         assert_eq!(layout.render_frame(240, "exr"), Path::new("out/plate/render/plate.0240.exr"));
         assert_eq!(layout.stamps(), Path::new("out/plate/stamps.json"));
+        assert_eq!(layout.lock(), Path::new("out/plate/shatter.lock"));
         assert!(is_points_name("points.0001.ply") && !is_points_name("fragments.0001.shp"));
     }
 }

@@ -4,7 +4,7 @@
 //! - [`atomic_file`]: files written whole or not at all (temporary name, fsync, rename).
 //! - [`stage_file`]: the versioned, checksummed, atomically written binary container that every
 //!   stage file uses.
-//! - [`layout`]: every path in a scene's output folder.
+//! - [`layout`]: every path in a scene's output folder; [`output_lock`]: its one writer.
 //! - [`checkpoint`]: the simulation's checkpoint (full state at a frame boundary).
 //! - [`frames`]: the simulation's per-frame point caches and its bond-break log.
 //! - [`fragments`]: the per-frame fragments file written by `shatter post`.
@@ -20,6 +20,7 @@ pub mod config;
 pub mod fragments;
 pub mod frames;
 pub mod layout;
+pub mod output_lock;
 pub mod particles;
 pub mod ply;
 pub mod progress;

@@ -218,10 +218,12 @@ fn first_triangle(
         let start = group * TRIANGLE_GROUP;
         let members = triangles[start..].iter().take(TRIANGLE_GROUP);
         for (index, triangle) in (start..).zip(members) {
-            if let Some((t, front)) = triangle_hit(origin, direction, triangle) {
-                if t >= t0 && t <= t1 && first.is_none_or(|(best, _, _)| t < best) {
-                    first = Some((t, front, index as u32));
-                }
+            if let Some((t, front)) = triangle_hit(origin, direction, triangle)
+                && t >= t0
+                && t <= t1
+                && first.is_none_or(|(best, _, _)| t < best)
+            {
+                first = Some((t, front, index as u32));
             }
         }
     }

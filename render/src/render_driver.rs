@@ -239,15 +239,15 @@ pub fn run_render(
         } else {
             return Err(RenderError::Input(format!("{}: missing; run `shatter post` first", path.display())));
         };
-        if let Some(fragments) = &fragments {
-            if fragments.fragment_of.len() != particles.len() {
-                return Err(RenderError::Input(format!(
-                    "{}: {} elements, but the particle file has {}; run `shatter sim` and `shatter post` again",
-                    path.display(),
-                    fragments.fragment_of.len(),
-                    particles.len()
-                )));
-            }
+        if let Some(fragments) = &fragments
+            && fragments.fragment_of.len() != particles.len()
+        {
+            return Err(RenderError::Input(format!(
+                "{}: {} elements, but the particle file has {}; run `shatter sim` and `shatter post` again",
+                path.display(),
+                fragments.fragment_of.len(),
+                particles.len()
+            )));
         }
         let scene = SceneGeometry::build(&particles, fragments.as_ref());
         let pixels = tracer.render(&scene, &look, &camera, samples)?;

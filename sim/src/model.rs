@@ -138,14 +138,14 @@ impl Model {
                 )));
             }
         }
-        if let Some(floor) = &self.floor {
-            if let Some((i, p)) = particles.rest_position_m.iter().enumerate().find(|(_, p)| p[1] < floor.height_m) {
-                return Err(SimError::BadStart(format!(
-                    "particle {i} starts at y = {} m, below the floor at sim.floor.height_m = {} m; move the body up \
+        if let Some(floor) = &self.floor
+            && let Some((i, p)) = particles.rest_position_m.iter().enumerate().find(|(_, p)| p[1] < floor.height_m)
+        {
+            return Err(SimError::BadStart(format!(
+                "particle {i} starts at y = {} m, below the floor at sim.floor.height_m = {} m; move the body up \
                      (geometry.transform.translate_m) or the floor down",
-                    p[1], floor.height_m
-                )));
-            }
+                p[1], floor.height_m
+            )));
         }
         Ok(())
     }

@@ -44,10 +44,12 @@ pub(super) fn clip_cycle<V: Copy>(
             ends.push(out, Corner { at, across: cycle[i].across }, true, plane);
         }
     }
-    if out.len() > 2 && ends.first && ends.last {
-        if let Some(last) = out.last_mut() {
-            last.across = plane;
-        }
+    if out.len() > 2
+        && ends.first
+        && ends.last
+        && let Some(last) = out.last_mut()
+    {
+        last.across = plane;
     }
 }
 

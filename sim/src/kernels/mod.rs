@@ -186,12 +186,12 @@ pub fn kick_floor(
     for (axis, v) in velocity.into_iter().enumerate() {
         for i in 0..v.len() {
             v[i] += half * force[axis][i] * inverse_mass[i];
-            if axis == 1 {
-                if let Some(floor) = floor {
-                    if height.0[i] + height.1[i] < floor.height_m && v[i] < 0.0 {
-                        v[i] *= -floor.restitution;
-                    }
-                }
+            if axis == 1
+                && let Some(floor) = floor
+                && height.0[i] + height.1[i] < floor.height_m
+                && v[i] < 0.0
+            {
+                v[i] *= -floor.restitution;
             }
         }
     }

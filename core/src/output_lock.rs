@@ -1,0 +1,102 @@
+//! One writer per output folder: an advisory lock on the folder's `shatter.lock`, taken by every
+//! command that writes into the folder and held for the life of the command. The operating
+//! system releases it when the process ends, however it ends, so a killed run never leaves a
+//! stale lock behind. Readers (`shatter inspect`) take no lock.
+//!
+//! The lock file holds the holder's process id as text, so that a second writer can say who
+//! holds the folder.
+
+use std::fs::{File, OpenOptions, TryLockError};
+use std::io::{Read, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+
+use crate::OutputLayout;
+
+/// Why the output folder could not be locked.
+#[derive(Debug, thiserror::Error)]
+pub enum LockError {
+    /// Another process holds the folder.
+    #[error(
+        "{folder}: another shatter process ({holder}) is writing into this output folder; wait for it to end, or give \
+         this scene another scene.output_dir"
+    )]
+    Busy {
+        /// The output folder.
+        folder: PathBuf,
+        /// "pid N", or what is known of the holder.
+        holder: String,
+    },
+    /// The folder or its lock file cannot be made or locked.
+    #[error("{path}: cannot {action}: {source}")]
+    Io {
+        /// The folder or lock file.
+        path: PathBuf,
+        /// What was being done.
+        action: &'static str,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+}
+
+/// The lock on an output folder, held until dropped.
+#[derive(Debug)]
+pub struct OutputLock {
+    _file: File,
+}
+
+impl OutputLock {
+    /// Creates the output folder if needed and locks it for this process, or fails at once with
+    /// [`LockError::Busy`] naming the holder's process id when another process holds it.
+    pub fn acquire(layout: &OutputLayout) -> Result<OutputLock, LockError> {
+        let folder = layout.root();
+        let io = |path: &Path, action: &'static str| {
+            let path = path.to_path_buf();
+            move |source| LockError::Io { path, action, source }
+        };
+        std::fs::create_dir_all(folder).map_err(io(folder, "create the output folder"))?;
+        let path = layout.lock();
+        // Opened without truncating: the holder's process id stays readable until we hold it.
+        let mut file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(&path)
+            .map_err(io(&path, "open"))?;
+        match file.try_lock() {
+            Ok(()) => {}
+            Err(TryLockError::WouldBlock) => {
+                let mut text = String::new();
+                let holder = match file.read_to_string(&mut text) {
+                    Ok(_) if text.trim().starts_with("pid ") => text.trim().to_owned(),
+                    _ => "pid unknown".to_owned(),
+                };
+                return Err(LockError::Busy { folder: folder.to_path_buf(), holder });
+            }
+            Err(TryLockError::Error(source)) => return Err(LockError::Io { path, action: "lock", source }),
+        }
+        file.set_len(0).map_err(io(&path, "write"))?;
+        file.seek(SeekFrom::Start(0)).map_err(io(&path, "write"))?;
+        writeln!(file, "pid {}", std::process::id()).map_err(io(&path, "write"))?;
+        Ok(OutputLock { _file: file })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_second_writer_is_refused_with_the_holders_pid_until_the_first_lets_go() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let layout = OutputLayout::new(dir.path().join("out"), "t");
+        let first = OutputLock::acquire(&layout).expect("first lock");
+        let message = OutputLock::acquire(&layout).expect_err("second lock").to_string();
+        assert!(message.contains(&format!("pid {}", std::process::id())), "{message}");
+        assert!(message.contains(&layout.root().display().to_string()), "{message}");
+        drop(first);
+        let again = OutputLock::acquire(&layout).expect("free again");
+        assert_eq!(std::fs::read_to_string(layout.lock()).expect("lock file"), format!("pid {}\n", std::process::id()));
+        drop(again);
+    }
+}
