@@ -77,8 +77,18 @@ pub fn write(path: &Path, meta: &CheckpointMeta, state: StateRef<'_>) -> Result<
     out.finish()
 }
 
-/// Reads a checkpoint of `n` particles, checking its header, sizes and checksum.
-pub fn read(path: &Path, n: usize) -> Result<(CheckpointMeta, CheckpointState), StageFileError> {
+impl CheckpointState {
+    /// Particles held (every array holds this many).
+    pub fn particles(&self) -> usize {
+        self.boost.len()
+    }
+}
+
+/// Reads a checkpoint, checking its header, sizes and checksum and that every array holds the
+/// same number of particles. Whether they are the particles of the run at hand is the caller's
+/// to check, after it has compared the checkpoint's particle file checksum and settings hash: a
+/// checkpoint of other settings is stale, not corrupt.
+pub fn read(path: &Path) -> Result<(CheckpointMeta, CheckpointState), StageFileError> {
     let mut input = StageReader::open(path, StageKind::Checkpoint)?;
     let meta: CheckpointMeta = input.read_json("meta")?;
     let mut read_xyz = |name: &str| -> Result<[Vec<f32>; 3], StageFileError> {
@@ -92,9 +102,9 @@ pub fn read(path: &Path, n: usize) -> Result<(CheckpointMeta, CheckpointState), 
     let vel = read_xyz("vel")?;
     let force = read_xyz("force")?;
     let boost: Vec<f32> = input.read_rows("boost")?;
-    let lengths_ok = disp.iter().chain(&vel).chain(&force).all(|a| a.len() == n) && boost.len() == n;
-    if !lengths_ok {
-        return Err(input.malformed(format!("the checkpoint does not hold {n} particles")));
+    let n = boost.len();
+    if !disp.iter().chain(&vel).chain(&force).all(|a| a.len() == n) {
+        return Err(input.malformed(format!("the checkpoint's arrays do not all hold {n} particles")));
     }
     input.finish()?;
     Ok((meta, CheckpointState { disp, vel, force, boost }))
@@ -141,7 +151,7 @@ mod tests {
             };
             let view = StateRef { disp: &state.disp, vel: &state.vel, force: &state.force, boost: &state.boost };
             write(&path, &meta, view).expect("write");
-            let (read_meta, read_state) = read(&path, 1).expect("read");
+            let (read_meta, read_state) = read(&path).expect("read");
             assert_eq!(read_meta.external_work_j.to_bits(), work_j.to_bits());
             assert_eq!(read_meta, meta);
             assert_eq!(read_state, state);

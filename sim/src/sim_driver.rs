@@ -193,8 +193,9 @@ pub fn run_with(
         warnings.push("no checkpoint to resume from: starting from the beginning".to_string());
     }
     let (mut log, start_frame, mut broken_bonds, initial_energy_j) = if resumable {
-        let (meta, state) = checkpoint::read(&checkpoint_path, simulation.len())?;
+        let (meta, state) = checkpoint::read(&checkpoint_path)?;
         let mismatch = |what: &str| RunError::CheckpointMismatch { path: checkpoint_path.clone(), what: what.into() };
+        // Inputs first: a checkpoint of another particle file or other settings is stale, not corrupt.
         if meta.particles_checksum != particles_checksum {
             return Err(mismatch("the particle file changed since this checkpoint"));
         }
@@ -203,6 +204,10 @@ pub fn run_with(
         }
         if meta.frame > total_frames {
             return Err(mismatch("the checkpoint is past sim.frames"));
+        }
+        if state.particles() != simulation.len() {
+            let what = format!("the checkpoint holds {} particles, not {}", state.particles(), simulation.len());
+            return Err(StageFileError::Malformed { path: checkpoint_path, what }.into());
         }
         let kind = |name: &str| name.split([':', ' ']).next().unwrap_or_default().to_string();
         if !meta.backend.is_empty() && kind(&meta.backend) != kind(&simulation.describe()) {
