@@ -229,3 +229,30 @@ fn relative_mesh_paths_start_at_the_config_folder() {
     assert!(String::from_utf8_lossy(&output.stdout).contains("mesh: 5856 triangles"));
     assert!(dir.path().join("out/particles.shp").is_file());
 }
+
+#[test]
+fn a_stage_run_before_the_one_it_needs_is_exit_2_naming_that_stage() {
+    let (dir, _) = scene(GOOD);
+    // (command, what it asks for) in an empty output folder, then after preprocess
+    let empty = [
+        ("sim", "run `shatter preprocess` first"),
+        ("post", "run `shatter preprocess` first"),
+        ("render", "run `shatter preprocess` first"),
+    ];
+    let preprocessed = [("post", "run `shatter sim` first"), ("render", "run `shatter post` first")];
+    for (stage, asks) in empty {
+        let output = shatter(&[stage], dir.path());
+        assert_eq!(output.status.code(), Some(2), "{stage}: {}", stderr(&output));
+        assert!(
+            stderr(&output).contains(asks) && stderr(&output).contains("particles.shp: missing"),
+            "{stage}: {}",
+            stderr(&output)
+        );
+    }
+    assert!(shatter(&["preprocess"], dir.path()).status.success());
+    for (stage, asks) in preprocessed {
+        let output = shatter(&[stage], dir.path());
+        assert_eq!(output.status.code(), Some(2), "{stage}: {}", stderr(&output));
+        assert!(stderr(&output).contains(asks), "{stage}: {}", stderr(&output));
+    }
+}

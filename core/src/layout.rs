@@ -110,6 +110,12 @@ impl OutputLayout {
     }
 }
 
+/// What to tell a user whose stage needs `path`, an earlier stage's output that is not there:
+/// `None` when it is a file.
+pub fn missing_input(path: &Path, earlier_stage: &str) -> Option<String> {
+    (!path.is_file()).then(|| format!("{}: missing; run `shatter {earlier_stage}` first", path.display()))
+}
+
 /// True for a point cache's file name, `points.####.ply` (sim and post both write them).
 pub fn is_points_name(name: &str) -> bool {
     name.starts_with("points.") && name.ends_with(".ply")
@@ -137,5 +143,8 @@ mod tests {
         assert_eq!(layout.stamps(), Path::new("out/plate/stamps.json"));
         assert_eq!(layout.lock(), Path::new("out/plate/shatter.lock"));
         assert!(is_points_name("points.0001.ply") && !is_points_name("fragments.0001.shp"));
+        let message = missing_input(&layout.particles(), "preprocess").expect("no such file");
+        assert_eq!(message, "out/plate/particles.shp: missing; run `shatter preprocess` first");
+        assert_eq!(missing_input(Path::new(env!("CARGO_MANIFEST_DIR")).join("Cargo.toml").as_path(), "x"), None);
     }
 }

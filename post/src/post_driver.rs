@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use shatter_core::fragments::{FragmentFrame, FragmentMeta};
 use shatter_core::frames::{BreakLog, FrameFileError, PointFrame};
+use shatter_core::layout::missing_input;
 use shatter_core::particles::ParticleSet;
 use shatter_core::ply::{Column, PlyError, PointCache};
 use shatter_core::stage_file::StageFileError;
@@ -69,6 +70,9 @@ pub struct PostReport {
 pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<PostReport, PostError> {
     let started = Instant::now();
     let layout = OutputLayout::of(config);
+    if let Some(message) = missing_input(&layout.particles(), "preprocess") {
+        return Err(PostError::MissingInput(message));
+    }
     let particles = ParticleSet::read(&layout.particles())?;
     let total = config.sim.frames;
     for frame in 1..=total {

@@ -8,6 +8,7 @@ use glam::DVec3;
 use shatter_core::config::render::RenderConfig;
 use shatter_core::config::sim::BackendChoice;
 use shatter_core::fragments::FragmentFrame;
+use shatter_core::layout::missing_input;
 use shatter_core::particles::ParticleSet;
 use shatter_core::stage_file::StageFileError;
 use shatter_core::{OutputLayout, PipelineConfig, Progress};
@@ -221,6 +222,9 @@ pub fn run_render(
         None => (1..=config.sim.frames).collect(),
     };
     let layout = OutputLayout::of(config);
+    if let Some(message) = missing_input(&layout.particles(), "preprocess") {
+        return Err(RenderError::Input(message));
+    }
     let particles = ParticleSet::read(&layout.particles())?;
     let look = look(render_config)?;
     let camera = camera(render_config, &particles);

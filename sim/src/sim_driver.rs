@@ -9,7 +9,7 @@ use std::time::Instant;
 use shatter_core::checkpoint::{self, CheckpointMeta, CheckpointState, StateRef};
 use shatter_core::config::sim::BackendChoice;
 use shatter_core::frames::{BreakLog, FrameFileError, PointFrame};
-use shatter_core::layout::is_points_name;
+use shatter_core::layout::{is_points_name, missing_input};
 use shatter_core::particles::ParticleSet;
 use shatter_core::stage_file::StageFileError;
 use shatter_core::{OutputLayout, PipelineConfig, Progress};
@@ -37,6 +37,9 @@ pub enum RunError {
     /// Bad input: the particle file or config cannot make a sound run (exit code 2).
     #[error(transparent)]
     Input(#[from] SimError),
+    /// The particle file is not there: `shatter preprocess` has not run (exit code 2).
+    #[error("{0}")]
+    MissingInput(String),
     /// The time step is above the stable limit (exit code 2).
     #[error(
         "sim.dt_s = {dt_s:e} s exceeds the stable time step {stable_s:e} s of this material and particle set; \
@@ -96,7 +99,13 @@ impl From<BackendError> for RunError {
 impl RunError {
     /// True when the user must change the input (config, particle file, flags).
     pub fn is_bad_input(&self) -> bool {
-        matches!(self, RunError::Input(_) | RunError::UnstableTimeStep { .. } | RunError::CheckpointMismatch { .. })
+        matches!(
+            self,
+            RunError::Input(_)
+                | RunError::MissingInput(_)
+                | RunError::UnstableTimeStep { .. }
+                | RunError::CheckpointMismatch { .. }
+        )
     }
 }
 
@@ -165,6 +174,9 @@ pub fn run_with(
 ) -> Result<RunReport, RunError> {
     let started = Instant::now();
     let layout = OutputLayout::of(config);
+    if let Some(message) = missing_input(&layout.particles(), "preprocess") {
+        return Err(RunError::MissingInput(message));
+    }
     let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
     let (mut simulation, fallback) = make(config, &particles)?;
 
