@@ -17,12 +17,23 @@ pub struct SimArgs {
     /// Continue from the last checkpoint instead of starting over.
     #[arg(long)]
     pub resume: bool,
-    /// Worker threads (default: one per core). Results do not depend on it.
-    #[arg(long, value_name = "N")]
+    /// Worker threads (default: one per core; at most 1024). Results do not depend on it.
+    #[arg(long, value_name = "N", value_parser = parse_threads)]
     pub threads: Option<usize>,
     /// Run even when sim.dt_s exceeds the stable time step.
     #[arg(long)]
     pub allow_unstable_dt: bool,
+}
+
+/// The most worker threads `--threads` accepts: far more than any machine's cores, far fewer
+/// than would exhaust memory starting them.
+const MAX_THREADS: usize = 1024;
+
+fn parse_threads(text: &str) -> Result<usize, String> {
+    match text.parse::<usize>() {
+        Ok(threads) if (1..=MAX_THREADS).contains(&threads) => Ok(threads),
+        _ => Err(format!("must be a whole number from 1 to {MAX_THREADS}")),
+    }
 }
 
 /// `--backend` values.

@@ -119,6 +119,43 @@ fn bad_configs_name_the_key_and_exit_with_2() {
             GOOD.replace("spacing_m = 0.001", "spacing_m = 1e-7"),
             vec!["geometry.spacing_m = 0.0000001", "lattice would have"],
         ),
+        (
+            "a fourth box side",
+            GOOD.replace("box_size_m = [0.01, 0.01, 0.004]", "box_size_m = [0.01, 0.01, 0.004, 0.1]"),
+            vec!["geometry.box_size_m", "expected an array of 3 entries, found 4"],
+        ),
+        (
+            "a projectile centre of four entries",
+            format!(
+                "{GOOD}[[sim.projectile]]\ncenter_m = [0.0, 0.0, 0.01, 0.0]\nvelocity_m_s = [0.0, 0.0, -1.0]\nradius_m = 0.001\nstiffness_pa = 1e7\n"
+            ),
+            vec!["sim.projectile[0].center_m", "expected an array of 3 entries, found 4"],
+        ),
+        (
+            "no output folder",
+            GOOD.replace("output_dir = \"out\"", "output_dir = \"\""),
+            vec!["scene.output_dir = \"\"", "must name a folder"],
+        ),
+        (
+            "scene named .",
+            GOOD.replace("name = \"glass_plate\"", "name = \".\""),
+            vec!["scene.name = \".\"", "not starting with '.'"],
+        ),
+        (
+            "scene named ..",
+            GOOD.replace("name = \"glass_plate\"", "name = \"..\""),
+            vec!["scene.name = \"..\"", "not starting with '.'"],
+        ),
+        (
+            "a scene name too long for a file name",
+            GOOD.replace("name = \"glass_plate\"", &format!("name = \"{}\"", "a".repeat(201))),
+            vec!["scene.name", "1 to 200"],
+        ),
+        (
+            "a box thinner than the spacing",
+            GOOD.replace("box_size_m = [0.01, 0.01, 0.004]", "box_size_m = [0.01, 0.0005, 0.004]"),
+            vec!["geometry.box_size_m = [0.01, 0.0005, 0.004]", "at least geometry.spacing_m = 0.001"],
+        ),
     ];
     for (what, text, expected) in cases {
         let (dir, _) = scene(&text);
@@ -130,6 +167,16 @@ fn bad_configs_name_the_key_and_exit_with_2() {
         }
         assert!(!message.contains("panicked"), "{what}: {message}");
         assert!(!dir.path().join("out/particles.shp").exists(), "{what}: nothing written");
+    }
+}
+
+#[test]
+fn worker_threads_are_capped() {
+    let (dir, _) = scene(GOOD);
+    for threads in ["0", "100000", "many"] {
+        let output = shatter(&["sim", "--threads", threads], dir.path());
+        assert_eq!(output.status.code(), Some(2), "--threads {threads}: {}", stderr(&output));
+        assert!(stderr(&output).contains("from 1 to 1024"), "--threads {threads}: {}", stderr(&output));
     }
 }
 

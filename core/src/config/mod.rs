@@ -10,6 +10,7 @@ use std::path::{Component, Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+mod array_lengths;
 pub mod post;
 pub mod render;
 pub mod sim;
@@ -20,6 +21,9 @@ pub use sim::SimConfig;
 
 /// The largest horizon factor N accepted: bonds per particle grow as N^3 (about 2,100 at N = 8).
 pub const MAX_HORIZON_FACTOR: f64 = 8.0;
+/// The longest scene name: it names files (`<name>.####.exr`, and a temporary name a little
+/// longer while one is written) that must stay within the 255 bytes file systems allow.
+pub const MAX_SCENE_NAME_BYTES: usize = 200;
 /// The largest per-bond threshold jitter accepted, as a fraction of the mean threshold.
 pub const MAX_THRESHOLD_JITTER: f64 = 0.2;
 
@@ -342,7 +346,18 @@ impl PipelineConfig {
             .map_err(|error| parse_error(String::new(), error.to_string().trim_end().to_string()))?;
         let mut config: PipelineConfig = serde_path_to_error::deserialize(deserializer)
             .map_err(|error| parse_error(error.path().to_string(), error.inner().to_string().trim_end().to_string()))?;
+        let given = toml::from_str::<toml::Table>(text).ok().and_then(|table| serde_json::to_value(table).ok());
+        let parsed = serde_json::to_value(&config).ok();
+        if let Some((key, expected, found)) =
+            given.zip(parsed).and_then(|(given, parsed)| array_lengths::first_mismatch(&given, &parsed, ""))
+        {
+            return Err(parse_error(key, format!("expected an array of {expected} entries, found {found}")));
+        }
         config.path = path.to_path_buf();
+        let check = Checker { path };
+        check.that(!config.scene.output_dir.as_os_str().is_empty(), "scene.output_dir", "\"\"", || {
+            "must name a folder (\".\" for the config file's own folder)".to_string()
+        })?;
         config.resolve_paths();
         config.validate()?;
         Ok(config)
@@ -397,12 +412,14 @@ impl PipelineConfig {
         let check = Checker { path: &self.path };
         let scene = &self.scene;
         let name_ok = !scene.name.is_empty()
+            && scene.name.len() <= MAX_SCENE_NAME_BYTES
+            && !scene.name.starts_with('.')
             && scene.name.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'));
         check.that(name_ok, "scene.name", &format!("{:?}", scene.name), || {
-            "must be non-empty and use only letters, digits, '_', '-' and '.' (it names output files)".to_string()
-        })?;
-        check.that(!scene.output_dir.as_os_str().is_empty(), "scene.output_dir", "\"\"", || {
-            "must name a folder".to_string()
+            format!(
+                "must be 1 to {MAX_SCENE_NAME_BYTES} letters, digits, '_', '-' and '.', not starting with '.' (it \
+                 names output files)"
+            )
         })?;
         check.positive("scene.frames_per_second", scene.frames_per_second, "frames per second")?;
 
@@ -434,6 +451,15 @@ impl PipelineConfig {
             check.positive_array("geometry.box_size_m", &size)?;
         }
         check.positive("geometry.spacing_m", geometry.spacing_m, "metres")?;
+        if let (GeometrySource::Box, Some(size)) = (&geometry.source, geometry.box_size_m) {
+            let spacing = geometry.spacing_m;
+            check.that(
+                size.iter().all(|side| *side >= spacing),
+                "geometry.box_size_m",
+                &format!("{size:?}"),
+                || format!("every side must be at least geometry.spacing_m = {spacing} m (one particle across)"),
+            )?;
+        }
         let horizon = geometry.horizon_factor;
         check.that(
             horizon.is_finite() && (1.0..=MAX_HORIZON_FACTOR).contains(&horizon),
