@@ -119,3 +119,79 @@ fn post_before_sim_says_what_to_run() {
     assert_eq!(output.status.code(), Some(2));
     assert!(stderr(&output).contains("run `shatter sim` first"), "{}", stderr(&output));
 }
+
+/// A folder whose simulation and post ran to the end.
+fn simulated_and_posted() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().expect("tempdir");
+    std::fs::write(dir.path().join("pipeline.toml"), SCENE).expect("config");
+    for stage in ["preprocess", "sim", "post"] {
+        let output = shatter(&[stage], dir.path());
+        assert!(output.status.success(), "{stage}: {}", stderr(&output));
+    }
+    dir
+}
+
+#[test]
+fn damaged_or_misplaced_frame_files_are_refused_by_what_reads_them() {
+    // (what, the damage, the stage that reads it, a fragment of its message)
+    type Damage = Box<dyn Fn(&Path)>;
+    let rename = |from: &str, to: &str| -> Damage {
+        let (from, to) = (from.to_owned(), to.to_owned());
+        Box::new(move |out: &Path| std::fs::copy(out.join(&from), out.join(&to)).map(drop).expect("copy"))
+    };
+    let cases: Vec<(&str, Damage, &str, &str)> = vec![
+        (
+            "a flipped bit in the last block's frame field",
+            Box::new(|out: &Path| {
+                let log = out.join("frames/breaks.log");
+                let mut bytes = std::fs::read(&log).expect("log");
+                let last_block = last_block_start(&bytes);
+                bytes[last_block] ^= 1;
+                std::fs::write(&log, bytes).expect("write");
+            }),
+            "post",
+            "fails its checksum",
+        ),
+        (
+            "a log cut at a block boundary",
+            Box::new(|out: &Path| {
+                let log = out.join("frames/breaks.log");
+                let bytes = std::fs::read(&log).expect("log");
+                std::fs::write(&log, &bytes[..last_block_start(&bytes)]).expect("write");
+            }),
+            "post",
+            "ends at frame 5, but the simulation wrote frame 6",
+        ),
+        (
+            "a point cache under another frame's name",
+            rename("frames/points.0003.ply", "frames/points.0004.ply"),
+            "post",
+            "holds frame 3, not 4",
+        ),
+        (
+            "a fragments file under another frame's name",
+            rename("fragments/fragments.0005.shp", "fragments/fragments.0002.shp"),
+            "render",
+            "holds frame 5, not 2",
+        ),
+    ];
+    for (what, damage, stage, message) in cases {
+        let dir = simulated_and_posted();
+        damage(&dir.path().join("out"));
+        let output = shatter(&[stage], dir.path());
+        assert_eq!(output.status.code(), Some(1), "{what}: {}", stderr(&output));
+        assert!(stderr(&output).contains(message), "{what}: {}", stderr(&output));
+    }
+}
+
+/// The byte offset of the last block of a break log (blocks: 16-byte header, 16-byte records).
+fn last_block_start(bytes: &[u8]) -> usize {
+    let mut at = 16;
+    let mut last = at;
+    while at < bytes.len() {
+        last = at;
+        let count = u32::from_le_bytes([bytes[at + 4], bytes[at + 5], bytes[at + 6], bytes[at + 7]]) as usize;
+        at += 16 + 16 * count;
+    }
+    last
+}

@@ -83,7 +83,7 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
             )));
         }
     }
-    let blocks = BreakLog::read(&layout.break_log())?;
+    let blocks = BreakLog::read_through(&layout.break_log(), total)?;
     let out_dir = layout.fragments_dir();
     std::fs::create_dir_all(&out_dir).map_err(|source| PostError::Usd { path: out_dir.clone(), source })?;
     let mass: Vec<f64> = particles.volume_m3.iter().map(|v| f64::from(*v) * config.material.density_kg_m3).collect();
@@ -99,6 +99,10 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
             }
         }
         let points = PointFrame::read(&layout.frame_points(frame))?;
+        if points.frame != frame {
+            let what = format!("holds frame {}, not {frame} (renamed from another frame's name?)", points.frame);
+            return Err(FrameFileError::Invalid { path: layout.frame_points(frame), what }.into());
+        }
         if points.damage.len() != particles.len() {
             return Err(PostError::MissingInput(format!(
                 "{}: {} points, but the particle file has {}; run `shatter sim` again",

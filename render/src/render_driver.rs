@@ -253,6 +253,13 @@ pub fn run_render(
                 particles.len()
             )));
         }
+        if let Some(fragments) = &fragments
+            && fragments.meta.frame != frame
+        {
+            let what =
+                format!("holds frame {}, not {frame} (renamed from another frame's name?)", fragments.meta.frame);
+            return Err(StageFileError::Malformed { path, what }.into());
+        }
         let scene = SceneGeometry::build(&particles, fragments.as_ref());
         let pixels = tracer.render(&scene, &look, &camera, samples)?;
         let comment = format!("shatter render: scene {}, frame {frame}", config.scene.name);

@@ -230,9 +230,13 @@ pub fn run_with(
                 simulation.describe()
             ));
         }
-        let log = BreakLog::open_at(&log_path, meta.break_log_bytes)?;
-        let mut broken: Vec<u64> =
-            BreakLog::read(&log_path)?.iter().flat_map(|block| block.events.iter().map(|e| e.bond)).collect();
+        let (log, blocks) = BreakLog::open_at(&log_path, meta.break_log_bytes)?;
+        if blocks.last().map_or(1, |block| block.frame) != meta.frame {
+            let ends = blocks.last().map_or(1, |block| block.frame);
+            let what = format!("the log ends at frame {ends}, but the checkpoint is at frame {}", meta.frame);
+            return Err(RunError::FrameFile(FrameFileError::Invalid { path: log_path, what }));
+        }
+        let mut broken: Vec<u64> = blocks.iter().flat_map(|block| block.events.iter().map(|e| e.bond)).collect();
         broken.sort_unstable();
         let CheckpointState { disp, vel, force, boost } = state;
         let dynamics = Dynamics { step: meta.step, disp, vel, force, boost, external_work_j: meta.external_work_j };
