@@ -125,7 +125,10 @@ fn bad_simulation_input_is_refused_clearly() {
     let output = shatter(&["sim", "--allow-unstable-dt"], dir.path());
     assert_eq!(output.status.code(), Some(1), "{}", stderr(&output));
     assert!(stderr(&output).contains("became unstable"), "{}", stderr(&output));
+    // ... and what the message says is there, is there
+    assert!(stderr(&output).contains("frames up to 1 are written; no checkpoint was reached"), "{}", stderr(&output));
     assert!(dir.path().join("out/frames/points.0001.ply").exists());
+    assert!(!dir.path().join("out/sim.checkpoint.shp").exists());
 
     // a projectile starting inside the body
     let inside = scene(10, 2, 10, "").replace("center_m = [0.0, 0.0, 0.0067]", "center_m = [0.0, 0.0, 0.001]");
@@ -155,4 +158,44 @@ fn resuming_with_changed_settings_is_refused() {
     let output = shatter(&["sim", "--resume"], dir.path());
     assert_eq!(output.status.code(), Some(2));
     assert!(stderr(&output).contains("settings changed since this checkpoint"), "{}", stderr(&output));
+}
+
+/// The files of a finished simulation: frames, break log, checkpoint.
+fn simulation_files(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files = frame_files(dir);
+    files.push(("checkpoint".into(), std::fs::read(dir.join("out/sim.checkpoint.shp")).expect("checkpoint")));
+    files
+}
+
+#[test]
+fn a_failing_fresh_run_puts_the_previous_results_back() {
+    let dir = folder_with(&scene(10, 4, 20, "checkpoint_every_frames = 2"));
+    assert!(shatter(&["run", "--until", "sim"], dir.path()).status.success());
+    let good = simulation_files(dir.path());
+
+    // the same scene with a time step that blows up in the second frame, before any checkpoint
+    std::fs::write(dir.path().join("pipeline.toml"), scene(10, 4, 20, "checkpoint_every_frames = 2\ndt_s = 1e-5"))
+        .expect("config");
+    let output = shatter(&["sim", "--allow-unstable-dt"], dir.path());
+    assert_eq!(output.status.code(), Some(1), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("the previous run's frames and checkpoint are back in place"),
+        "{}",
+        stderr(&output)
+    );
+    assert!(simulation_files(dir.path()) == good, "the previous run's outputs are byte-identical");
+    assert!(
+        !dir.path().join("out/frames.previous").exists()
+            && !dir.path().join("out/sim.checkpoint.previous.shp").exists()
+    );
+
+    // a fresh run that gets as far as a checkpoint replaces them, and leaves nothing aside
+    std::fs::write(dir.path().join("pipeline.toml"), scene(10, 4, 25, "checkpoint_every_frames = 2")).expect("config");
+    let output = shatter(&["sim"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(simulation_files(dir.path()) != good);
+    assert!(
+        !dir.path().join("out/frames.previous").exists()
+            && !dir.path().join("out/sim.checkpoint.previous.shp").exists()
+    );
 }

@@ -7,6 +7,8 @@
 //!   sim.checkpoint.shp         sim (resume)
 //!   frames/points.####.ply     sim: positions, velocities, damage
 //!   frames/breaks.log          sim: (step, bond) per frame, append-only
+//!   frames.previous/, sim.checkpoint.previous.shp
+//!                              sim: the previous run's, kept until a fresh run has a checkpoint
 //!   fragments/fragments.####.shp   post: fragment ids and rigid motions
 //!   fragments/points.####.ply  post: positions with fragment ids
 //!   fragments/fragments.usda   post: the USD shot
@@ -63,6 +65,17 @@ impl OutputLayout {
         self.frames_dir().join(points_name(frame))
     }
 
+    /// Where a fresh simulation keeps the previous run's frames folder until it has a
+    /// checkpoint of its own.
+    pub fn previous_frames_dir(&self) -> PathBuf {
+        self.root.join("frames.previous")
+    }
+
+    /// Where a fresh simulation keeps the previous run's checkpoint until it has its own.
+    pub fn previous_checkpoint(&self) -> PathBuf {
+        self.root.join("sim.checkpoint.previous.shp")
+    }
+
     /// The bond-break log.
     pub fn break_log(&self) -> PathBuf {
         self.frames_dir().join("breaks.log")
@@ -116,11 +129,6 @@ pub fn missing_input(path: &Path, earlier_stage: &str) -> Option<String> {
     (!path.is_file()).then(|| format!("{}: missing; run `shatter {earlier_stage}` first", path.display()))
 }
 
-/// True for a point cache's file name, `points.####.ply` (sim and post both write them).
-pub fn is_points_name(name: &str) -> bool {
-    name.starts_with("points.") && name.ends_with(".ply")
-}
-
 fn points_name(frame: u32) -> String {
     format!("points.{frame:04}.ply")
 }
@@ -142,7 +150,6 @@ mod tests {
         assert_eq!(layout.render_frame(240, "exr"), Path::new("out/plate/render/plate.0240.exr"));
         assert_eq!(layout.stamps(), Path::new("out/plate/stamps.json"));
         assert_eq!(layout.lock(), Path::new("out/plate/shatter.lock"));
-        assert!(is_points_name("points.0001.ply") && !is_points_name("fragments.0001.shp"));
         let message = missing_input(&layout.particles(), "preprocess").expect("no such file");
         assert_eq!(message, "out/plate/particles.shp: missing; run `shatter preprocess` first");
         assert_eq!(missing_input(Path::new(env!("CARGO_MANIFEST_DIR")).join("Cargo.toml").as_path(), "x"), None);

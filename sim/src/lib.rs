@@ -14,7 +14,8 @@
 //! - [`twins`]: the CPU twin of each WGSL kernel, which the GPU's parity tests compare it with.
 //! - [`backend`]: what the frame loop needs of either backend; [`backend_choice`]: which one runs.
 //! - [`art`]: art direction of the cracks (weakened paths, seams, shards).
-//! - [`sim_driver`]: the `shatter sim` driver: frames, checkpoints, resume, stability checks.
+//! - [`sim_driver`]: the `shatter sim` driver: frames, checkpoints, resume, stability checks;
+//!   [`previous_run`]: a fresh run keeps its predecessor's outputs until it has a checkpoint.
 
 pub mod art;
 pub mod backend;
@@ -25,6 +26,7 @@ pub mod cpu_simulation;
 pub mod gpu;
 pub mod kernels;
 pub mod model;
+pub mod previous_run;
 pub mod sim_driver;
 pub mod sim_error;
 pub mod state;

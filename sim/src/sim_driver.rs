@@ -3,13 +3,13 @@
 //! checkpoint intact. The same loop drives either backend (see [`crate::backend`]); which one is
 //! [`crate::backend_choice`]'s call.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use shatter_core::checkpoint::{self, CheckpointMeta, CheckpointState, StateRef};
 use shatter_core::config::sim::BackendChoice;
 use shatter_core::frames::{BreakLog, FrameFileError, PointFrame};
-use shatter_core::layout::{is_points_name, missing_input};
+use shatter_core::layout::missing_input;
 use shatter_core::particles::ParticleSet;
 use shatter_core::stage_file::StageFileError;
 use shatter_core::{OutputLayout, PipelineConfig, Progress};
@@ -18,6 +18,7 @@ use shatter_gpu::GpuError;
 use crate::SimError;
 use crate::backend::{Backend, DeviceError};
 use crate::backend_choice::{BackendError, create_backend};
+use crate::previous_run::PreviousRun;
 use crate::state::Dynamics;
 
 /// How a run starts.
@@ -60,9 +61,7 @@ pub enum RunError {
         what: String,
     },
     /// The state blew up; the last good checkpoint is kept.
-    #[error(
-        "the simulation became unstable at frame {frame} (step {step}): {what}; frames up to {last_good} and the last checkpoint are intact"
-    )]
+    #[error("the simulation became unstable at frame {frame} (step {step}): {what}; {kept}")]
     Unstable {
         /// The frame being simulated.
         frame: u32,
@@ -70,8 +69,8 @@ pub enum RunError {
         step: u64,
         /// What was seen.
         what: String,
-        /// The last frame written.
-        last_good: u32,
+        /// What of the outputs is intact.
+        kept: String,
     },
     /// A stage file could not be read or written.
     #[error(transparent)]
@@ -190,11 +189,6 @@ pub fn run_with(
     }
 
     let frames_dir = layout.frames_dir();
-    std::fs::create_dir_all(&frames_dir).map_err(|source| FrameFileError::Io {
-        path: frames_dir.clone(),
-        action: "create the folder",
-        source,
-    })?;
     let checkpoint_path = layout.checkpoint();
     let log_path = layout.break_log();
     let hash = settings_hash(config);
@@ -204,6 +198,8 @@ pub fn run_with(
     if options.resume && !resumable {
         warnings.push("no checkpoint to resume from: starting from the beginning".to_string());
     }
+    // A fresh run's predecessor, set aside until the fresh run has a checkpoint of its own.
+    let mut previous = None;
     let (mut log, start_frame, mut broken_bonds, initial_energy_j) = if resumable {
         let (meta, state) = checkpoint::read(&checkpoint_path)?;
         let mismatch = |what: &str| RunError::CheckpointMismatch { path: checkpoint_path.clone(), what: what.into() };
@@ -243,8 +239,7 @@ pub fn run_with(
         simulation.restore(dynamics, &broken)?;
         (log, meta.frame, meta.broken_bonds, meta.initial_energy_j)
     } else {
-        remove_old_frames(&frames_dir)?;
-        let _ = std::fs::remove_file(&checkpoint_path);
+        previous = PreviousRun::set_aside(&layout)?;
         let log = BreakLog::create(&log_path)?;
         let initial_velocity = config.sim.initial_velocity_m_s.map(|v| v as f32);
         if initial_velocity != [0.0; 3] {
@@ -258,55 +253,80 @@ pub fn run_with(
     let remaining_frames = total_frames.saturating_sub(start_frame);
     progress.start("sim", u64::from(remaining_frames) * steps_per_frame);
     let mut steps = 0u64;
-    for frame in start_frame + 1..=total_frames {
-        for batch in 0..steps_per_frame.div_ceil(50) {
-            let count = (steps_per_frame - batch * 50).min(50);
-            simulation.advance(count)?;
-            steps += count;
-            progress.advance(count);
-        }
-        let events = simulation.finish_frame()?;
-        broken_bonds += events.len() as u64;
-        let energy = simulation.energy();
-        let dynamics = simulation.dynamics();
-        let budget = config.sim.runaway_energy_factor * (initial_energy_j + dynamics.external_work_j).max(0.0) + 1e-9;
-        let trouble = non_finite(dynamics).or_else(|| {
-            (!energy.total_j().is_finite() || energy.total_j() > budget).then(|| {
+    let mut checkpointed = resumable;
+    let mut frames = || -> Result<(), RunError> {
+        for frame in start_frame + 1..=total_frames {
+            for batch in 0..steps_per_frame.div_ceil(50) {
+                let count = (steps_per_frame - batch * 50).min(50);
+                simulation.advance(count)?;
+                steps += count;
+                progress.advance(count);
+            }
+            let events = simulation.finish_frame()?;
+            broken_bonds += events.len() as u64;
+            let energy = simulation.energy();
+            let dynamics = simulation.dynamics();
+            let budget =
+                config.sim.runaway_energy_factor * (initial_energy_j + dynamics.external_work_j).max(0.0) + 1e-9;
+            let trouble = non_finite(dynamics).or_else(|| {
+                (!energy.total_j().is_finite() || energy.total_j() > budget).then(|| {
                 format!(
                     "kinetic plus bond energy {:.4e} J exceeds {} x (initial energy + external work) = {budget:.4e} J",
                     energy.total_j(),
                     config.sim.runaway_energy_factor
                 )
             })
-        });
-        if let Some(what) = trouble {
-            progress.finish();
-            return Err(RunError::Unstable { frame, step: dynamics.step, what, last_good: frame - 1 });
+            });
+            if let Some(what) = trouble {
+                progress.finish();
+                let kept = match (&previous, checkpointed) {
+                    (Some(_), _) => "the previous run's frames and checkpoint are back in place".to_string(),
+                    (None, true) => format!("frames up to {} and the last checkpoint are intact", frame - 1),
+                    (None, false) => format!("frames up to {} are written; no checkpoint was reached", frame - 1),
+                };
+                return Err(RunError::Unstable { frame, step: dynamics.step, what, kept });
+            }
+            write_frame(simulation.as_ref(), &layout, frame)?;
+            log.append(frame, &events)?;
+            if frame % config.sim.checkpoint_every_frames == 0 || frame == total_frames {
+                let meta = CheckpointMeta {
+                    frame,
+                    step: dynamics.step,
+                    break_log_bytes: log.len(),
+                    broken_bonds,
+                    settings_hash: hash,
+                    particles_checksum,
+                    external_work_j: dynamics.external_work_j,
+                    initial_energy_j,
+                    backend: simulation.describe(),
+                };
+                let state = StateRef {
+                    disp: &dynamics.disp,
+                    vel: &dynamics.vel,
+                    force: &dynamics.force,
+                    boost: &dynamics.boost,
+                };
+                checkpoint::write(&checkpoint_path, &meta, state)?;
+                checkpointed = true;
+                if let Some(previous) = previous.take() {
+                    previous.discard()?;
+                }
+            }
+            progress.message(&format!(
+                "frame {frame}/{total_frames}, {broken_bonds} broken bonds, kinetic energy {:.3e} J",
+                energy.kinetic_j
+            ));
         }
-        write_frame(simulation.as_ref(), &layout, frame)?;
-        log.append(frame, &events)?;
-        if frame % config.sim.checkpoint_every_frames == 0 || frame == total_frames {
-            let meta = CheckpointMeta {
-                frame,
-                step: dynamics.step,
-                break_log_bytes: log.len(),
-                broken_bonds,
-                settings_hash: hash,
-                particles_checksum,
-                external_work_j: dynamics.external_work_j,
-                initial_energy_j,
-                backend: simulation.describe(),
-            };
-            let state =
-                StateRef { disp: &dynamics.disp, vel: &dynamics.vel, force: &dynamics.force, boost: &dynamics.boost };
-            checkpoint::write(&checkpoint_path, &meta, state)?;
-        }
-        progress.message(&format!(
-            "frame {frame}/{total_frames}, {broken_bonds} broken bonds, kinetic energy {:.3e} J",
-            energy.kinetic_j
-        ));
-    }
+        Ok(())
+    };
+    let outcome = frames();
     progress.finish();
+    if let Err(error) = outcome {
+        if let Some(previous) = previous {
+            previous.restore()?;
+        }
+        return Err(error);
+    }
     Ok(RunReport {
         backend: simulation.describe(),
         particles: simulation.len(),
@@ -332,21 +352,4 @@ fn write_frame(simulation: &dyn Backend, layout: &OutputLayout, frame: u32) -> R
         damage: simulation.damage(),
     }
     .write(&layout.frame_points(frame))
-}
-
-/// Removes the point caches of an earlier run (a fresh run may write fewer frames).
-fn remove_old_frames(frames_dir: &Path) -> Result<(), FrameFileError> {
-    let entries = std::fs::read_dir(frames_dir).map_err(|source| FrameFileError::Io {
-        path: frames_dir.to_path_buf(),
-        action: "list",
-        source,
-    })?;
-    for entry in entries.flatten() {
-        let name = entry.file_name().to_string_lossy().into_owned();
-        if is_points_name(&name) {
-            let path = entry.path();
-            std::fs::remove_file(&path).map_err(|source| FrameFileError::Io { path, action: "remove", source })?;
-        }
-    }
-    Ok(())
 }
