@@ -152,6 +152,34 @@ fn bad_configs_name_the_key_and_exit_with_2() {
             vec!["scene.name", "1 to 200"],
         ),
         (
+            "a bulk modulus no bond force can hold",
+            GOOD.replace("bulk_modulus_pa = 14.9e9", "bulk_modulus_pa = 1e300"),
+            vec!["material.bulk_modulus_pa = 1e300", "beyond single precision"],
+        ),
+        (
+            "a density no mass can hold",
+            GOOD.replace("density_kg_m3 = 2200.0", "density_kg_m3 = 1e-40"),
+            vec!["material.density_kg_m3 = 1e-40", "mass would be"],
+        ),
+        (
+            "a fracture energy that makes bonds unbreakable",
+            GOOD.replace("bulk_modulus_pa = 14.9e9", "bulk_modulus_pa = 14.9e9\nfracture_energy_j_m2 = 1e308"),
+            vec!["material.fracture_energy_j_m2 = 1e308", "mean critical stretch would be"],
+        ),
+        (
+            "a critical stretch below single precision",
+            GOOD.replace("bulk_modulus_pa = 14.9e9", "bulk_modulus_pa = 14.9e9\ncritical_stretch = 1e-30"),
+            vec!["material.critical_stretch = 1e-30", "at least 1e-6"],
+        ),
+        (
+            "a scene too far from the origin for single precision",
+            GOOD.replace(
+                "horizon_factor = 3.0",
+                "horizon_factor = 3.0\n[geometry.transform]\ntranslate_m = [1e30, 0.0, 0.0]",
+            ),
+            vec!["geometry.transform.translate_m = [1e30, 0, 0]", "place the scene nearer the origin"],
+        ),
+        (
             "a box thinner than the spacing",
             GOOD.replace("box_size_m = [0.01, 0.01, 0.004]", "box_size_m = [0.01, 0.0005, 0.004]"),
             vec!["geometry.box_size_m = [0.01, 0.0005, 0.004]", "at least geometry.spacing_m = 0.001"],
@@ -227,6 +255,10 @@ fn a_failed_run_keeps_the_good_output_and_corruption_is_reported() {
 
     std::fs::write(&config, GOOD.replace("source = \"box\"", &format!("source = {:?}", mesh_path("../PROVENANCE.md"))))
         .expect("write");
+    let output = shatter(&["preprocess"], dir.path());
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    assert_eq!(std::fs::read(&file).expect("read"), good, "the good file is untouched");
+    std::fs::write(&config, GOOD.replace("bulk_modulus_pa = 14.9e9", "bulk_modulus_pa = 1e300")).expect("write");
     let output = shatter(&["preprocess"], dir.path());
     assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
     assert_eq!(std::fs::read(&file).expect("read"), good, "the good file is untouched");

@@ -26,6 +26,12 @@ pub enum PreprocessError {
         /// What is wrong.
         message: String,
     },
+    /// The particle set these settings make would be refused by the simulation (bad input: exit
+    /// code 2); nothing is written.
+    #[error(
+        "these settings make a particle set the simulation cannot use ({0}); check the [material] and [geometry] values"
+    )]
+    Unusable(String),
     /// The sampler's geometry failed on this mesh (bad input: exit code 2).
     #[error("geometry.sampler = \"{sampler}\": {message}")]
     Sampler {
@@ -50,5 +56,7 @@ pub struct Preprocessed {
 /// Turns the scene's geometry into particles: the source loaded, repaired and sampled by the
 /// scene's sampler, bonded, and placed in the world (see the [crate documentation](crate)).
 pub fn preprocess(config: &PipelineConfig, progress: &dyn Progress) -> Result<Preprocessed, PreprocessError> {
-    sample_geometry(config, progress)
+    let result = sample_geometry(config, progress)?;
+    result.particles.validate().map_err(PreprocessError::Unusable)?;
+    Ok(result)
 }

@@ -11,6 +11,7 @@ use std::path::{Component, Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 mod array_lengths;
+pub mod derived;
 pub mod post;
 pub mod render;
 pub mod sim;
@@ -528,6 +529,7 @@ impl PipelineConfig {
             || format!("must be between 0 and {MAX_THRESHOLD_JITTER} (a fraction of the mean threshold)"),
         )?;
         check.non_negative("material.compression_alpha", material.compression_alpha, "dimensionless")?;
+        derived::validate(self, &check)?;
         self.sim.validate(&check)?;
         self.post.validate(&check)?;
         self.render.validate(&check)
