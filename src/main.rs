@@ -14,6 +14,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use shatter_core::memory::MemoryError;
 use shatter_core::output_lock::OutputLock;
 use shatter_core::{ConfigError, OutputLayout, PipelineConfig};
 use shatter_post::PostError;
@@ -101,6 +102,7 @@ impl<E: Into<anyhow::Error>> From<E> for Failure {
         let find = |test: &dyn Fn(&(dyn std::error::Error + 'static)) -> bool| error.chain().any(test);
         let code = if find(&|cause| {
             cause.is::<ConfigError>()
+                || cause.is::<MemoryError>()
                 || cause.is::<PreprocessError>()
                 || cause.downcast_ref::<RunError>().is_some_and(RunError::is_bad_input)
                 || cause.downcast_ref::<PostError>().is_some_and(PostError::is_bad_input)
@@ -134,10 +136,12 @@ fn run(cli: Cli) -> Result<(), Failure> {
     match cli.command {
         Command::Preprocess(arg) => {
             let (config, _lock) = open_scene(&arg)?;
+            check_memory(&config, Stage::Preprocess, Stage::Preprocess)?;
             preprocess::run(&config)
         }
         Command::Sim { config, options } => {
             let (config, _lock) = open_scene(&config)?;
+            check_memory(&config, Stage::Sim, Stage::Sim)?;
             sim::run(&config, &options)
         }
         Command::Post(arg) => {
@@ -146,14 +150,30 @@ fn run(cli: Cli) -> Result<(), Failure> {
         }
         Command::Render { config, options } => {
             let (config, _lock) = open_scene(&config)?;
+            check_memory(&config, Stage::Render, Stage::Render)?;
             render::run(&config, &options)
         }
         Command::Run { config, options, until } => {
             let (config, _lock) = open_scene(&config)?;
+            check_memory(&config, Stage::Preprocess, until)?;
             pipeline::run(&config, &options, until)
         }
         Command::Inspect { path, json } => inspect::run(&path, json),
     }
+}
+
+/// Refuses, before anything is allocated, a stage from `first` to `last` whose estimated peak
+/// memory cannot fit (see [`shatter_core::memory`]).
+fn check_memory(config: &PipelineConfig, first: Stage, last: Stage) -> Result<(), Failure> {
+    let stages = [Stage::Preprocess, Stage::Sim, Stage::Post, Stage::Render];
+    let names = ["preprocess", "sim", "post", "render"];
+    for (stage, need) in shatter_core::memory::config_needs(config) {
+        let position = names.iter().position(|name| *name == stage).map(|i| stages[i]);
+        if position.is_some_and(|s| (first..=last).contains(&s)) {
+            shatter_core::memory::check(&need)?;
+        }
+    }
+    Ok(())
 }
 
 /// The error and its causes, each cause once: library errors already quote their source.

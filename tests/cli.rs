@@ -335,3 +335,53 @@ fn a_stage_run_before_the_one_it_needs_is_exit_2_naming_that_stage() {
         assert!(stderr(&output).contains(asks), "{stage}: {}", stderr(&output));
     }
 }
+
+#[test]
+fn what_cannot_fit_in_memory_is_refused_before_it_is_allocated() {
+    // (what, the scene, the command, a fragment of the message); under a 2 GiB address-space
+    // limit, so that the outcome does not depend on the machine
+    let cases = [
+        (
+            "a fine spacing",
+            GOOD.replace("spacing_m = 0.001", "spacing_m = 0.00005"),
+            "preprocess",
+            "geometry.spacing_m and geometry.horizon_factor: preprocessing",
+        ),
+        (
+            "a long weakened path",
+            format!(
+                "{GOOD}[[sim.weakened_path]]\nstart_m = [0.0, 0.0, 0.0]\ndirection = [1.0, 0.0, 0.0]\nsteps = 4000000000\nstep_length_m = 0.0001\nradius_m = 0.0005\nthreshold_factor = 0.5\n"
+            ),
+            "sim",
+            "sim.weakened_path[].steps",
+        ),
+        (
+            "a huge image",
+            format!("{GOOD}[render]\nresolution = [16384, 16384]\nsamples_per_pixel = 4096\n"),
+            "render",
+            "render.resolution: rendering 16384 x 16384",
+        ),
+    ];
+    for (what, text, command, message) in cases {
+        let (dir, _) = scene(&text);
+        let script = format!("ulimit -v 2000000; exec {:?} {command}", env!("CARGO_BIN_EXE_shatter"));
+        let output = Command::new("sh").args(["-c", &script]).current_dir(dir.path()).output().expect("sh runs");
+        assert_eq!(output.status.code(), Some(2), "{what}: {}", stderr(&output));
+        assert!(
+            stderr(&output).contains(message) && stderr(&output).contains("of memory"),
+            "{what}: {}",
+            stderr(&output)
+        );
+        let run = Command::new("sh").args(["-c", &script.replace(command, "run")]).current_dir(dir.path()).output();
+        let run = run.expect("sh runs");
+        assert_eq!(run.status.code(), Some(2), "{what}, run: {}", stderr(&run));
+        assert!(!dir.path().join("out/particles.shp").exists(), "{what}: refused before anything was written");
+    }
+    let output = shatter(&["preprocess", "--config", "/dev/zero"], Path::new("."));
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("/dev/zero: cannot read the config file: the file is over"),
+        "{}",
+        stderr(&output)
+    );
+}

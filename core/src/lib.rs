@@ -11,6 +11,7 @@
 //! - [`particles`]: the particle file written by `shatter preprocess` (rest state, element
 //!   geometry, bonds, element adjacency).
 //! - [`ply`]: checksummed binary PLY point caches, the public per-frame format.
+//! - [`memory`]: each stage's peak memory, estimated and refused up front when it cannot fit.
 //! - [`progress`]: how library code reports progress to the CLI.
 //! - [`random`]: seeded, order-independent randomness.
 
@@ -20,6 +21,7 @@ pub mod config;
 pub mod fragments;
 pub mod frames;
 pub mod layout;
+pub mod memory;
 pub mod output_lock;
 pub mod particles;
 pub mod ply;

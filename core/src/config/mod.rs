@@ -25,6 +25,8 @@ pub const MAX_HORIZON_FACTOR: f64 = 8.0;
 /// The longest scene name: it names files (`<name>.####.exr`, and a temporary name a little
 /// longer while one is written) that must stay within the 255 bytes file systems allow.
 pub const MAX_SCENE_NAME_BYTES: usize = 200;
+/// The largest config file read.
+pub const MAX_CONFIG_BYTES: u64 = 1 << 20;
 /// The largest per-bond threshold jitter accepted, as a fraction of the mean threshold.
 pub const MAX_THRESHOLD_JITTER: f64 = 0.2;
 
@@ -329,9 +331,19 @@ impl MaterialConfig {
 impl PipelineConfig {
     /// Reads, parses and validates a config file; relative paths in it are resolved against the
     /// file's folder.
+    /// A file over [`MAX_CONFIG_BYTES`] is refused without being read whole.
     pub fn load(path: &Path) -> Result<PipelineConfig, ConfigError> {
-        let text =
-            std::fs::read_to_string(path).map_err(|source| ConfigError::Read { path: path.to_path_buf(), source })?;
+        use std::io::Read;
+        let read_error = |source| ConfigError::Read { path: path.to_path_buf(), source };
+        let file = std::fs::File::open(path).map_err(read_error)?;
+        let mut bytes = Vec::new();
+        file.take(MAX_CONFIG_BYTES + 1).read_to_end(&mut bytes).map_err(read_error)?;
+        if bytes.len() as u64 > MAX_CONFIG_BYTES {
+            let message = format!("the file is over {MAX_CONFIG_BYTES} bytes; a scene's config is a few kilobytes");
+            return Err(read_error(std::io::Error::new(std::io::ErrorKind::InvalidData, message)));
+        }
+        let text = String::from_utf8(bytes)
+            .map_err(|_| read_error(std::io::Error::new(std::io::ErrorKind::InvalidData, "not UTF-8 text")))?;
         PipelineConfig::from_toml_str(&text, path)
     }
 
