@@ -180,6 +180,16 @@ fn bad_configs_name_the_key_and_exit_with_2() {
             vec!["geometry.transform.translate_m = [1e30, 0, 0]", "place the scene nearer the origin"],
         ),
         (
+            "an 8-bit environment map",
+            format!("{GOOD}[render]\nenvironment = {:?}\n", mesh_path("../textures/rosewood_veneer1_diff_1k.jpg")),
+            vec!["render.environment", "must be a Radiance .hdr or OpenEXR .exr map"],
+        ),
+        (
+            "an environment intensity past single precision",
+            format!("{GOOD}[render]\nenvironment_intensity = 1e38\n"),
+            vec!["render.environment_intensity = 100000000000000000000000000000000000000", "from 0 to 1e6"],
+        ),
+        (
             "a box thinner than the spacing",
             GOOD.replace("box_size_m = [0.01, 0.01, 0.004]", "box_size_m = [0.01, 0.0005, 0.004]"),
             vec!["geometry.box_size_m = [0.01, 0.0005, 0.004]", "at least geometry.spacing_m = 0.001"],
@@ -381,6 +391,18 @@ fn what_cannot_fit_in_memory_is_refused_before_it_is_allocated() {
     assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
     assert!(
         stderr(&output).contains("/dev/zero: cannot read the config file: the file is over"),
+        "{}",
+        stderr(&output)
+    );
+}
+
+#[test]
+fn more_shards_than_particles_is_exit_2() {
+    let (dir, _) = scene(&format!("{GOOD}[sim]\nframes = 2\nsteps_per_frame = 2\n[sim.shards]\ncount = 100000\n"));
+    let output = shatter(&["run", "--until", "sim"], dir.path());
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("sim.shards.count = 100000: more shards than the particle file's 400 particles"),
         "{}",
         stderr(&output)
     );

@@ -30,6 +30,13 @@ pub fn threshold_factors(sim: &SimConfig, particles: &ParticleSet, seed: u64) ->
         rules.push(seam_rule(seam, &rest, particles.meta.delta_m)?);
     }
     if let Some(shards) = &sim.shards {
+        if shards.count as usize > rest.len() {
+            return Err(SimError::BadInput(format!(
+                "sim.shards.count = {}: more shards than the particle file's {} particles",
+                shards.count,
+                rest.len()
+            )));
+        }
         rules.push(Box::new(shard_rule(shards, &rest, seed)));
     }
     let bonds = &particles.bonds;
@@ -198,7 +205,7 @@ fn segment_crosses_triangle(p: DVec3, q: DVec3, [a, b, c]: [DVec3; 3]) -> bool {
 
 /// Shards: `count` particles chosen by hashed rank become centres; each particle joins the nearest.
 fn shard_rule(shards: &ShardsConfig, rest: &[DVec3], seed: u64) -> impl Fn(usize, usize) -> f64 + Sync {
-    let count = (shards.count as usize).min(rest.len());
+    let count = shards.count as usize;
     let mut ranked: Vec<(u64, usize)> =
         (0..rest.len()).map(|i| (splitmix64(seed ^ splitmix64(i as u64) ^ 0x5a4d), i)).collect();
     ranked.select_nth_unstable(count.saturating_sub(1));

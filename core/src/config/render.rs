@@ -7,6 +7,10 @@ use serde::{Deserialize, Serialize};
 use super::sim::BackendChoice;
 use super::{Checker, ConfigError};
 
+/// The largest `environment_intensity`: a million times a map's radiance is far past any real
+/// light, and far enough from single precision's limit that radiance times it stays finite.
+pub const MAX_ENVIRONMENT_INTENSITY: f64 = 1e6;
+
 /// `[render]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -168,7 +172,22 @@ impl RenderConfig {
                 })?;
             }
         }
-        check.non_negative("render.environment_intensity", self.environment_intensity, "a multiplier")?;
+        if let Some(path) = &self.environment {
+            let hdr = path
+                .extension()
+                .and_then(|ext| ext.to_str())
+                .is_some_and(|ext| ext.eq_ignore_ascii_case("hdr") || ext.eq_ignore_ascii_case("exr"));
+            check.that(hdr, "render.environment", &format!("{:?}", path.display().to_string()), || {
+                "must be a Radiance .hdr or OpenEXR .exr map: an 8-bit image holds no light brighter than white".into()
+            })?;
+        }
+        let intensity = self.environment_intensity;
+        check.that(
+            intensity.is_finite() && (0.0..=MAX_ENVIRONMENT_INTENSITY).contains(&intensity),
+            "render.environment_intensity",
+            &intensity.to_string(),
+            || format!("must be a multiplier from 0 to {MAX_ENVIRONMENT_INTENSITY:e}"),
+        )?;
         check.finite("render.preview_exposure_stops", self.preview_exposure_stops)?;
         let camera = &self.camera;
         if let Some(position) = &camera.position_m {
