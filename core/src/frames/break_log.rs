@@ -92,8 +92,12 @@ impl BreakLog {
         let crc = block_checksum(&block);
         block[8..12].copy_from_slice(&crc.to_le_bytes());
         self.file.seek(SeekFrom::Start(self.len)).map_err(io_error(&self.path, "seek"))?;
-        self.file.write_all(&block).map_err(io_error(&self.path, "write"))?;
-        self.file.sync_data().map_err(io_error(&self.path, "sync"))?;
+        let written = self.file.write_all(&block).and_then(|()| self.file.sync_data());
+        if let Err(source) = written {
+            // A full disk (or any failed write) must not leave part of a block in the log.
+            let _ = self.file.set_len(self.len);
+            return Err(FrameFileError::Io { path: self.path.clone(), action: "append to", source });
+        }
         self.len += block.len() as u64;
         Ok(())
     }
