@@ -3,16 +3,9 @@
 //! `shatter sim --resume` says the checkpoint belongs to other inputs and how to start over
 //! (exit code 2); and the outputs then equal a fresh run's.
 
-use std::path::Path;
-use std::process::{Command, Output};
+mod support;
 
-fn shatter(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_shatter")).args(args).current_dir(dir).output().expect("shatter runs")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
+use support::{folder_files, shatter, stderr};
 
 fn scene(box_size: &str, spacing: &str, steps: u32) -> String {
     format!(
@@ -41,25 +34,12 @@ initial_velocity_m_s = [0.0, 0.0, -1.0]
 
 const BEFORE: (&str, &str, u32) = ("[0.012, 0.012, 0.004]", "0.001", 40);
 
-/// The frames folder's files, by name.
-fn frames(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir.join("out/frames"))
-        .expect("frames")
-        .map(|entry| {
-            let path = entry.expect("entry").path();
-            (path.file_name().expect("name").to_string_lossy().into_owned(), std::fs::read(&path).expect("read"))
-        })
-        .collect();
-    files.sort();
-    files
-}
-
 /// A folder whose simulation ran to the end with the `BEFORE` scene, then got `config`.
 fn simulated_then_changed(config: &str) -> tempfile::TempDir {
     let dir = tempfile::tempdir().expect("tempdir");
     std::fs::write(dir.path().join("pipeline.toml"), scene(BEFORE.0, BEFORE.1, BEFORE.2)).expect("config");
     let output = shatter(&["run", "--until", "sim"], dir.path());
-    assert!(output.status.success(), "{}", text(&output.stderr));
+    assert!(output.status.success(), "{}", stderr(&output));
     std::fs::write(dir.path().join("pipeline.toml"), config).expect("config");
     dir
 }
@@ -79,15 +59,18 @@ fn run_starts_a_stale_simulation_over_and_saying_why() {
         let dir = simulated_then_changed(&config);
         for attempt in 0..2 {
             let output = shatter(&["run", "--until", "sim"], dir.path());
-            assert!(output.status.success(), "{what}, run {attempt}: {}", text(&output.stderr));
+            assert!(output.status.success(), "{what}, run {attempt}: {}", stderr(&output));
             if attempt == 0 {
-                assert!(text(&output.stderr).contains("simulating from the start"), "{what}: {}", text(&output.stderr));
+                assert!(stderr(&output).contains("simulating from the start"), "{what}: {}", stderr(&output));
             }
         }
         let fresh = tempfile::tempdir().expect("tempdir");
         std::fs::write(fresh.path().join("pipeline.toml"), &config).expect("config");
         assert!(shatter(&["run", "--until", "sim"], fresh.path()).status.success());
-        assert!(frames(dir.path()) == frames(fresh.path()), "{what}: the frames differ from a fresh run's");
+        assert!(
+            folder_files(&dir.path().join("out/frames")) == folder_files(&fresh.path().join("out/frames")),
+            "{what}: the frames differ from a fresh run's"
+        );
     }
 }
 
@@ -98,11 +81,11 @@ fn resuming_a_stale_checkpoint_is_bad_input_that_says_how_to_start_over() {
         assert!(shatter(&["preprocess"], dir.path()).status.success(), "{what}");
         let checkpoint = std::fs::read(dir.path().join("out/sim.checkpoint.shp")).expect("checkpoint");
         let output = shatter(&["sim", "--resume"], dir.path());
-        let stderr = text(&output.stderr);
-        assert_eq!(output.status.code(), Some(2), "{what}: {stderr}");
-        assert!(stderr.contains(message) && stderr.contains("run without --resume"), "{what}: {stderr}");
+        let said = stderr(&output);
+        assert_eq!(output.status.code(), Some(2), "{what}: {said}");
+        assert!(said.contains(message) && said.contains("run without --resume"), "{what}: {said}");
         assert_eq!(std::fs::read(dir.path().join("out/sim.checkpoint.shp")).expect("checkpoint"), checkpoint, "{what}");
         let output = shatter(&["sim"], dir.path());
-        assert!(output.status.success(), "{what}: {}", text(&output.stderr));
+        assert!(output.status.success(), "{what}: {}", stderr(&output));
     }
 }

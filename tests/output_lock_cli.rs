@@ -2,12 +2,15 @@
 //! folder and the holder's process id, readers are never blocked, a killed holder leaves no
 //! stale lock, and two runs started together end with the outputs of one uninterrupted run.
 
+mod support;
+
 use std::path::Path;
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use shatter_core::OutputLayout;
 use shatter_core::output_lock::OutputLock;
+use support::{folder_files, shatter};
 
 const CONFIG: &str = r#"
 [scene]
@@ -34,10 +37,6 @@ radius_m = 0.003
 stiffness_pa = 3e7
 "#;
 
-fn shatter(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_shatter")).args(args).current_dir(dir).output().expect("shatter runs")
-}
-
 fn spawn(args: &[&str], dir: &Path) -> Child {
     Command::new(env!("CARGO_BIN_EXE_shatter"))
         .args(args)
@@ -56,19 +55,6 @@ fn scene() -> tempfile::TempDir {
 
 fn layout(dir: &Path) -> OutputLayout {
     OutputLayout::new(dir.join("out"), "locked")
-}
-
-/// Every frame file and the break log, by name.
-fn sim_outputs(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(layout(dir).frames_dir())
-        .expect("frames folder")
-        .map(|entry| {
-            let path = entry.expect("entry").path();
-            (path.file_name().expect("name").to_string_lossy().into_owned(), std::fs::read(&path).expect("read"))
-        })
-        .collect();
-    files.sort();
-    files
 }
 
 #[test]
@@ -117,7 +103,7 @@ fn two_runs_started_together_end_as_one_uninterrupted_run() {
     let reference = scene();
     let output = shatter(&["run", "--until", "sim"], reference.path());
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
-    let expected = sim_outputs(reference.path());
+    let expected = folder_files(&layout(reference.path()).frames_dir());
 
     let mut overlapped = 0;
     for trial in 0..20 {
@@ -139,7 +125,10 @@ fn two_runs_started_together_end_as_one_uninterrupted_run() {
                 assert!(second.status.success(), "trial {trial}: {stderr}");
             }
         }
-        assert!(sim_outputs(dir.path()) == expected, "trial {trial}: the outputs differ from an uninterrupted run's");
+        assert!(
+            folder_files(&layout(dir.path()).frames_dir()) == expected,
+            "trial {trial}: the outputs differ from an uninterrupted run's"
+        );
     }
     assert!(overlapped >= 10, "only {overlapped} of 20 trials overlapped: make the scene slower");
 }
