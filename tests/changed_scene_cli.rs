@@ -1,7 +1,8 @@
 //! A scene changed between runs never wedges its output folder: a checkpoint made from other
 //! inputs is stale, not corrupt. `shatter run` starts the simulation over and says why;
 //! `shatter sim --resume` says the checkpoint belongs to other inputs and how to start over
-//! (exit code 2); and the outputs then equal a fresh run's.
+//! (exit code 2); and the outputs then equal a fresh run's. A stage run alone refuses frames or
+//! fragments made from other inputs (exit code 2), by the digest they carry.
 
 mod support;
 
@@ -87,5 +88,32 @@ fn resuming_a_stale_checkpoint_is_bad_input_that_says_how_to_start_over() {
         assert_eq!(std::fs::read(dir.path().join("out/sim.checkpoint.shp")).expect("checkpoint"), checkpoint, "{what}");
         let output = shatter(&["sim"], dir.path());
         assert!(output.status.success(), "{what}: {}", stderr(&output));
+    }
+}
+
+#[test]
+fn a_stage_run_alone_refuses_outputs_of_other_inputs() {
+    // (what changed after sim and post ran, the stage then run alone, what it asks for)
+    let before = scene(BEFORE.0, BEFORE.1, BEFORE.2);
+    let cases = [
+        ("[sim] steps per frame", scene(BEFORE.0, BEFORE.1, 30), "post", "run `shatter sim` again"),
+        ("[material] stiffness", before.replace("14.9e9", "20e9"), "post", "run `shatter sim` again"),
+        (
+            "[sim] steps per frame",
+            scene(BEFORE.0, BEFORE.1, 30),
+            "render",
+            "run `shatter sim` and `shatter post` again",
+        ),
+        ("[post] smoothing", format!("{before}[post]\nsmoothing_frames = 2.0\n"), "render", "and `shatter post` again"),
+    ];
+    for (what, config, stage, asks) in cases {
+        let dir = simulated_then_changed(&before);
+        let output = shatter(&["post"], dir.path());
+        assert!(output.status.success(), "{what}: {}", stderr(&output));
+        std::fs::write(dir.path().join("pipeline.toml"), &config).expect("config");
+        let output = shatter(&[stage], dir.path());
+        let said = stderr(&output);
+        assert_eq!(output.status.code(), Some(2), "{what}, {stage}: {said}");
+        assert!(said.contains("made from") && said.contains(asks), "{what}, {stage}: {said}");
     }
 }

@@ -19,6 +19,10 @@ pub struct FragmentMeta {
     pub time_s: f64,
     /// Whether transforms were smoothed (the post stage's PD controller).
     pub smoothed: bool,
+    /// What the frame was made from ([`crate::digest::post_inputs`]); `None` in files written
+    /// before it was recorded.
+    #[serde(default)]
+    pub inputs: Option<u32>,
 }
 
 /// One frame's fragments.
@@ -115,7 +119,7 @@ mod tests {
     #[test]
     fn frames_round_trip_and_inconsistencies_are_named() {
         let frame = FragmentFrame {
-            meta: FragmentMeta { frame: 4, step: 300, time_s: 3.6e-5, smoothed: false },
+            meta: FragmentMeta { frame: 4, step: 300, time_s: 3.6e-5, smoothed: false, inputs: Some(0x1234_abcd) },
             fragment_of: vec![0, 0, 1],
             rotation: vec![[0.0, 0.0, 0.0, 1.0], [0.0, 0.6, 0.0, 0.8]],
             translation_m: vec![[0.0; 3], [1.0, 2.0, 3.0]],

@@ -4,6 +4,7 @@
 //! - [`atomic_file`]: files written whole or not at all (temporary name, fsync, rename).
 //! - [`stage_file`]: the versioned, checksummed, atomically written binary container that every
 //!   stage file uses.
+//! - [`digest`]: what each stage's outputs were made from, stored in them.
 //! - [`layout`]: every path in a scene's output folder; [`output_lock`]: its one writer.
 //! - [`checkpoint`]: the simulation's checkpoint (full state at a frame boundary).
 //! - [`frames`]: the simulation's per-frame point caches and its bond-break log.
@@ -18,6 +19,7 @@
 pub mod atomic_file;
 pub mod checkpoint;
 pub mod config;
+pub mod digest;
 pub mod fragments;
 pub mod frames;
 pub mod layout;

@@ -73,7 +73,7 @@ bulk_modulus_pa = 14.9e9
     let track_s = started.elapsed().as_secs_f64();
     let started = Instant::now();
     let fragments = FragmentFrame {
-        meta: FragmentMeta { frame: 2, step: 1, time_s: 0.0, smoothed: false },
+        meta: FragmentMeta { frame: 2, step: 1, time_s: 0.0, smoothed: false, inputs: None },
         fragment_of: frame.fragment_of.clone(),
         rotation: frame.motion.iter().map(|m| m.rotation.as_quat().to_array()).collect(),
         translation_m: frame.motion.iter().map(|m| m.translation.to_array()).collect(),

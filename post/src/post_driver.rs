@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use shatter_core::digest;
 use shatter_core::fragments::{FragmentFrame, FragmentMeta};
 use shatter_core::frames::{BreakLog, FrameFileError, PointFrame};
 use shatter_core::layout::missing_input;
@@ -73,7 +74,8 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
     if let Some(message) = missing_input(&layout.particles(), "preprocess") {
         return Err(PostError::MissingInput(message));
     }
-    let particles = ParticleSet::read(&layout.particles())?;
+    let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
+    let sim_inputs = digest::sim_inputs(particles_checksum, config);
     let total = config.sim.frames;
     for frame in 1..=total {
         if !layout.frame_points(frame).is_file() {
@@ -99,6 +101,12 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
             }
         }
         let points = PointFrame::read(&layout.frame_points(frame))?;
+        if points.inputs != Some(sim_inputs) {
+            return Err(PostError::MissingInput(format!(
+                "{}: made from another particle file or other [sim] or [material] settings; run `shatter sim` again",
+                layout.frame_points(frame).display()
+            )));
+        }
         if points.frame != frame {
             let what = format!("holds frame {}, not {frame} (renamed from another frame's name?)", points.frame);
             return Err(FrameFileError::Invalid { path: layout.frame_points(frame), what }.into());
@@ -114,7 +122,13 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
         let position = [&points.position[0][..], &points.position[1][..], &points.position[2][..]];
         let tracked = tracker.track(position, smoothing);
         let fragments = FragmentFrame {
-            meta: FragmentMeta { frame, step: points.step, time_s: points.time_s, smoothed: smoothing > 0.0 },
+            meta: FragmentMeta {
+                frame,
+                step: points.step,
+                time_s: points.time_s,
+                smoothed: smoothing > 0.0,
+                inputs: Some(digest::post_inputs(sim_inputs, config)),
+            },
             fragment_of: tracked.fragment_of.clone(),
             rotation: tracked.motion.iter().map(|m| m.rotation.as_quat().to_array()).collect(),
             translation_m: tracked.motion.iter().map(|m| m.translation.to_array()).collect(),

@@ -7,6 +7,7 @@ use std::time::Instant;
 use glam::DVec3;
 use shatter_core::config::render::RenderConfig;
 use shatter_core::config::sim::BackendChoice;
+use shatter_core::digest;
 use shatter_core::fragments::FragmentFrame;
 use shatter_core::layout::missing_input;
 use shatter_core::particles::ParticleSet;
@@ -225,7 +226,8 @@ pub fn run_render(
     if let Some(message) = missing_input(&layout.particles(), "preprocess") {
         return Err(RenderError::Input(message));
     }
-    let particles = ParticleSet::read(&layout.particles())?;
+    let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
+    let post_inputs = digest::post_inputs(digest::sim_inputs(particles_checksum, config), config);
     let look = look(render_config)?;
     let camera = camera(render_config, &particles);
     let tracer = Tracer::new(backend.unwrap_or(render_config.backend))?;
@@ -251,6 +253,15 @@ pub fn run_render(
                 path.display(),
                 fragments.fragment_of.len(),
                 particles.len()
+            )));
+        }
+        if let Some(fragments) = &fragments
+            && fragments.meta.inputs != Some(post_inputs)
+        {
+            return Err(RenderError::Input(format!(
+                "{}: made from other inputs (particle file, [sim], [material] or [post] settings); run `shatter sim` \
+                 and `shatter post` again",
+                path.display()
             )));
         }
         if let Some(fragments) = &fragments

@@ -8,6 +8,7 @@ use std::time::Instant;
 
 use shatter_core::checkpoint::{self, CheckpointMeta, CheckpointState, StateRef};
 use shatter_core::config::sim::BackendChoice;
+use shatter_core::digest;
 use shatter_core::frames::{BreakLog, FrameFileError, PointFrame};
 use shatter_core::layout::missing_input;
 use shatter_core::particles::ParticleSet;
@@ -133,12 +134,6 @@ pub struct RunReport {
     pub frames_dir: PathBuf,
 }
 
-/// A hash of everything that shapes the simulation besides the particle file.
-fn settings_hash(config: &PipelineConfig) -> u32 {
-    let settings = serde_json::json!({ "sim": config.sim, "material": config.material });
-    crc32fast::hash(settings.to_string().as_bytes())
-}
-
 /// The state is finite: every displacement and velocity.
 fn non_finite(dynamics: &Dynamics) -> Option<String> {
     for (name, arrays) in [("displacement", &dynamics.disp), ("velocity", &dynamics.vel)] {
@@ -191,7 +186,8 @@ pub fn run_with(
     let frames_dir = layout.frames_dir();
     let checkpoint_path = layout.checkpoint();
     let log_path = layout.break_log();
-    let hash = settings_hash(config);
+    let hash = digest::sim_settings(config);
+    let inputs = digest::sim_inputs(particles_checksum, config);
     let total_frames = config.sim.frames;
 
     let resumable = options.resume && checkpoint_path.exists();
@@ -245,7 +241,7 @@ pub fn run_with(
         if initial_velocity != [0.0; 3] {
             simulation.set_velocity(&|_, _| initial_velocity)?;
         }
-        write_frame(simulation.as_ref(), &layout, 1)?;
+        write_frame(simulation.as_ref(), &layout, 1, inputs)?;
         (log, 1, 0, simulation.energy().total_j())
     };
 
@@ -286,7 +282,7 @@ pub fn run_with(
                 };
                 return Err(RunError::Unstable { frame, step: dynamics.step, what, kept });
             }
-            write_frame(simulation.as_ref(), &layout, frame)?;
+            write_frame(simulation.as_ref(), &layout, frame, inputs)?;
             log.append(frame, &events)?;
             if frame % config.sim.checkpoint_every_frames == 0 || frame == total_frames {
                 let meta = CheckpointMeta {
@@ -341,7 +337,7 @@ pub fn run_with(
     })
 }
 
-fn write_frame(simulation: &dyn Backend, layout: &OutputLayout, frame: u32) -> Result<(), FrameFileError> {
+fn write_frame(simulation: &dyn Backend, layout: &OutputLayout, frame: u32, inputs: u32) -> Result<(), FrameFileError> {
     let dynamics = simulation.dynamics();
     PointFrame {
         frame,
@@ -350,6 +346,7 @@ fn write_frame(simulation: &dyn Backend, layout: &OutputLayout, frame: u32) -> R
         position: simulation.positions(),
         velocity: dynamics.vel.clone(),
         damage: simulation.damage(),
+        inputs: Some(inputs),
     }
     .write(&layout.frame_points(frame))
 }

@@ -21,6 +21,9 @@ pub struct PointFrame {
     pub velocity: [Vec<f32>; 3],
     /// Fraction of each particle's bonds that are broken.
     pub damage: Vec<f32>,
+    /// What the frame was made from ([`crate::digest::sim_inputs`]); `None` in files written
+    /// before it was recorded.
+    pub inputs: Option<u32>,
 }
 
 const COORDINATES: [&str; 3] = ["x", "y", "z"];
@@ -39,7 +42,10 @@ impl PointFrame {
                 ("frame".into(), self.frame.to_string()),
                 ("step".into(), self.step.to_string()),
                 ("time_s".into(), format!("{:e}", self.time_s)),
-            ],
+            ]
+            .into_iter()
+            .chain(self.inputs.map(|inputs| ("inputs".into(), format!("{inputs:08x}"))))
+            .collect(),
             columns,
         };
         Ok(cache.write(path)?)
@@ -53,6 +59,10 @@ impl PointFrame {
         let frame = number("frame")?.parse().map_err(|_| missing("valid frame number"))?;
         let step = number("step")?.parse().map_err(|_| missing("valid step"))?;
         let time_s = number("time_s")?.parse().map_err(|_| missing("valid time"))?;
+        let inputs = match cache.comment("inputs") {
+            Some(hex) => Some(u32::from_str_radix(hex, 16).map_err(|_| missing("valid inputs digest"))?),
+            None => None,
+        };
         let column = |name: &str| cache.floats(name).map(<[f32]>::to_vec).ok_or_else(|| missing(name));
         Ok(PointFrame {
             frame,
@@ -61,6 +71,7 @@ impl PointFrame {
             position: [column("x")?, column("y")?, column("z")?],
             velocity: [column("vx")?, column("vy")?, column("vz")?],
             damage: column("damage")?,
+            inputs,
         })
     }
 }
@@ -77,6 +88,7 @@ mod tests {
             position: [vec![1.0, 2.0], vec![3.0, 4.0], vec![5.0, 6.0]],
             velocity: [vec![0.5, -0.5], vec![0.0, 1.0], vec![2.0, 3.0]],
             damage: vec![0.0, 0.25],
+            inputs: Some(0xdead_beef),
         }
     }
 
