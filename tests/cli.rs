@@ -366,6 +366,14 @@ fn what_cannot_fit_in_memory_is_refused_before_it_is_allocated() {
             "sim.weakened_path[].steps",
         ),
         (
+            "a mesh filled finely",
+            GOOD.replace("source = \"box\"", &format!("source = {:?}", mesh_path("spot_triangulated.obj")))
+                .replace("box_size_m = [0.01, 0.01, 0.004]\n", "")
+                .replace("spacing_m = 0.001", "spacing_m = 0.005"),
+            "preprocess",
+            "geometry.spacing_m and geometry.horizon_factor: filling the mesh with about",
+        ),
+        (
             "a huge image",
             format!("{GOOD}[render]\nresolution = [16384, 16384]\nsamples_per_pixel = 4096\n"),
             "render",

@@ -4,9 +4,9 @@
 //! "memory allocation failed".
 //!
 //! The estimates are linear models fitted to measured peaks (docs/DECISIONS.md) and err on the
-//! high side. A particle count is known before preprocessing only for the grid sampler on a
-//! box; other sources are estimated once their particle file exists (the simulation and render
-//! use its particle and bond counts).
+//! high side. A particle count is known from the config alone only for the grid sampler on a
+//! box ([`config_needs`]); preprocessing checks a mesh's grid fill once the mesh is loaded. The
+//! tet-shell and Voronoi samplers are not estimated yet.
 
 use crate::PipelineConfig;
 use crate::config::{GeometrySource, Sampler};

@@ -4,6 +4,7 @@
 
 use shatter_core::Progress;
 use shatter_core::config::PipelineConfig;
+use shatter_core::memory::MemoryError;
 use shatter_core::particles::ParticleSet;
 use shatter_geometry::mesh::MeshError;
 
@@ -26,6 +27,9 @@ pub enum PreprocessError {
         /// What is wrong.
         message: String,
     },
+    /// The stage would not fit in memory (bad input: exit code 2).
+    #[error(transparent)]
+    Memory(#[from] MemoryError),
     /// The particle set these settings make would be refused by the simulation (bad input: exit
     /// code 2); nothing is written.
     #[error(

@@ -21,6 +21,7 @@ pub mod voronoi;
 use glam::DVec3;
 use shatter_core::Progress;
 use shatter_core::config::{GeometrySource, PipelineConfig, Sampler, TransformConfig};
+use shatter_core::memory::{self, Need};
 use shatter_geometry::mesh::{MeshError, TriangleMesh};
 
 use crate::inside::FillRule;
@@ -55,6 +56,7 @@ pub(crate) fn sample_geometry(
                 let mesh = load_repaired(path, &geometry.transform, geometry.mesh_repair.min_body_volume_fraction);
                 progress.finish();
                 let (mesh, report) = mesh?;
+                check_fill_memory(config, &mesh)?;
                 progress.start("fill", 0);
                 let filled = grid::fill_mesh(&mesh, spacing, report.fill_rule);
                 progress.finish();
@@ -104,6 +106,18 @@ pub(crate) fn sample_geometry(
     check_count("geometry.spacing_m", spacing.to_string(), sample.cells.len())?;
     let particles = grid::grid_particles(config, &sample, progress, &mut notes);
     Ok(Preprocessed { particles, mesh_report, notes })
+}
+
+/// Refuses a mesh whose grid fill would not fit in memory: it holds about its volume over a
+/// cube's particles (a box's count is checked from the config before preprocessing starts).
+fn check_fill_memory(config: &PipelineConfig, mesh: &TriangleMesh) -> Result<(), PreprocessError> {
+    let particles = mesh.signed_volume().abs() / config.geometry.spacing_m.powi(3);
+    let need = Need {
+        bytes: memory::preprocess_bytes(particles, config.geometry.horizon_factor),
+        keys: "geometry.spacing_m and geometry.horizon_factor",
+        what: format!("filling the mesh with about {particles:.3e} cubes"),
+    };
+    Ok(memory::check(&need)?)
 }
 
 /// Loads the mesh, brings it into the sampling frame (recentred, scaled to metres) and repairs it.
