@@ -312,6 +312,7 @@ fn relative_mesh_paths_start_at_the_config_folder() {
         .replace("spacing_m = 0.001", "spacing_m = 0.05")
         .replace("output_dir = \"out\"", &format!("output_dir = {:?}", dir.path().join("out").display().to_string()));
     let config = root.join("target/spot-test-pipeline.toml");
+    std::fs::create_dir_all(root.join("target")).expect("target folder");
     std::fs::write(&config, text).expect("write config");
     let output = shatter(&["preprocess", "--config", config.to_str().expect("utf-8")], dir.path());
     assert!(output.status.success(), "{}", stderr(&output));
