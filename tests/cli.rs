@@ -372,13 +372,31 @@ fn what_cannot_fit_in_memory_is_refused_before_it_is_allocated() {
                 .replace("box_size_m = [0.01, 0.01, 0.004]\n", "")
                 .replace("spacing_m = 0.001", "spacing_m = 0.005"),
             "preprocess",
-            "geometry.spacing_m and geometry.horizon_factor: filling the mesh with about",
+            "geometry.spacing_m and geometry.horizon_factor: sampling the mesh into about 5.746e6 cube particles",
+        ),
+        (
+            "a tet shell sampled finely",
+            GOOD.replace("source = \"box\"", &format!("source = {:?}", mesh_path("spot_triangulated.obj")))
+                .replace("box_size_m = [0.01, 0.01, 0.004]\n", "")
+                .replace("sampler = \"grid\"", "sampler = \"tet_shell\"")
+                .replace("spacing_m = 0.001", "spacing_m = 0.002"),
+            "preprocess",
+            "tet particles (tet_shell sampler) would take about",
+        ),
+        (
+            "many Voronoi cells",
+            GOOD.replace("source = \"box\"", &format!("source = {:?}", mesh_path("spot_triangulated.obj")))
+                .replace("box_size_m = [0.01, 0.01, 0.004]\n", "")
+                .replace("sampler = \"grid\"", "sampler = \"voronoi\"")
+                .replace("horizon_factor = 3.0", "horizon_factor = 3.0\n[geometry.voronoi]\nparticles = 100000000"),
+            "preprocess",
+            "geometry.voronoi.particles and geometry.horizon_factor: sampling the mesh into about 1.000e8 trimtope",
         ),
         (
             "a huge image",
             format!("{GOOD}[render]\nresolution = [16384, 16384]\nsamples_per_pixel = 4096\n"),
             "render",
-            "render.resolution: rendering 16384 x 16384",
+            "and render.resolution: rendering 4.000e2 particles at 16384 x 16384 pixels",
         ),
     ];
     for (what, text, command, message) in cases {
@@ -403,6 +421,30 @@ fn what_cannot_fit_in_memory_is_refused_before_it_is_allocated() {
         "{}",
         stderr(&output)
     );
+}
+
+#[test]
+fn later_stages_refuse_a_particle_file_too_large_for_memory() {
+    // 26,625 cubes filling the spot mesh: a 35 MB particle file whose simulation needs about 200
+    // MiB and whose render about 250 MiB, under a 400 MB address-space limit that leaves about 80
+    // MiB after the process's own libraries and its threads' heap arenas
+    let text = GOOD
+        .replace("source = \"box\"", &format!("source = {:?}", mesh_path("spot_triangulated.obj")))
+        .replace("box_size_m = [0.01, 0.01, 0.004]\n", "")
+        .replace("spacing_m = 0.001", "spacing_m = 0.03");
+    let (dir, _) = scene(&format!("{text}[sim]\nframes = 2\nsteps_per_frame = 2\n"));
+    assert!(shatter(&["preprocess"], dir.path()).status.success());
+    for (command, message) in [
+        ("sim", "geometry.spacing_m and geometry.horizon_factor: simulating 2.662e4 particles would take about"),
+        ("render", "geometry.spacing_m and render.resolution: rendering 2.662e4 particles at 960 x 540 pixels"),
+    ] {
+        let script = format!("ulimit -v 400000; exec {:?} {command}", env!("CARGO_BIN_EXE_shatter"));
+        let output = Command::new("sh").args(["-c", &script]).current_dir(dir.path()).output().expect("sh runs");
+        assert_eq!(output.status.code(), Some(2), "{command}: {}", stderr(&output));
+        assert!(stderr(&output).contains(message), "{command}: {}", stderr(&output));
+        assert!(stderr(&output).contains("raise geometry.spacing_m"), "{command}: {}", stderr(&output));
+    }
+    assert!(!dir.path().join("out/frames").exists() && !dir.path().join("out/render").exists());
 }
 
 #[test]

@@ -2,12 +2,12 @@
 //! with the very same frames as an uninterrupted run; what is up to date is skipped.
 
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::Instant;
 
-fn shatter(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_shatter")).args(args).current_dir(dir).output().expect("shatter runs")
-}
+use support::{shatter, tree_files};
+
+mod support;
 
 const SCENE: &str = r#"
 [scene]
@@ -44,23 +44,7 @@ look_at_m = [0.0, 0.0, 0.0]
 /// is fixed, but it may hold stale entries of an interrupted run's earlier stages) and the lock
 /// file (it holds the last writer's process id).
 fn outputs(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    let mut files = Vec::new();
-    let mut stack = vec![dir.join("out")];
-    while let Some(folder) = stack.pop() {
-        for entry in std::fs::read_dir(&folder).expect("folder") {
-            let path = entry.expect("entry").path();
-            if path.is_dir() {
-                stack.push(path);
-            } else {
-                let name = path.strip_prefix(dir).expect("inside").display().to_string();
-                if !name.ends_with("stamps.json") && !name.ends_with("shatter.lock") {
-                    files.push((name, std::fs::read(&path).expect("read")));
-                }
-            }
-        }
-    }
-    files.sort();
-    files
+    tree_files(&dir.join("out"), &["stamps.json", "shatter.lock"])
 }
 
 #[test]

@@ -9,6 +9,7 @@ use shatter_core::digest;
 use shatter_core::fragments::{FragmentFrame, FragmentMeta};
 use shatter_core::frames::{BreakLog, FrameFileError, PointFrame};
 use shatter_core::layout::missing_input;
+use shatter_core::memory::{self, MemoryError, SetSize};
 use shatter_core::particles::ParticleSet;
 use shatter_core::ply::{Column, PlyError, PointCache};
 use shatter_core::stage_file::StageFileError;
@@ -26,6 +27,9 @@ pub enum PostError {
     /// The simulation's outputs are missing or do not belong to the particle file (exit code 2).
     #[error("{0}")]
     MissingInput(String),
+    /// The stage would not fit in memory (exit code 2).
+    #[error(transparent)]
+    Memory(#[from] MemoryError),
     /// A stage file could not be read or written.
     #[error(transparent)]
     StageFile(#[from] StageFileError),
@@ -48,7 +52,7 @@ pub enum PostError {
 impl PostError {
     /// True when the user must run an earlier stage again.
     pub fn is_bad_input(&self) -> bool {
-        matches!(self, PostError::MissingInput(_))
+        matches!(self, PostError::MissingInput(_) | PostError::Memory(_))
     }
 }
 
@@ -74,7 +78,9 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
     if let Some(message) = missing_input(&layout.particles(), "preprocess") {
         return Err(PostError::MissingInput(message));
     }
+    memory::check(&memory::load_need(&layout.particles()))?;
     let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
+    memory::check(&memory::post_need(&SetSize::of(&particles)))?;
     let sim_inputs = digest::sim_inputs(particles_checksum, config);
     let total = config.sim.frames;
     for frame in 1..=total {

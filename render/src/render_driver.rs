@@ -10,6 +10,7 @@ use shatter_core::config::sim::BackendChoice;
 use shatter_core::digest;
 use shatter_core::fragments::FragmentFrame;
 use shatter_core::layout::missing_input;
+use shatter_core::memory::{self, MemoryError, SetSize};
 use shatter_core::particles::ParticleSet;
 use shatter_core::stage_file::StageFileError;
 use shatter_core::{OutputLayout, PipelineConfig, Progress};
@@ -31,6 +32,9 @@ pub enum RenderError {
     /// The environment map is unusable (exit 2).
     #[error(transparent)]
     Lighting(#[from] LightingError),
+    /// The stage would not fit in memory (exit code 2).
+    #[error(transparent)]
+    Memory(#[from] MemoryError),
     /// A stage file could not be read.
     #[error(transparent)]
     StageFile(#[from] StageFileError),
@@ -56,7 +60,7 @@ pub type AfterFrame<'a> = &'a mut dyn FnMut(u32) -> Result<(), Box<dyn std::erro
 impl RenderError {
     /// True when the user must change the input.
     pub fn is_bad_input(&self) -> bool {
-        matches!(self, RenderError::Input(_) | RenderError::Lighting(_))
+        matches!(self, RenderError::Input(_) | RenderError::Lighting(_) | RenderError::Memory(_))
     }
 }
 
@@ -226,7 +230,9 @@ pub fn run_render(
     if let Some(message) = missing_input(&layout.particles(), "preprocess") {
         return Err(RenderError::Input(message));
     }
+    memory::check(&memory::load_need(&layout.particles()))?;
     let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
+    memory::check(&memory::render_need(&SetSize::of(&particles), render_config.resolution))?;
     let post_inputs = digest::post_inputs(digest::sim_inputs(particles_checksum, config), config);
     let look = look(render_config)?;
     let camera = camera(render_config, &particles);

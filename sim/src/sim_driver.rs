@@ -11,6 +11,7 @@ use shatter_core::config::sim::BackendChoice;
 use shatter_core::digest;
 use shatter_core::frames::{BreakLog, FrameFileError, PointFrame};
 use shatter_core::layout::missing_input;
+use shatter_core::memory::{self, MemoryError, SetSize};
 use shatter_core::particles::ParticleSet;
 use shatter_core::stage_file::StageFileError;
 use shatter_core::{OutputLayout, PipelineConfig, Progress};
@@ -79,6 +80,9 @@ pub enum RunError {
     /// A frame file or the break log could not be read or written.
     #[error(transparent)]
     FrameFile(#[from] FrameFileError),
+    /// The stage would not fit in memory (exit code 2).
+    #[error(transparent)]
+    Memory(#[from] MemoryError),
     /// No GPU for `--backend gpu`, or the GPU failed while the backend was being set up.
     #[error(transparent)]
     Gpu(#[from] GpuError),
@@ -105,6 +109,7 @@ impl RunError {
                 | RunError::MissingInput(_)
                 | RunError::UnstableTimeStep { .. }
                 | RunError::CheckpointMismatch { .. }
+                | RunError::Memory(_)
         )
     }
 }
@@ -151,6 +156,17 @@ fn non_finite(dynamics: &Dynamics) -> Option<String> {
 pub type BackendFactory<'a> =
     &'a dyn Fn(&PipelineConfig, &ParticleSet) -> Result<(Box<dyn Backend>, Option<String>), BackendError>;
 
+/// Passes `outcome` on; a failure first puts the previous run's outputs back in place, if a fresh
+/// run set them aside and has not yet superseded them with a checkpoint of its own.
+fn restoring<T>(previous: &mut Option<PreviousRun>, outcome: Result<T, RunError>) -> Result<T, RunError> {
+    if outcome.is_err()
+        && let Some(previous) = previous.take()
+    {
+        previous.restore()?;
+    }
+    outcome
+}
+
 /// Runs the simulation of `config` on the particle file in its output folder, on the backend
 /// `options.backend` (or the config's `sim.backend`) chooses.
 pub fn run_sim(config: &PipelineConfig, options: RunOptions, progress: &dyn Progress) -> Result<RunReport, RunError> {
@@ -171,7 +187,9 @@ pub fn run_with(
     if let Some(message) = missing_input(&layout.particles(), "preprocess") {
         return Err(RunError::MissingInput(message));
     }
+    memory::check(&memory::load_need(&layout.particles()))?;
     let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
+    memory::check(&memory::sim_need(&SetSize::of(&particles)))?;
     let (mut simulation, fallback) = make(config, &particles)?;
 
     let mut warnings: Vec<String> = fallback.into_iter().collect();
@@ -236,12 +254,16 @@ pub fn run_with(
         (log, meta.frame, meta.broken_bonds, meta.initial_energy_j)
     } else {
         previous = PreviousRun::set_aside(&layout)?;
-        let log = BreakLog::create(&log_path)?;
-        let initial_velocity = config.sim.initial_velocity_m_s.map(|v| v as f32);
-        if initial_velocity != [0.0; 3] {
-            simulation.set_velocity(&|_, _| initial_velocity)?;
-        }
-        write_frame(simulation.as_ref(), &layout, 1, inputs)?;
+        let mut start = || -> Result<BreakLog, RunError> {
+            let log = BreakLog::create(&log_path)?;
+            let initial_velocity = config.sim.initial_velocity_m_s.map(|v| v as f32);
+            if initial_velocity != [0.0; 3] {
+                simulation.set_velocity(&|_, _| initial_velocity)?;
+            }
+            write_frame(simulation.as_ref(), &layout, 1, inputs)?;
+            Ok(log)
+        };
+        let log = restoring(&mut previous, start())?;
         (log, 1, 0, simulation.energy().total_j())
     };
 
@@ -317,12 +339,7 @@ pub fn run_with(
     };
     let outcome = frames();
     progress.finish();
-    if let Err(error) = outcome {
-        if let Some(previous) = previous {
-            previous.restore()?;
-        }
-        return Err(error);
-    }
+    restoring(&mut previous, outcome)?;
     Ok(RunReport {
         backend: simulation.describe(),
         particles: simulation.len(),

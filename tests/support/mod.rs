@@ -28,3 +28,23 @@ pub fn folder_files(folder: &Path) -> Vec<(String, Vec<u8>)> {
     files.sort();
     files
 }
+
+/// Every file under `folder`, its subfolders included, by path relative to `folder`, sorted;
+/// files whose name is in `skip` are left out.
+pub fn tree_files(folder: &Path, skip: &[&str]) -> Vec<(String, Vec<u8>)> {
+    let mut files = Vec::new();
+    let mut stack = vec![folder.to_path_buf()];
+    while let Some(current) = stack.pop() {
+        for entry in std::fs::read_dir(&current).expect("folder") {
+            let path = entry.expect("entry").path();
+            if path.is_dir() {
+                stack.push(path);
+            } else if !skip.iter().any(|name| path.file_name().is_some_and(|file| file == *name)) {
+                let name = path.strip_prefix(folder).expect("inside").display().to_string();
+                files.push((name, std::fs::read(&path).expect("read")));
+            }
+        }
+    }
+    files.sort();
+    files
+}

@@ -15,13 +15,14 @@
 pub mod blue_noise;
 pub mod grid;
 pub mod particle_assembly;
+pub mod size_estimate;
 pub mod tet_shell;
 pub mod voronoi;
 
 use glam::DVec3;
 use shatter_core::Progress;
 use shatter_core::config::{GeometrySource, PipelineConfig, Sampler, TransformConfig};
-use shatter_core::memory::{self, Need};
+use shatter_core::memory;
 use shatter_geometry::mesh::{MeshError, TriangleMesh};
 
 use crate::inside::FillRule;
@@ -56,7 +57,7 @@ pub(crate) fn sample_geometry(
                 let mesh = load_repaired(path, &geometry.transform, geometry.mesh_repair.min_body_volume_fraction);
                 progress.finish();
                 let (mesh, report) = mesh?;
-                check_fill_memory(config, &mesh)?;
+                check_sample_memory(config, &mesh)?;
                 progress.start("fill", 0);
                 let filled = grid::fill_mesh(&mesh, spacing, report.fill_rule);
                 progress.finish();
@@ -86,6 +87,7 @@ pub(crate) fn sample_geometry(
                     (TriangleMesh::cuboid(size), None)
                 }
             };
+            check_sample_memory(config, &mesh)?;
             let rule = report.as_ref().map_or(FillRule::NonZero, |report| report.fill_rule);
             let query = MeshQuery::with_fill_rule(&mesh, rule);
             let particles = if geometry.sampler == Sampler::TetShell {
@@ -108,15 +110,24 @@ pub(crate) fn sample_geometry(
     Ok(Preprocessed { particles, mesh_report, notes })
 }
 
-/// Refuses a mesh whose grid fill would not fit in memory: it holds about its volume over a
-/// cube's particles (a box's count is checked from the config before preprocessing starts).
-fn check_fill_memory(config: &PipelineConfig, mesh: &TriangleMesh) -> Result<(), PreprocessError> {
-    let particles = mesh.signed_volume().abs() / config.geometry.spacing_m.powi(3);
-    let need = Need {
-        bytes: memory::preprocess_bytes(particles, config.geometry.horizon_factor),
-        keys: "geometry.spacing_m and geometry.horizon_factor",
-        what: format!("filling the mesh with about {particles:.3e} cubes"),
-    };
+/// Refuses a mesh whose sample would not fit in memory, from the estimate of its particle count
+/// and bonds ([`size_estimate`]; a box's grid fill is also checked from the config before
+/// preprocessing starts).
+fn check_sample_memory(config: &PipelineConfig, mesh: &TriangleMesh) -> Result<(), PreprocessError> {
+    let geometry = &config.geometry;
+    let triangles = mesh.triangles.len() as f64;
+    let (size, scratch_bytes) = size_estimate::estimate(geometry, mesh.signed_volume().abs(), mesh.area(), triangles);
+    let what = format!(
+        "sampling the mesh into about {:.3e} {} particles ({} sampler)",
+        size.particles,
+        size.element.name(),
+        geometry.sampler.name()
+    );
+    let mut need = memory::preprocess_need(&size, scratch_bytes, what);
+    if geometry.sampler == Sampler::Voronoi && geometry.voronoi.particles.is_some() {
+        need.keys = "geometry.voronoi.particles and geometry.horizon_factor";
+        need.advice = "lower geometry.voronoi.particles or geometry.horizon_factor";
+    }
     Ok(memory::check(&need)?)
 }
 
