@@ -1,4 +1,5 @@
-//! `shatter inspect`: summarise any stage file (particles, checkpoint, point cache, break log).
+//! `shatter inspect`: summarise any stage file (particles, checkpoint, point caches of the
+//! simulation and of post, break log, fragments).
 
 use std::io::Read;
 use std::path::Path;
@@ -8,6 +9,7 @@ use shatter_core::checkpoint;
 use shatter_core::fragments::FragmentFrame;
 use shatter_core::frames::{BreakLog, PointFrame};
 use shatter_core::particles::ParticleSet;
+use shatter_core::ply::PointCache;
 use shatter_core::stage_file::{StageKind, read_header};
 use shatter_post::components::size_histogram;
 
@@ -52,7 +54,14 @@ pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
     Ok(())
 }
 
+/// A simulation's point cache, or (with a `fragment` column and no velocities) post's.
 fn point_frame(path: &Path) -> Result<serde_json::Value, Failure> {
+    let cache = PointCache::read(path)?;
+    if cache.floats("vx").is_none()
+        && let Some(fragment) = cache.ints("fragment")
+    {
+        return fragment_points(path, &cache, fragment);
+    }
     let frame = PointFrame::read(path)?;
     let n = frame.damage.len();
     let mut lo = [f32::INFINITY; 3];
@@ -75,6 +84,37 @@ fn point_frame(path: &Path) -> Result<serde_json::Value, Failure> {
         "max_speed_m_s": speed,
         "mean_damage": frame.damage.iter().map(|d| f64::from(*d)).sum::<f64>() / n.max(1) as f64,
         "damaged_particles": damaged,
+    }))
+}
+
+/// Post's point cache: positions and fragment ids.
+fn fragment_points(path: &Path, cache: &PointCache, fragment: &[i32]) -> Result<serde_json::Value, Failure> {
+    let frame = cache.comment("frame").and_then(|frame| frame.parse::<u32>().ok());
+    let (Some(frame), Some(x), Some(y), Some(z)) = (frame, cache.floats("x"), cache.floats("y"), cache.floats("z"))
+    else {
+        return Err(
+            anyhow::anyhow!("{}: not a shatter fragment point cache: no frame or positions", path.display()).into()
+        );
+    };
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for (axis, values) in [x, y, z].into_iter().enumerate() {
+        for value in values {
+            lo[axis] = lo[axis].min(*value);
+            hi[axis] = hi[axis].max(*value);
+        }
+    }
+    let mut ids = fragment.to_vec();
+    ids.sort_unstable();
+    ids.dedup();
+    Ok(json!({
+        "kind": "fragment_point_cache",
+        "frame": frame,
+        "step": cache.comment("step"),
+        "time_s": cache.comment("time_s"),
+        "particles": cache.len(),
+        "bounds_m": [lo, hi],
+        "fragments": ids.len(),
     }))
 }
 

@@ -199,3 +199,22 @@ fn a_failing_fresh_run_puts_the_previous_results_back() {
             && !dir.path().join("out/sim.checkpoint.previous.shp").exists()
     );
 }
+
+#[test]
+fn a_projectile_that_would_throw_particles_through_itself_is_refused_by_its_key() {
+    // 3e12 Pa: its largest force, K_S r^2 = 2.7e7 N, moves a 2.2e-6 kg cube 0.87 m in a step of
+    // 2^-23 s, where it acts over 2.25 mm
+    let text = scene(10, 2, 5, "").replace("stiffness_pa = 3e7", "stiffness_pa = 3e12");
+    let dir = folder_with(&text);
+    let output = shatter(&["run", "--until", "sim"], dir.path());
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("lets sim.projectile[0].stiffness_pa = 3e12 throw a particle of 2.200e-6 kg across"),
+        "{}",
+        stderr(&output)
+    );
+    assert!(!dir.path().join("out/frames").exists(), "refused before anything was written");
+    let output = shatter(&["sim", "--allow-unstable-dt"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(stderr(&output).contains("at which sim.projectile[0].stiffness_pa holds particles"), "{}", stderr(&output));
+}

@@ -2,8 +2,9 @@
 //! Blender, Houdini and any PLY reader open, and that shatter reads back with full checks.
 //!
 //! A file holds one `vertex` element with scalar properties (`float` or `int`), header comments
-//! `comment shatter KEY VALUE`, and `comment shatter body_crc32 HEX`: the CRC-32 of the binary
-//! body, which other readers ignore and shatter's reader verifies along with the exact size.
+//! `comment shatter KEY VALUE`, and `comment shatter crc32 HEX`: the CRC-32 of every byte of the
+//! file but that line (header comments included, so a changed frame number or time is caught),
+//! which other readers ignore and shatter's reader verifies along with the exact size.
 
 use std::fs::File;
 use std::io::{BufRead, BufReader, Read};
@@ -58,6 +59,9 @@ impl Column {
         }
     }
 }
+
+/// The comment holding the CRC-32 of every byte of the file but its own line.
+const CRC_KEY: &str = "crc32";
 
 /// A point cache: named columns of equal length and `shatter` comments.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -119,24 +123,26 @@ impl PointCache {
     pub fn write(&self, path: &Path) -> Result<(), PlyError> {
         assert!(self.columns.iter().all(|(_, c)| c.len() == self.len()), "PLY columns differ in length");
         let body = self.body();
-        let mut header = String::from("ply\nformat binary_little_endian 1.0\ncomment written by shatter\n");
+        let mut head = String::from("ply\nformat binary_little_endian 1.0\ncomment written by shatter\n");
         for (key, value) in &self.comments {
-            header.push_str(&format!("comment shatter {key} {value}\n"));
+            head.push_str(&format!("comment shatter {key} {value}\n"));
         }
-        header.push_str(&format!("comment shatter body_crc32 {:08x}\n", crc32fast::hash(&body)));
-        header.push_str(&format!("element vertex {}\n", self.len()));
+        let mut tail = format!("element vertex {}\n", self.len());
         for (name, column) in &self.columns {
-            header.push_str(&format!("property {} {name}\n", column.type_name()));
+            tail.push_str(&format!("property {} {name}\n", column.type_name()));
         }
-        header.push_str("end_header\n");
-        write_atomically(path, &[header.as_bytes(), &body]).map_err(|source| PlyError::Io {
-            path: path.to_path_buf(),
-            action: "write",
-            source,
-        })
+        tail.push_str("end_header\n");
+        let mut crc = crc32fast::Hasher::new();
+        for part in [head.as_bytes(), tail.as_bytes(), &body] {
+            crc.update(part);
+        }
+        let line = format!("comment shatter {CRC_KEY} {:08x}\n", crc.finalize());
+        write_atomically(path, &[head.as_bytes(), line.as_bytes(), tail.as_bytes(), &body])
+            .map_err(|source| PlyError::Io { path: path.to_path_buf(), action: "write", source })
     }
 
-    /// Reads a cache written by [`PointCache::write`], checking the header, size and checksum.
+    /// Reads a cache written by [`PointCache::write`], checking the header, size and checksum
+    /// (every byte of the file but the checksum's own line).
     pub fn read(path: &Path) -> Result<PointCache, PlyError> {
         let invalid = |what: String| PlyError::Invalid { path: path.to_path_buf(), what };
         let io = |action: &'static str| move |source| PlyError::Io { path: path.to_path_buf(), action, source };
@@ -145,14 +151,21 @@ impl PointCache {
         let mut input = BufReader::new(file);
         let mut header_len = 0u64;
         let mut lines = Vec::new();
+        let mut checked = crc32fast::Hasher::new();
+        let crc_prefix = format!("comment shatter {CRC_KEY} ");
+        let mut stored_crc = None;
         loop {
-            let mut line = Vec::new();
-            let read = input.by_ref().take(4096).read_until(b'\n', &mut line).map_err(io("read"))?;
-            if read == 0 || !line.ends_with(b"\n") || lines.len() > 256 {
+            let mut raw = Vec::new();
+            let read = input.by_ref().take(4096).read_until(b'\n', &mut raw).map_err(io("read"))?;
+            if read == 0 || !raw.ends_with(b"\n") || lines.len() > 256 {
                 return Err(invalid("not a shatter PLY point cache: no end to the header".into()));
             }
             header_len += read as u64;
-            let line = String::from_utf8_lossy(&line).trim_end().to_string();
+            let line = String::from_utf8_lossy(&raw).trim_end().to_string();
+            match line.strip_prefix(&crc_prefix) {
+                Some(value) if stored_crc.is_none() => stored_crc = Some(value.to_owned()),
+                _ => checked.update(&raw),
+            }
             if line == "end_header" {
                 break;
             }
@@ -181,13 +194,10 @@ impl PointCache {
             }
         }
         let n = count.ok_or_else(|| invalid("the PLY header has no vertex element".into()))?;
-        let crc_index = comments.iter().position(|(k, _)| k == "body_crc32");
-        let crc = crc_index
-            .and_then(|index| u32::from_str_radix(&comments[index].1, 16).ok())
-            .ok_or_else(|| invalid("the PLY header lacks a valid `comment shatter body_crc32`".into()))?;
-        if let Some(index) = crc_index {
-            comments.remove(index);
-        }
+        let crc = stored_crc
+            .and_then(|value| u32::from_str_radix(&value, 16).ok())
+            .ok_or_else(|| invalid(format!("the PLY header lacks a valid `comment shatter {CRC_KEY}`")))?;
+        comments.retain(|(key, _)| key != CRC_KEY);
         let row = 4 * properties.len() as u64;
         let body_len = n.checked_mul(row).ok_or_else(|| invalid("absurd vertex count".into()))?;
         if header_len + body_len != file_len {
@@ -199,9 +209,10 @@ impl PointCache {
         }
         let mut body = vec![0u8; body_len as usize];
         input.read_exact(&mut body).map_err(io("read"))?;
-        let computed = crc32fast::hash(&body);
+        checked.update(&body);
+        let computed = checked.finalize();
         if computed != crc {
-            return Err(invalid(format!("corrupted: body checksum {computed:08x}, header says {crc:08x}")));
+            return Err(invalid(format!("corrupted: checksum {computed:08x}, header says {crc:08x}")));
         }
         let n = n as usize;
         let word = |i: usize, p: usize| {
@@ -250,6 +261,11 @@ mod tests {
         flipped[last] ^= 8;
         std::fs::write(&path, &flipped).expect("write");
         assert!(PointCache::read(&path).expect_err("flip").to_string().contains("corrupted"));
+        let mut renamed = bytes.clone();
+        let at = bytes.windows(7).position(|w| w == b"frame 3").expect("frame comment") + 6;
+        renamed[at] = b'4';
+        std::fs::write(&path, &renamed).expect("write");
+        assert!(PointCache::read(&path).expect_err("header").to_string().contains("corrupted"));
         std::fs::write(&path, &bytes[..bytes.len() - 3]).expect("write");
         assert!(PointCache::read(&path).expect_err("cut").to_string().contains("truncated"));
         std::fs::write(&path, b"ply\nformat ascii 1.0\nend_header\n").expect("write");

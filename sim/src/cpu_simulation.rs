@@ -4,7 +4,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 use shatter_core::PipelineConfig;
-use shatter_core::config::sim::{BreakRule, StiffnessCorrection};
+use shatter_core::config::sim::{BreakRule, ContactModel, StiffnessCorrection};
 use shatter_core::frames::BreakEvent;
 use shatter_core::particles::{Bonds, ParticleSet};
 
@@ -14,7 +14,7 @@ use crate::bond_layouts::lattice_layout::{LatticeTable, NO_PARTICLE, SlotInputs}
 use crate::bond_layouts::layout_choice::{LayoutChoice, SpringTable};
 use crate::bond_layouts::row_layout::{BondBlock, chunk_size};
 use crate::contact::ContactList;
-use crate::kernels::{self, BodyForces, BondLookup, ChunkForces, ParticleRecord, SphereNow};
+use crate::kernels::{self, BodyForces, BondLookup, ChunkForces, ParticleRecord, PassRules, SphereNow};
 use crate::model::{Model, MovingSphere};
 use crate::state::{Dynamics, Energy, kinetic_energy_j};
 use crate::{SimError, art};
@@ -67,6 +67,8 @@ pub struct CpuSimulation {
     rest: [Vec<f32>; 3],
     mass: Vec<f32>,
     inverse_mass: Vec<f32>,
+    /// Particle volumes, m^3 (LAMMPS's short-range force).
+    volume: Vec<f32>,
     /// Bonds per particle in the particle file (for damage).
     bond_count: Vec<u32>,
     table: SpringTable,
@@ -105,7 +107,9 @@ impl CpuSimulation {
     ) -> CpuSimulation {
         let n = particles.len();
         let (constant, scale) = (model.bond_constant, model.threshold_scale);
-        let values = EntryValues::new(particles, constant, scale, factors, correction);
+        let values = EntryValues::new(particles, constant, scale, factors, correction, model.rules.partial_volumes);
+        // The lattice kernel runs Levine's rules only.
+        let layout = if model.pass_rules() == PassRules::default() { layout } else { LayoutChoice::RowsOnly };
         let table = SpringTable::new(particles, &values, layout);
         // The row kernel's gather records (the lattice kernel fills its own slots).
         let records = match table {
@@ -115,14 +119,16 @@ impl CpuSimulation {
         let rest = [0, 1, 2].map(|axis| particles.rest_position_m.iter().map(|p| p[axis]).collect::<Vec<f32>>());
         let mass: Vec<f32> = particles.volume_m3.iter().map(|v| (f64::from(*v) * model.density_kg_m3) as f32).collect();
         let inverse_mass = mass.iter().map(|m| 1.0 / m).collect();
+        let volume = particles.volume_m3.clone();
         let bond_count = (0..n).map(|i| particles.bonds.row(i).len() as u32).collect();
-        let contacts = (model.contact_stiffness_pa > 0.0).then(|| ContactList::new(n, model.contact_distance_m));
+        let contacts = model.has_contact().then(|| ContactList::new(n, model.contact_reach_m()));
         let zeros = || [vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]];
         let mut simulation = CpuSimulation {
             model,
             rest,
             mass,
             inverse_mass,
+            volume,
             bond_count,
             table,
             chunk_size: chunk_size(n),
@@ -371,6 +377,7 @@ impl CpuSimulation {
             model,
             rest,
             mass,
+            volume,
             table,
             chunk_size,
             index,
@@ -417,6 +424,7 @@ impl CpuSimulation {
             contacts.update(position);
         }
         let rule = model.break_rule;
+        let pass_rules = model.pass_rules();
         let [fx, fy, fz] = force;
         match table {
             SpringTable::Rows(table) => {
@@ -435,7 +443,7 @@ impl CpuSimulation {
                     .into_par_iter()
                     .for_each(|(chunk, fx, fy, fz, min_stretch)| {
                         let mut out = ChunkForces { force: [fx, fy, fz], min_stretch };
-                        kernels::spring_forces(chunk, records, rule, &mut out);
+                        kernels::spring_forces(chunk, records, rule, pass_rules, &mut out);
                     });
             }
             SpringTable::Lattice(lattice) => {
@@ -445,6 +453,10 @@ impl CpuSimulation {
         let velocity = [&vel[0][..], &vel[1][..], &vel[2][..]];
         let alpha = model.alpha;
         let (contact_stiffness, contact_distance) = (model.contact_stiffness_pa, model.contact_distance_m);
+        // LAMMPS's short-range force: its stiffness 15 c / delta and lambda
+        let short_range = (model.rules.contact == ContactModel::Lammps)
+            .then(|| ((15.0 * model.bond_constant / model.delta_m) as f32, model.lambda_m as f32));
+        let volume = &volume[..];
         let contacts = contacts.as_ref();
         let rest_position = [&rest[0][..], &rest[1][..], &rest[2][..]];
         let lookup = &*index;
@@ -473,11 +485,22 @@ impl CpuSimulation {
                     }
                 }
                 for value in min_stretch.iter_mut() {
-                    *value *= -alpha;
+                    // no intact bond (signed boost): no boost either
+                    *value = if value.is_finite() { -alpha * *value } else { 0.0 };
                 }
                 let mut force = [fx, fy, fz];
-                if let Some(contacts) = contacts {
-                    kernels::collisions(
+                match (contacts, short_range) {
+                    (Some(contacts), Some((stiffness, lambda))) => kernels::short_range(
+                        first,
+                        position,
+                        rest_position,
+                        contacts,
+                        volume,
+                        stiffness,
+                        lambda,
+                        &mut force,
+                    ),
+                    (Some(contacts), None) => kernels::collisions(
                         first,
                         position,
                         rest_position,
@@ -486,7 +509,8 @@ impl CpuSimulation {
                         contact_stiffness,
                         contact_distance,
                         &mut force,
-                    );
+                    ),
+                    (None, _) => {}
                 }
                 *power = if body.is_empty() {
                     0.0

@@ -3,7 +3,7 @@
 
 use glam::DVec3;
 use shatter_core::PipelineConfig;
-use shatter_core::config::sim::BreakRule;
+use shatter_core::config::sim::{BreakRule, BreakingStepForce, CompressionBoost, ContactModel, Rules};
 use shatter_core::particles::ParticleSet;
 
 use crate::SimError;
@@ -48,6 +48,12 @@ pub struct Model {
     pub alpha: f32,
     /// Which threshold decides.
     pub break_rule: BreakRule,
+    /// The rule set's four rules.
+    pub rules: Rules,
+    /// The lattice spacing lambda, metres.
+    pub lambda_m: f64,
+    /// The horizon delta, metres.
+    pub delta_m: f64,
     /// Gravity, m/s^2.
     pub gravity_m_s2: [f32; 3],
     /// K_c, Pa (0: no contact).
@@ -85,6 +91,9 @@ impl Model {
             bond_constant: 18.0 * material.bulk_modulus_pa / (std::f64::consts::PI * delta.powi(4)),
             alpha: material.compression_alpha as f32,
             break_rule: sim.break_rule,
+            rules: sim.rules(),
+            lambda_m: particles.meta.lambda_m,
+            delta_m: delta,
             gravity_m_s2: sim.gravity_m_s2.map(|g| g as f32),
             contact_stiffness_pa: sim.contact.stiffness_pa as f32,
             contact_distance_m: sim.contact.distance_m.unwrap_or(0.5 * particles.meta.lambda_m) as f32,
@@ -107,6 +116,29 @@ impl Model {
         };
         model.check_start(particles)?;
         Ok(model)
+    }
+
+    /// The spring pass's rules.
+    pub fn pass_rules(&self) -> crate::kernels::PassRules {
+        crate::kernels::PassRules {
+            signed_boost: self.rules.compression_boost == CompressionBoost::Signed,
+            breaking_step_force: self.rules.breaking_step_force == BreakingStepForce::Applied,
+        }
+    }
+
+    /// Whether contact acts at all: LAMMPS's always does, the penalty contact when it has a
+    /// stiffness.
+    pub fn has_contact(&self) -> bool {
+        self.rules.contact == ContactModel::Lammps || self.contact_stiffness_pa > 0.0
+    }
+
+    /// The distance within which contact candidates are gathered: 1.35 lambda for LAMMPS's
+    /// short-range force, d_c for the penalty contact.
+    pub fn contact_reach_m(&self) -> f32 {
+        match self.rules.contact {
+            ContactModel::Lammps => (1.35 * self.lambda_m) as f32,
+            ContactModel::Penalty => self.contact_distance_m,
+        }
     }
 
     /// Refuses bodies that start inside the particles (they would fire them off at once) and

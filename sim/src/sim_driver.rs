@@ -62,6 +62,23 @@ pub enum RunError {
         /// What differs.
         what: String,
     },
+    /// A projectile or indenter would throw particles through itself in one step (exit code 2).
+    #[error(
+        "sim.dt_s = {dt_s:e} s lets {key} = {stiffness:e} throw a particle of {mass_kg:.3e} kg across its reach in one \
+         step (at most {max_dt_s:.3e} s at this stiffness); lower one of them, or pass --allow-unstable-dt to run anyway"
+    )]
+    UnstablePush {
+        /// The stiffness key of the body.
+        key: String,
+        /// Its stiffness.
+        stiffness: f64,
+        /// The configured step.
+        dt_s: f64,
+        /// The lightest particle.
+        mass_kg: f64,
+        /// The longest step the body allows.
+        max_dt_s: f64,
+    },
     /// The state blew up; the last good checkpoint is kept.
     #[error("the simulation became unstable at frame {frame} (step {step}): {what}; {kept}")]
     Unstable {
@@ -108,6 +125,7 @@ impl RunError {
             RunError::Input(_)
                 | RunError::MissingInput(_)
                 | RunError::UnstableTimeStep { .. }
+                | RunError::UnstablePush { .. }
                 | RunError::CheckpointMismatch { .. }
                 | RunError::Memory(_)
         )
@@ -199,6 +217,19 @@ pub fn run_with(
             return Err(RunError::UnstableTimeStep { dt_s: config.sim.dt_s, stable_s: stable_dt_s });
         }
         warnings.push(format!("sim.dt_s = {:e} s exceeds the stable time step {stable_dt_s:e} s", config.sim.dt_s));
+    }
+    let lightest_kg = particles.mass_kg.iter().fold(f64::INFINITY, |least, mass| least.min(f64::from(*mass)));
+    for body in config.sim.pushing_bodies() {
+        let (dt_s, max_dt_s) = (config.sim.dt_s, body.max_dt_s(lightest_kg));
+        if dt_s > max_dt_s && options.allow_unstable_dt {
+            warnings.push(format!(
+                "sim.dt_s = {dt_s:e} s exceeds the {max_dt_s:e} s at which {} holds particles",
+                body.key
+            ));
+        } else if dt_s > max_dt_s {
+            let (key, stiffness, mass_kg) = (body.key, body.stiffness, lightest_kg);
+            return Err(RunError::UnstablePush { key, stiffness, dt_s, mass_kg, max_dt_s });
+        }
     }
 
     let frames_dir = layout.frames_dir();

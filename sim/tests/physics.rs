@@ -73,6 +73,26 @@ fn the_row_layout_passes_the_physics_tests_too() {
     scenarios::a_bar_pulled_apart_breaks_first_where_and_when_its_thresholds_say(&cpu_rows);
 }
 
+/// The CPU backend under `sim.rules = "lammps"` (which runs on the row layout).
+fn cpu_lammps(config: &PipelineConfig, particles: &ParticleSet) -> Box<dyn Backend> {
+    let mut config = config.clone();
+    config.sim.rules = shatter_core::config::sim::RuleSet::Lammps;
+    let sim = simulation(&config, particles);
+    assert!(!sim.on_lattice(), "the lattice kernel runs Levine's rules only");
+    Box::new(sim)
+}
+
+#[test]
+fn the_lammps_rules_pass_the_physics_tests_too() {
+    // The partial volumes enter the energy correction's sums, so a dilation still stores the
+    // continuum energy density; the pulled bar is left out: the signed boost weakens a particle
+    // whose every bond is stretched, so it breaks before its own thresholds say.
+    scenarios::rigid_motions_cause_no_internal_force(&cpu_lammps);
+    scenarios::momentum_and_energy_are_conserved_in_an_elastic_vibration(&cpu_lammps);
+    scenarios::uniform_dilation_stores_the_continuum_energy_density_at_n3(&cpu_lammps);
+    scenarios::a_longitudinal_wave_in_a_bar_travels_at_the_bar_speed(&cpu_lammps, 160, 2400, 1);
+}
+
 #[test]
 fn the_lattice_kernel_gives_the_row_kernels_forces_and_breaks() {
     // A block (with a ragged width, so that bricks hold padding) under random displacements large

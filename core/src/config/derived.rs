@@ -56,6 +56,20 @@ pub(super) fn validate(config: &PipelineConfig, check: &Checker<'_>) -> Result<(
         )
     })?;
 
+    let sim = &config.sim;
+    let contact_reach = sim.contact.distance_m.unwrap_or(0.5 * lambda);
+    let contact = ("sim.contact.stiffness_pa".to_owned(), sim.contact.stiffness_pa, contact_reach * contact_reach);
+    let pushes = sim.pushing_bodies().into_iter().map(|push| (push.key, push.stiffness, push.peak_n / push.stiffness));
+    for (key, stiffness, area) in std::iter::once(contact).chain(pushes) {
+        if stiffness == 0.0 {
+            continue; // contact switched off
+        }
+        let peak_n = stiffness * area;
+        check.that(fits_f32(stiffness) && fits_f32(peak_n), &key, &shown(stiffness), || {
+            format!("its largest force would be {peak_n:e} N, beyond single precision")
+        })?;
+    }
+
     let transform = &config.geometry.transform;
     let farthest = transform.translate_m.iter().fold(0.0f64, |a, b| a.max(b.abs()));
     let resolution = farthest * f64::from(f32::EPSILON);

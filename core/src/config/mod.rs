@@ -371,6 +371,10 @@ impl PipelineConfig {
         check.that(!config.scene.output_dir.as_os_str().is_empty(), "scene.output_dir", "\"\"", || {
             "must name a folder (\".\" for the config file's own folder)".to_string()
         })?;
+        let output_dir = config.scene.output_dir.to_string_lossy().into_owned();
+        check.that(!output_dir.contains('\0'), "scene.output_dir", &format!("{output_dir:?}"), || {
+            "must not contain a NUL character: no file system names a folder so".to_string()
+        })?;
         config.resolve_paths();
         config.validate()?;
         Ok(config)

@@ -25,6 +25,24 @@ pub struct SimConfig {
     pub break_rule: BreakRule,
     /// How bond stiffness is corrected for the discrete neighbourhood.
     pub stiffness_correction: StiffnessCorrection,
+    /// The rule set: `levine` (the paper's, the default) or `lammps` (LAMMPS's `peri/pmb`). It
+    /// sets the four rules below, each of which may also be given on its own.
+    #[serde(skip_serializing_if = "RuleSet::is_levine")]
+    pub rules: RuleSet,
+    /// Whether a neighbour near the horizon counts with part of its volume: `none` or `lammps`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub partial_volumes: Option<PartialVolumes>,
+    /// The contact between close particles: `penalty` (the paper's eq. 6 between unbonded pairs)
+    /// or `lammps` (LAMMPS's short-range force between every close pair).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub contact_model: Option<ContactModel>,
+    /// Whether a bond's force counts in the step in which it breaks: `skipped` or `applied`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub breaking_step_force: Option<BreakingStepForce>,
+    /// The compression boost of a particle's thresholds: `clamped` (-alpha min(0, s_min)) or
+    /// `signed` (-alpha s_min, whatever its sign).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub compression_boost: Option<CompressionBoost>,
     /// A checkpoint (full state, for `--resume`) is written every this many frames and at the end.
     pub checkpoint_every_frames: u32,
     /// The run stops as unstable when kinetic plus bond energy exceeds this factor times the
@@ -60,6 +78,11 @@ impl Default for SimConfig {
             frames: 48,
             break_rule: BreakRule::Max,
             stiffness_correction: StiffnessCorrection::Energy,
+            rules: RuleSet::Levine,
+            partial_volumes: None,
+            contact_model: None,
+            breaking_step_force: None,
+            compression_boost: None,
             checkpoint_every_frames: 1,
             runaway_energy_factor: 2.0,
             gravity_m_s2: [0.0, -9.81, 0.0],
@@ -95,6 +118,96 @@ pub enum BreakRule {
     Max,
     /// Breaks when the stretch exceeds the smaller of the two.
     Min,
+}
+
+/// A rule set: the four rules on which peridynamic codes differ (docs/DECISIONS.md, "LAMMPS
+/// rules").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RuleSet {
+    /// Levine et al.'s rules, as shatter has always run them.
+    #[default]
+    Levine,
+    /// LAMMPS's `pair_style peri/pmb` (Parks et al.).
+    Lammps,
+}
+
+impl RuleSet {
+    fn is_levine(&self) -> bool {
+        *self == RuleSet::Levine
+    }
+}
+
+/// Whether a neighbour's volume counts whole or in part near the horizon.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PartialVolumes {
+    /// Every neighbour within the horizon counts whole.
+    None,
+    /// LAMMPS's linear scale: a neighbour whose rest distance lies within half a lattice spacing
+    /// of the horizon delta counts with (delta + lambda/2 - |xi|) / lambda of its volume.
+    Lammps,
+}
+
+/// The contact force between close particles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ContactModel {
+    /// The paper's eq. 6, K_c (d - r)^2, between particles that are not bonded (`[sim.contact]`).
+    Penalty,
+    /// LAMMPS's short-range force between every pair closer than
+    /// d_ij = min(0.9 |xi_ij|, 1.35 lambda), bonded or not: 15 c V_i V_j (d_ij - r) / delta.
+    Lammps,
+}
+
+/// Whether a bond's force counts in the step in which it breaks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BreakingStepForce {
+    /// A bond that breaks pulls no more in that step.
+    Skipped,
+    /// It pulls one last time, and its stretch counts towards the compression boost.
+    Applied,
+}
+
+/// How a particle's smallest bond stretch strengthens its thresholds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CompressionBoost {
+    /// -alpha min(0, s_min): compression strengthens, stretch never weakens.
+    Clamped,
+    /// -alpha s_min, whatever its sign: a particle whose every bond is stretched is weakened.
+    Signed,
+}
+
+/// The four rules a run follows, resolved from `sim.rules` and the keys given on their own.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Rules {
+    /// Partial volumes near the horizon.
+    pub partial_volumes: PartialVolumes,
+    /// The contact force.
+    pub contact: ContactModel,
+    /// The breaking step's force.
+    pub breaking_step_force: BreakingStepForce,
+    /// The compression boost.
+    pub compression_boost: CompressionBoost,
+}
+
+impl Rules {
+    /// Levine et al.'s rules.
+    pub const LEVINE: Rules = Rules {
+        partial_volumes: PartialVolumes::None,
+        contact: ContactModel::Penalty,
+        breaking_step_force: BreakingStepForce::Skipped,
+        compression_boost: CompressionBoost::Clamped,
+    };
+    /// LAMMPS's `peri/pmb` rules.
+    pub const LAMMPS: Rules = Rules {
+        partial_volumes: PartialVolumes::Lammps,
+        contact: ContactModel::Lammps,
+        breaking_step_force: BreakingStepForce::Applied,
+        compression_boost: CompressionBoost::Signed,
+    };
 }
 
 /// How the bond constant is corrected for the discrete neighbourhood.
@@ -154,6 +267,29 @@ pub struct ProjectileConfig {
     pub radius_m: f64,
     /// K_S, Pa.
     pub stiffness_pa: f64,
+}
+
+/// A body that pushes particles: a projectile or an indenter, with the largest force it exerts
+/// and the distance over which it acts.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PushingBody {
+    /// The key of its stiffness, e.g. `sim.projectile[0].stiffness_pa`.
+    pub key: String,
+    /// Its stiffness, in the key's units.
+    pub stiffness: f64,
+    /// The largest force it exerts on a particle, newtons.
+    pub peak_n: f64,
+    /// How far inside its reach that force acts, metres.
+    pub reach_m: f64,
+}
+
+impl PushingBody {
+    /// The longest time step in which its largest force carries a particle of `mass_kg` no
+    /// farther than its reach (F dt^2 / m <= reach): past it, a particle passes through the body
+    /// instead of bouncing off, gaining energy.
+    pub fn max_dt_s(&self, mass_kg: f64) -> f64 {
+        (self.reach_m * mass_kg / self.peak_n).sqrt()
+    }
 }
 
 /// `[[sim.indenter]]`: a sphere pushing particles inside it out with F = K (R - r)^2.
@@ -252,6 +388,38 @@ impl SimConfig {
             if let Some(mesh) = &mut seam.mesh {
                 super::resolve_path(base, mesh);
             }
+        }
+    }
+
+    /// The projectiles and indenters: the paper's eq. 7 projectile force peaks at K_S r^2 half
+    /// a radius into its 1.5 r reach; an indenter's K (R - r)^2 at K R^2, R inside it.
+    pub fn pushing_bodies(&self) -> Vec<PushingBody> {
+        let projectiles = self.projectile.iter().enumerate().map(|(index, projectile)| PushingBody {
+            key: format!("sim.projectile[{index}].stiffness_pa"),
+            stiffness: projectile.stiffness_pa,
+            peak_n: projectile.stiffness_pa * projectile.radius_m * projectile.radius_m,
+            reach_m: 0.75 * projectile.radius_m,
+        });
+        let indenters = self.indenter.iter().enumerate().map(|(index, indenter)| PushingBody {
+            key: format!("sim.indenter[{index}].stiffness_n_m2"),
+            stiffness: indenter.stiffness_n_m2,
+            peak_n: indenter.stiffness_n_m2 * indenter.radius_m * indenter.radius_m,
+            reach_m: indenter.radius_m,
+        });
+        projectiles.chain(indenters).collect()
+    }
+
+    /// The rules this run follows: the rule set's, with each rule given on its own in its place.
+    pub fn rules(&self) -> Rules {
+        let set = match self.rules {
+            RuleSet::Levine => Rules::LEVINE,
+            RuleSet::Lammps => Rules::LAMMPS,
+        };
+        Rules {
+            partial_volumes: self.partial_volumes.unwrap_or(set.partial_volumes),
+            contact: self.contact_model.unwrap_or(set.contact),
+            breaking_step_force: self.breaking_step_force.unwrap_or(set.breaking_step_force),
+            compression_boost: self.compression_boost.unwrap_or(set.compression_boost),
         }
     }
 

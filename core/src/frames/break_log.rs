@@ -153,6 +153,9 @@ fn parse(path: &Path, bytes: &[u8]) -> Result<Vec<BreakBlock>, FrameFileError> {
             format!("break log version {} is not supported (this build reads {LOG_VERSION})", word(8)),
         ));
     }
+    if word(12) != 0 {
+        return Err(invalid(path, format!("the header's reserved word is {:#010x}, not 0", word(12))));
+    }
     let mut blocks = Vec::new();
     let mut at = LOG_HEADER_LEN as usize;
     let mut expected_frame = FIRST_BLOCK_FRAME;

@@ -20,7 +20,7 @@
 //! bond set is never limited by one binding or one buffer.
 
 use rayon::prelude::*;
-use shatter_core::config::sim::StiffnessCorrection;
+use shatter_core::config::sim::{PartialVolumes, StiffnessCorrection};
 use shatter_core::particles::ParticleSet;
 
 use super::EntryValues;
@@ -78,7 +78,8 @@ pub enum GpuLayoutError {
 
 impl GpuBondLayout {
     /// Lays out the bonds of `particles` with bond constant `c`, thresholds scaled by
-    /// `threshold_scale` and `factors` (one per file entry), and the stiffness correction: the
+    /// `threshold_scale` and `factors` (one per file entry), the stiffness correction and partial
+    /// volumes: the
     /// same per-entry values as the CPU's [`super::row_layout::BondTable`]. Each range's arrays
     /// hold at most `max_binding_bytes`.
     pub fn new(
@@ -87,6 +88,7 @@ impl GpuBondLayout {
         threshold_scale: f64,
         factors: Option<&[f32]>,
         correction: StiffnessCorrection,
+        partial_volumes: PartialVolumes,
         max_binding_bytes: u64,
     ) -> Result<GpuBondLayout, GpuLayoutError> {
         let n = particles.len();
@@ -132,7 +134,7 @@ impl GpuBondLayout {
             ranges.push((start, groups));
         }
 
-        let values = EntryValues::new(particles, bond_constant, threshold_scale, factors, correction);
+        let values = EntryValues::new(particles, bond_constant, threshold_scale, factors, correction, partial_volumes);
         let mut rows = vec![[0u32; 4]; n];
         let mut layouts = Vec::with_capacity(ranges.len());
         let mut first_workgroup = 0u32;
@@ -186,7 +188,7 @@ impl GpuBondLayout {
                         let entry = row.start + k;
                         let j = bonds.neighbor[entry] as usize;
                         nb[slot] = j as u32;
-                        st[slot] = values.stiffness(i, j);
+                        st[slot] = values.stiffness(i, j, bonds.rest_length_m[entry]);
                         th[slot] = values.threshold(entry);
                     }
                 }

@@ -126,7 +126,7 @@ impl BondEntry {
             rest_vector: [0, 1, 2].map(|axis| xj[axis] - xi[axis]),
             rest_length_m: bonds.rest_length_m[k],
             threshold: values.threshold(k),
-            stiffness: values.stiffness(i, j),
+            stiffness: values.stiffness(i, j, bonds.rest_length_m[k]),
             bond_id: id as u64,
         }
     }

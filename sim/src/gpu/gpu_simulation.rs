@@ -5,7 +5,7 @@
 use std::ops::Deref;
 
 use rayon::prelude::*;
-use shatter_core::config::sim::{BreakRule, StiffnessCorrection};
+use shatter_core::config::sim::{BreakRule, ContactModel, StiffnessCorrection};
 use shatter_core::frames::BreakEvent;
 use shatter_core::particles::ParticleSet;
 use shatter_gpu::{DispatchGrid, GpuContext, GpuError};
@@ -19,6 +19,7 @@ use crate::backend::{Backend, DeviceError};
 use crate::bond_layouts::gpu_layout::{GpuBondLayout, GpuLayoutError};
 use crate::bond_layouts::row_layout::chunk_size;
 use crate::contact::SKIN_FRACTION;
+use crate::kernels::PassRules;
 use crate::model::{Model, MovingSphere};
 use crate::state::{Dynamics, Energy, kinetic_energy_j};
 
@@ -130,11 +131,27 @@ impl GpuSimulation {
         if n == 0 {
             return Err(GpuError::Split { message: "the particle set is empty".into() });
         }
+        let rules = model.rules;
+        if rules.contact != ContactModel::Penalty || model.pass_rules() != PassRules::default() {
+            return Err(GpuError::Unsupported {
+                what: format!(
+                    "its WGSL kernels follow Levine's contact, breaking-step and compression-boost rules only, and \
+                     this scene asks for {rules:?} (sim.rules); run it with --backend cpu"
+                ),
+            });
+        }
         let binding = ctx.max_storage_binding_bytes();
         let max_binding = options.max_binding_bytes.map_or(binding, |limit| limit.min(binding));
-        let layout =
-            GpuBondLayout::new(particles, model.bond_constant, model.threshold_scale, factors, correction, max_binding)
-                .map_err(layout_error)?;
+        let layout = GpuBondLayout::new(
+            particles,
+            model.bond_constant,
+            model.threshold_scale,
+            factors,
+            correction,
+            model.rules.partial_volumes,
+            max_binding,
+        )
+        .map_err(layout_error)?;
         if 32 * n as u64 > binding {
             return Err(GpuError::Split {
                 message: format!(

@@ -5,7 +5,7 @@ use std::path::Path;
 use bytemuck::Pod;
 use shatter_core::NoProgress;
 use shatter_core::config::PipelineConfig;
-use shatter_core::config::sim::StiffnessCorrection;
+use shatter_core::config::sim::{PartialVolumes, StiffnessCorrection};
 use shatter_core::random::SplitMix64;
 use shatter_gpu::{GpuContext, wgpu};
 
@@ -98,8 +98,16 @@ bulk_modulus_pa = 14.9e9
         let mut rng = SplitMix64::new(seed);
         let mut uniform = |lo: f64, hi: f64| (lo + (hi - lo) * rng.next_f64()) as f32;
         let c = 18.0 * 14.9e9 / (std::f64::consts::PI * 0.003f64.powi(4));
-        let mut layout = GpuBondLayout::new(&particles, c, 1.0, None, StiffnessCorrection::Energy, max_binding_bytes)
-            .expect("layout");
+        let mut layout = GpuBondLayout::new(
+            &particles,
+            c,
+            1.0,
+            None,
+            StiffnessCorrection::Energy,
+            PartialVolumes::None,
+            max_binding_bytes,
+        )
+        .expect("layout");
         let mass = 2.2e-6f32;
         let body: Vec<V4> = (0..n)
             .flat_map(|i| {

@@ -12,7 +12,7 @@ mod springs;
 mod springs_avx2;
 
 pub use lattice_springs::lattice_spring_forces;
-pub use springs::{ChunkForces, ParticleRecord, spring_forces, stretch};
+pub use springs::{ChunkForces, ParticleRecord, PassRules, spring_forces, stretch};
 
 use crate::contact::{ContactList, contact_reach, repulsion};
 use crate::model::Floor;
@@ -23,19 +23,17 @@ pub trait BondLookup: Sync {
     fn intact(&self, i: usize, j: usize) -> bool;
 }
 
-/// Collisions (the paper's `collisions`): each particle of the chunk is pushed away from every
-/// particle it is not bonded to that is closer than the contact distance, or than their rest
-/// distance where that is shorter (see [`contact_reach`]).
-#[allow(clippy::too_many_arguments)]
-pub fn collisions(
+/// Adds to each particle i of the chunk (from `first`) the sum, over its contact candidates j in
+/// their fixed order, of the force `push(i, j, d, r2, rest2)` returns, given the offset
+/// d = x_i - x_j, its squared length r2 and the squared rest distance rest2 (None: no force).
+#[inline(always)]
+fn sum_over_candidates(
     first: usize,
     position: [&[f32]; 3],
     rest: [&[f32]; 3],
     contacts: &ContactList,
-    bonds: &impl BondLookup,
-    stiffness: f32,
-    distance: f32,
     force: &mut [&mut [f32]; 3],
+    push: impl Fn(usize, usize, [f32; 3], f32, f32) -> Option<[f32; 3]>,
 ) {
     let len = force[0].len();
     for local in 0..len {
@@ -52,17 +50,63 @@ pub fn collisions(
             let d = [p[0] - position[0][j], p[1] - position[1][j], p[2] - position[2][j]];
             let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
             let xi = [x[0] - rest[0][j], x[1] - rest[1][j], x[2] - rest[2][j]];
-            let reach = contact_reach(distance, xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]);
-            if r2 >= reach * reach || r2 == 0.0 || bonds.intact(i, j) {
-                continue;
+            if let Some(f) = push(i, j, d, r2, xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]) {
+                sum = [sum[0] + f[0], sum[1] + f[1], sum[2] + f[2]];
             }
-            let f = repulsion(stiffness, reach, d, r2.sqrt());
-            sum = [sum[0] + f[0], sum[1] + f[1], sum[2] + f[2]];
         }
         for axis in 0..3 {
             force[axis][local] += sum[axis];
         }
     }
+}
+
+/// Collisions (the paper's `collisions`): each particle of the chunk is pushed away from every
+/// particle it is not bonded to that is closer than the contact distance, or than their rest
+/// distance where that is shorter (see [`contact_reach`]).
+#[allow(clippy::too_many_arguments)]
+pub fn collisions(
+    first: usize,
+    position: [&[f32]; 3],
+    rest: [&[f32]; 3],
+    contacts: &ContactList,
+    bonds: &impl BondLookup,
+    stiffness: f32,
+    distance: f32,
+    force: &mut [&mut [f32]; 3],
+) {
+    sum_over_candidates(first, position, rest, contacts, force, |i, j, d, r2, rest2| {
+        let reach = contact_reach(distance, rest2);
+        if r2 >= reach * reach || r2 == 0.0 || bonds.intact(i, j) {
+            return None;
+        }
+        Some(repulsion(stiffness, reach, d, r2.sqrt()))
+    });
+}
+
+/// LAMMPS's short-range force (`pair_style peri/pmb`) on each particle of the chunk: every
+/// candidate j closer than d_ij = min(0.9 |X_i - X_j|, 1.35 lambda) at rest, bonded or not,
+/// pushes i away with `stiffness` V_i V_j (d_ij - r), where `stiffness` is 15 c / delta (LAMMPS's
+/// force density times V_i).
+#[allow(clippy::too_many_arguments)]
+pub fn short_range(
+    first: usize,
+    position: [&[f32]; 3],
+    rest: [&[f32]; 3],
+    contacts: &ContactList,
+    volume: &[f32],
+    stiffness: f32,
+    lambda: f32,
+    force: &mut [&mut [f32]; 3],
+) {
+    sum_over_candidates(first, position, rest, contacts, force, |i, j, d, r2, rest2| {
+        let reach = (0.9 * rest2.sqrt()).min(1.35 * lambda);
+        if r2 >= reach * reach || r2 == 0.0 {
+            return None;
+        }
+        let r = r2.sqrt();
+        let scale = stiffness * volume[i] * volume[j] * (reach - r) / r;
+        Some(d.map(|c| c * scale))
+    });
 }
 
 /// A kinematic sphere's state during one step.

@@ -54,6 +54,25 @@ pub struct ParticleRecord {
     pub boost: f32,
 }
 
+/// The spring pass's rules besides the break rule: all false are Levine et al.'s, all true
+/// LAMMPS's (`shatter_core::config::sim::Rules`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct PassRules {
+    /// The smallest stretch is taken whatever its sign (else never above 0), so the compression
+    /// boost -alpha s_min may weaken a particle whose every bond is stretched.
+    pub signed_boost: bool,
+    /// A bond that breaks pulls in the step in which it breaks, and its stretch counts towards
+    /// the smallest.
+    pub breaking_step_force: bool,
+}
+
+impl PassRules {
+    /// The smallest stretch of a particle with no bond yet seen.
+    fn no_stretch(self) -> f32 {
+        if self.signed_boost { f32::INFINITY } else { 0.0 }
+    }
+}
+
 /// One particle's running sums over the lanes.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct LaneSums {
@@ -69,6 +88,8 @@ pub(super) struct BlockContext<'a> {
     pub records: &'a [ParticleRecord],
     /// The break rule.
     pub rule: BreakRule,
+    /// The other rules.
+    pub rules: PassRules,
     /// The chunk's per-particle sums (force x, y, z and smallest stretch) that internal bonds'
     /// reactions are scattered into.
     pub totals: &'a mut [[f32; 4]],
@@ -80,13 +101,20 @@ pub(super) struct BlockContext<'a> {
 /// Bonds that break are recorded in `chunk.breaks` (external ones by their lower particle only).
 /// Each particle's bonds are summed lane by lane (entry k of its row in lane k mod 8), the lanes
 /// then in order: a fixed order, whatever the thread count and the instruction set (AVX2 where
-/// the CPU has it, else portable code; the two agree bit for bit).
-pub fn spring_forces(chunk: &mut BondChunk, records: &[ParticleRecord], rule: BreakRule, out: &mut ChunkForces) {
+/// the CPU has it, else portable code; the two agree bit for bit). Rules other than Levine's run
+/// on the portable kernel.
+pub fn spring_forces(
+    chunk: &mut BondChunk,
+    records: &[ParticleRecord],
+    rule: BreakRule,
+    rules: PassRules,
+    out: &mut ChunkForces,
+) {
     #[cfg(target_arch = "x86_64")]
-    if super::springs_avx2::spring_forces(chunk, records, rule, out) {
+    if rules == PassRules::default() && super::springs_avx2::spring_forces(chunk, records, rule, out) {
         return;
     }
-    spring_rows(chunk, records, rule, out, bond_row);
+    spring_rows(chunk, records, rule, rules, out, bond_row);
 }
 
 /// The particle loop of [`spring_forces`] around a row kernel, which computes the bonds of one
@@ -97,14 +125,15 @@ pub(super) fn spring_rows(
     chunk: &mut BondChunk,
     records: &[ParticleRecord],
     rule: BreakRule,
+    rules: PassRules,
     out: &mut ChunkForces,
     mut row: impl FnMut(&mut BondChunk, &mut BlockContext, usize) -> LaneSums,
 ) {
     chunk.breaks.clear();
     let mut totals = std::mem::take(&mut chunk.totals);
     totals.clear();
-    totals.resize(chunk.len, [0.0; 4]);
-    let mut context = BlockContext { records, rule, totals: &mut totals };
+    totals.resize(chunk.len, [0.0, 0.0, 0.0, rules.no_stretch()]);
+    let mut context = BlockContext { records, rule, rules, totals: &mut totals };
     for local in 0..chunk.len {
         let sums = row(chunk, &mut context, local);
         let total = &mut context.totals[local];
@@ -124,7 +153,7 @@ pub(super) fn spring_rows(
 
 /// The portable row kernel: [`bond_block`] over the row's blocks.
 fn bond_row(chunk: &mut BondChunk, context: &mut BlockContext, local: usize) -> LaneSums {
-    let mut sums = LaneSums { force: [[0.0; LANES]; 3], min_stretch: [0.0; LANES] };
+    let mut sums = LaneSums { force: [[0.0; LANES]; 3], min_stretch: [context.rules.no_stretch(); LANES] };
     for (block, internal) in chunk.row(local) {
         bond_block(chunk, context, local, block, internal, &mut sums);
     }
@@ -133,7 +162,8 @@ fn bond_row(chunk: &mut BondChunk, context: &mut BlockContext, local: usize) -> 
 
 /// The break test of a block whose stretches passed the cheap bound: breaks the bonds whose
 /// stretch exceeds their effective threshold (zero stiffness, infinite threshold, counted, logged
-/// once) and zeroes their lanes' stretch and force scale.
+/// once) and, unless the breaking step's force is applied, takes their lanes out of this step's
+/// force and smallest stretch.
 pub(super) fn break_lanes(
     chunk: &mut BondChunk,
     context: &mut BlockContext,
@@ -154,8 +184,10 @@ pub(super) fn break_lanes(
             if i < j {
                 chunk.breaks.push(chunk.bond_id[block * LANES + lane]);
             }
-            stretch[lane] = 0.0;
-            scale[lane] = 0.0;
+            if !context.rules.breaking_step_force {
+                stretch[lane] = context.rules.no_stretch();
+                scale[lane] = 0.0;
+            }
         }
     }
 }
@@ -199,10 +231,20 @@ fn bond_block(
         }
     }
     let BondLanes { y, mut stretch, mut scale } = bond_lanes(&xi, &eta, rest_length, stiffness);
-    let bound = break_bound(context.rule, me.boost);
     let mut suspects = false;
-    for lane in 0..LANES {
-        suspects |= stretch[lane] > threshold[lane] + bound;
+    if context.rules.signed_boost {
+        // boosts may be negative: no cheap bound; a bond of no stiffness has no stretch
+        suspects = true;
+        for lane in 0..LANES {
+            if stiffness[lane] == 0.0 {
+                stretch[lane] = f32::INFINITY;
+            }
+        }
+    } else {
+        let bound = break_bound(context.rule, me.boost);
+        for lane in 0..LANES {
+            suspects |= stretch[lane] > threshold[lane] + bound;
+        }
     }
     if suspects {
         break_lanes(chunk, context, local, block, &mut stretch, &mut scale);
@@ -279,11 +321,55 @@ mod tests {
         let mut min_stretch = vec![0.0; len];
         let mut out = ChunkForces { force: [&mut fx, &mut fy, &mut fz], min_stretch: &mut min_stretch };
         if avx2 {
-            spring_forces(&mut chunk, records, rule, &mut out);
+            spring_forces(&mut chunk, records, rule, PassRules::default(), &mut out);
         } else {
-            spring_rows(&mut chunk, records, rule, &mut out, bond_row);
+            spring_rows(&mut chunk, records, rule, PassRules::default(), &mut out, bond_row);
         }
         ([fx, fy, fz], min_stretch, chunk)
+    }
+
+    /// One particle (0) bonded to one outside its chunk (1) along x, 1 mm apart, stretched by
+    /// `stretch`; the bond breaks above 1e-3. Returns particle 0's force x and smallest stretch,
+    /// and how many bonds broke.
+    fn one_bond(stretch: f32, rules: PassRules) -> (f32, f32, usize) {
+        let records = [
+            ParticleRecord { disp: [0.0; 3], boost: 0.0 },
+            ParticleRecord { disp: [stretch * 1e-3, 0.0, 0.0], boost: 0.0 },
+        ];
+        let mut chunk = BondChunk::new(0, 1);
+        let bond = BondEntry {
+            neighbor: 1,
+            rest_vector: [1e-3, 0.0, 0.0],
+            rest_length_m: 1e-3,
+            stiffness: 1e4,
+            threshold: 1e-3,
+            bond_id: 0,
+        };
+        chunk.push_row(&[], &[bond]);
+        let (mut fx, mut fy, mut fz, mut least) = (vec![0.0], vec![0.0], vec![0.0], vec![0.0]);
+        let mut out = ChunkForces { force: [&mut fx, &mut fy, &mut fz], min_stretch: &mut least };
+        spring_forces(&mut chunk, &records, BreakRule::Min, rules, &mut out);
+        (fx[0], least[0], chunk.breaks.len())
+    }
+
+    #[test]
+    fn lammps_rules_pull_in_the_breaking_step_and_boost_by_the_signed_stretch() {
+        let levine = PassRules::default();
+        let lammps = PassRules { signed_boost: true, breaking_step_force: true };
+        // intact, stretched: the same pull; the smallest stretch is 0 clamped, the stretch signed
+        let (pull, least, breaks) = one_bond(5e-4, levine);
+        assert!((pull - 1e4 * 5e-4).abs() < 1e-4 && least == 0.0 && breaks == 0);
+        let (pull, least, breaks) = one_bond(5e-4, lammps);
+        assert!((pull - 1e4 * 5e-4).abs() < 1e-4 && (least - 5e-4).abs() < 1e-9 && breaks == 0);
+        // breaking: Levine's drops the bond at once, LAMMPS's pulls once more and counts it
+        assert_eq!(one_bond(2e-3, levine), (0.0, 0.0, 1));
+        let (pull, least, breaks) = one_bond(2e-3, lammps);
+        assert!((pull - 1e4 * 2e-3).abs() < 1e-4 && (least - 2e-3).abs() < 1e-9 && breaks == 1);
+        // each rule alone
+        let (pull, least, _) = one_bond(2e-3, PassRules { signed_boost: true, breaking_step_force: false });
+        assert_eq!((pull, least), (0.0, f32::INFINITY), "a dropped bond leaves no stretch at all");
+        let (pull, least, _) = one_bond(2e-3, PassRules { signed_boost: false, breaking_step_force: true });
+        assert!((pull - 1e4 * 2e-3).abs() < 1e-4 && least == 0.0);
     }
 
     #[test]

@@ -17,7 +17,7 @@ use std::arch::x86_64::{
 use shatter_core::config::sim::BreakRule;
 
 use super::springs::{
-    BlockContext, ChunkForces, LANES, LaneSums, ParticleRecord, break_bound, break_lanes, spring_rows,
+    BlockContext, ChunkForces, LANES, LaneSums, ParticleRecord, PassRules, break_bound, break_lanes, spring_rows,
 };
 use crate::bond_layouts::row_layout::BondChunk;
 
@@ -47,6 +47,7 @@ fn spring_forces_avx2(chunk: &mut BondChunk, records: &[ParticleRecord], rule: B
         chunk,
         records,
         rule,
+        PassRules::default(),
         out,
         #[inline(always)]
         |chunk, context, local| bond_row(chunk, context, local),
