@@ -83,13 +83,6 @@ pub enum GpuError {
         max_per_dimension: u32,
     },
 
-    /// The scene asks for something the GPU kernels do not do.
-    #[error("the GPU backend cannot run this scene: {what}")]
-    Unsupported {
-        /// What it asks for.
-        what: String,
-    },
-
     /// The binding-splitting helper was given parameters it cannot satisfy.
     #[error("cannot split into binding chunks: {message}")]
     Split {

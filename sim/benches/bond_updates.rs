@@ -1,6 +1,7 @@
 //! Benchmark: bond updates per second per core on a 49^3 block (117,649 particles) at N = 3,
-//! beside LAMMPS's `pair_style peri/pmb` on the same lattice, horizon and step count when `lmp`
-//! is installed (Debian package `lammps`).
+//! under Levine's rules (the lattice layout) and LAMMPS's (`sim.rules = "lammps"`: the row
+//! layout's portable kernel and short-range contact), beside LAMMPS's `pair_style peri/pmb` on
+//! the same lattice, horizon and step count when `lmp` is installed (Debian package `lammps`).
 //!
 //! `cargo bench -p shatter-sim --bench bond_updates [-- STEPS [SIDE]]` (defaults 100 and 49). A
 //! bond update is one bond's force (stretch, break test, force) in one step; both codes are
@@ -14,7 +15,7 @@ use shatter_core::NoProgress;
 use shatter_core::config::PipelineConfig;
 use shatter_sim::CpuSimulation;
 
-fn config(side: usize) -> PipelineConfig {
+fn config(side: usize, rules: &str) -> PipelineConfig {
     let size = side as f64 * 0.001;
     let text = format!(
         r#"
@@ -33,6 +34,7 @@ density_kg_m3 = 2200.0
 bulk_modulus_pa = 14.9e9
 [sim]
 gravity_m_s2 = [0.0, 0.0, 0.0]
+rules = "{rules}"
 "#
     );
     PipelineConfig::from_toml_str(&text, Path::new("/nonexistent/pipeline.toml")).expect("valid config")
@@ -94,7 +96,7 @@ fn main() {
     let mut args = std::env::args().skip(1).filter_map(|arg| arg.parse::<usize>().ok());
     let steps = args.next().unwrap_or(100);
     let side = args.next().unwrap_or(49);
-    let config = config(side);
+    let config = config(side, "levine");
     let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
     let bonds = particles.bonds.unique_count();
     let updates = (bonds * steps) as f64;
@@ -111,6 +113,12 @@ fn main() {
         updates / all / 1e6,
         updates / all / 1e6 / cores as f64
     );
+    let lammps_rules = config(side, "lammps");
+    let rules_one = time_ours(&lammps_rules, &particles, steps, 1);
+    println!(
+        "  shatter CPU, LAMMPS rules, 1 thread: {rules_one:7.2} s  {:8.1} M bond updates/s per core",
+        updates / rules_one / 1e6
+    );
     match time_lammps(side, steps) {
         Some(lammps) => {
             println!(
@@ -118,6 +126,7 @@ fn main() {
                 updates / lammps / 1e6
             );
             println!("  per-core ratio, shatter 1 thread / LAMMPS: {:.1}x", lammps / one);
+            println!("  per-core ratio under LAMMPS's rules, shatter 1 thread / LAMMPS: {:.1}x", lammps / rules_one);
         }
         None => println!("  LAMMPS (lmp) not found: install Debian's `lammps` package to compare"),
     }

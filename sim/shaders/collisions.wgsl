@@ -3,7 +3,10 @@
 // d_c capped at the pair's rest distance (a broken bond's particles do not repel where they sat),
 // summed over the candidates in increasing index. Bonds are looked up in the particle's own
 // row (binary search; rows are sorted) and its own broken bits, as they were after the last
-// force pass: a bond that breaks in this step's force pass still counts, as on the CPU.
+// force pass: a bond that breaks in this step's force pass still counts, as on the CPU. Under
+// RULE_LAMMPS_CONTACT, LAMMPS's short-range force instead: every candidate closer than
+// min(0.9 |xi|, contact_distance), bonded or not, pushes with contact_stiffness m_i m_j (d - r)
+// d / r (contact_stiffness = 15 c / (delta rho^2), the masses standing for rho V).
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<uniform> range: Range;
@@ -49,6 +52,8 @@ fn collisions(
         return;
     }
     let row = rows[i];
+    let lammps = (params.rules & RULE_LAMMPS_CONTACT) != 0u;
+    let own_mass = body[2u * i].w;
     let x = body[2u * i].xyz;
     let p = x + body[2u * i + 1u].xyz;
     var sum = vec3<f32>(0.0);
@@ -57,6 +62,15 @@ fn collisions(
         let d = p - (body[2u * j].xyz + body[2u * j + 1u].xyz);
         let r2 = dot3(d, d);
         let xi = x - body[2u * j].xyz;
+        if (lammps) {
+            let reach = min(0.9 * sqrt(dot3(xi, xi)), params.contact_distance);
+            if (r2 >= reach * reach || r2 == 0.0) {
+                continue;
+            }
+            let r = sqrt(r2);
+            sum = sum + d * (params.contact_stiffness * own_mass * body[2u * j].w * (reach - r) / r);
+            continue;
+        }
         let reach = min(params.contact_distance, sqrt(dot3(xi, xi)));
         if (r2 >= reach * reach || r2 == 0.0 || bonded(row, j)) {
             continue;

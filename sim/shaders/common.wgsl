@@ -67,8 +67,20 @@ struct Params {
     block_grid_y: u32,
     // Scan blocks (table / SCAN_BLOCK, at least 1).
     scan_blocks: u32,
-    _pad: u32,
+    // The rules other than Levine's, as bits: RULE_SIGNED_BOOST, RULE_BREAKING_FORCE,
+    // RULE_LAMMPS_CONTACT.
+    rules: u32,
 }
+
+// The smallest stretch may be positive: the boost is -alpha s_min whatever its sign.
+const RULE_SIGNED_BOOST: u32 = 1u;
+// A breaking bond pulls in its breaking step, and its stretch counts towards the smallest.
+const RULE_BREAKING_FORCE: u32 = 2u;
+// LAMMPS's short-range contact: every pair closer than min(0.9 |xi|, contact_distance), bonded
+// or not, repels with contact_stiffness m_i m_j (d_ij - r).
+const RULE_LAMMPS_CONTACT: u32 = 4u;
+// The smallest stretch of a particle with no bond yet seen, under RULE_SIGNED_BOOST.
+const NO_STRETCH: f32 = 3.0e38;
 
 // One range of particles whose bond arrays share one binding each.
 struct Range {

@@ -6,7 +6,8 @@
 // the particle's own bit words, so no atomics; both ends compute the same s and decide alike);
 // else the force k s (xi + eta) / |xi + eta| is added and the smallest stretch kept. Then the
 // contact force from `collisions`, then gravity, projectiles and indenters at the current
-// positions. Writes the force, the next compression boost -alpha min(0, s_min), the particle's
+// positions (`params.rules` may apply a breaking bond's force too, and take the smallest stretch
+// whatever its sign). Writes the force, the next compression boost -alpha min(0, s_min), the particle's
 // broken-bond count, break events (by the lower particle of a bond), and the workgroup's
 // applied power (a fixed-order tree sum) for power_sum.
 
@@ -84,8 +85,13 @@ fn particle(i: u32) -> f32 {
     let record = body[2u * i + 1u];
     let row = rows[i];
     let step = status.step;
+    let signed = (params.rules & RULE_SIGNED_BOOST) != 0u;
+    let breaking_force = (params.rules & RULE_BREAKING_FORCE) != 0u;
     var f = vec3<f32>(0.0);
     var smallest = 0.0;
+    if (signed) {
+        smallest = NO_STRETCH;
+    }
     var broke = 0u;
     var word = 0u;
     var changed = false;
@@ -131,9 +137,17 @@ fn particle(i: u32) -> f32 {
                         events[slot] = vec2<u32>(step, row.w + k);
                     }
                 }
+                if (breaking_force) {
+                    f = f + y * (k_ij * growth * inverse);
+                    if (k_ij > 0.0 || !signed) {
+                        smallest = min(smallest, s);
+                    }
+                }
             } else {
                 f = f + y * (k_ij * growth * inverse);
-                smallest = min(smallest, s);
+                if (k_ij > 0.0 || !signed) {
+                    smallest = min(smallest, s);
+                }
             }
         }
         if (changed && (bit == 31u || k + 1u == row.z)) {
@@ -144,7 +158,11 @@ fn particle(i: u32) -> f32 {
     if (broke != 0u) {
         broken_count[i] = broken_count[i] + broke;
     }
-    boost_next[i] = smallest * -params.alpha;
+    if (smallest >= NO_STRETCH) {
+        boost_next[i] = 0.0;
+    } else {
+        boost_next[i] = smallest * -params.alpha;
+    }
     if (params.contact_enabled != 0u && contact_count[i] != 0u) {
         f = f + contact_force[i].xyz;
     }

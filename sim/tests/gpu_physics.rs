@@ -45,3 +45,19 @@ fn a_longitudinal_wave_in_a_bar_travels_at_the_bar_speed_on_the_gpu() {
 fn a_bar_pulled_apart_breaks_first_where_and_when_its_thresholds_say_on_the_gpu() {
     scenarios::a_bar_pulled_apart_breaks_first_where_and_when_its_thresholds_say(&gpu);
 }
+
+/// The GPU backend under `sim.rules = "lammps"`.
+fn gpu_lammps(config: &PipelineConfig, particles: &ParticleSet) -> Box<dyn Backend> {
+    let mut config = config.clone();
+    config.sim.rules = shatter_core::config::sim::RuleSet::Lammps;
+    gpu(&config, particles)
+}
+
+#[test]
+fn the_lammps_rules_pass_the_physics_tests_on_the_gpu_too() {
+    // As on the CPU (physics.rs): the pulled bar is left out, the signed boost weakens it.
+    scenarios::rigid_motions_cause_no_internal_force(&gpu_lammps);
+    scenarios::momentum_and_energy_are_conserved_in_an_elastic_vibration(&gpu_lammps);
+    scenarios::uniform_dilation_stores_the_continuum_energy_density_at_n3(&gpu_lammps);
+    scenarios::a_longitudinal_wave_in_a_bar_travels_at_the_bar_speed(&gpu_lammps, 80, 1200, 2);
+}

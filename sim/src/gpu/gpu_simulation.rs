@@ -14,12 +14,11 @@ use super::bind_groups::BindGroups;
 use super::shaders::Kernels;
 use super::sim_buffers::{Buffers, RangeBuffers};
 use super::snapshot::Replay;
-use super::wgsl_structs::{Params, SCAN_BLOCK, SLICE, WG};
+use super::wgsl_structs::{Params, RULE_BREAKING_FORCE, RULE_LAMMPS_CONTACT, RULE_SIGNED_BOOST, SCAN_BLOCK, SLICE, WG};
 use crate::backend::{Backend, DeviceError};
 use crate::bond_layouts::gpu_layout::{GpuBondLayout, GpuLayoutError};
 use crate::bond_layouts::row_layout::chunk_size;
 use crate::contact::SKIN_FRACTION;
-use crate::kernels::PassRules;
 use crate::model::{Model, MovingSphere};
 use crate::state::{Dynamics, Energy, kinetic_energy_j};
 
@@ -131,15 +130,6 @@ impl GpuSimulation {
         if n == 0 {
             return Err(GpuError::Split { message: "the particle set is empty".into() });
         }
-        let rules = model.rules;
-        if rules.contact != ContactModel::Penalty || model.pass_rules() != PassRules::default() {
-            return Err(GpuError::Unsupported {
-                what: format!(
-                    "its WGSL kernels follow Levine's contact, breaking-step and compression-boost rules only, and \
-                     this scene asks for {rules:?} (sim.rules); run it with --backend cpu"
-                ),
-            });
-        }
         let binding = ctx.max_storage_binding_bytes();
         let max_binding = options.max_binding_bytes.map_or(binding, |limit| limit.min(binding));
         let layout = GpuBondLayout::new(
@@ -169,13 +159,24 @@ impl GpuSimulation {
         let stable_dt_s = stable_dt(&layout, &particles.bonds.rest_length_m, &mass);
         let spheres: Vec<MovingSphere> = model.projectiles.iter().chain(&model.indenters).copied().collect();
 
-        let contact = model.contact_stiffness_pa > 0.0;
+        let contact = model.has_contact();
+        let lammps_contact = model.rules.contact == ContactModel::Lammps;
+        let pass = model.pass_rules();
+        let rules = u32::from(pass.signed_boost) * RULE_SIGNED_BOOST
+            + u32::from(pass.breaking_step_force) * RULE_BREAKING_FORCE
+            + u32::from(lammps_contact) * RULE_LAMMPS_CONTACT;
+        // LAMMPS's 15 c V_i V_j / delta, on masses m = rho V
+        let contact_stiffness = if lammps_contact {
+            (15.0 * model.bond_constant / (model.delta_m * model.density_kg_m3 * model.density_kg_m3)) as f32
+        } else {
+            model.contact_stiffness_pa
+        };
         let table = (2 * n).next_power_of_two().max(16);
         let scan_blocks = table.div_ceil(SCAN_BLOCK);
         let particle_grid = ctx.dispatch_grid(n.div_ceil(WG) as u64)?;
         let table_grid = ctx.dispatch_grid(table.div_ceil(WG) as u64)?;
         let block_grid = ctx.dispatch_grid(scan_blocks as u64)?;
-        let distance = model.contact_distance_m;
+        let distance = model.contact_reach_m();
         let skin = SKIN_FRACTION * distance;
         let unique = particles.bonds.unique_count();
         let event_capacity = options.event_capacity.unwrap_or(unique.clamp(16, 1 << 20) as u32).max(1);
@@ -193,7 +194,7 @@ impl GpuSimulation {
             gravity_y: model.gravity_m_s2[1],
             gravity_z: model.gravity_m_s2[2],
             contact_enabled: u32::from(contact),
-            contact_stiffness: model.contact_stiffness_pa,
+            contact_stiffness,
             contact_distance: distance,
             skin_limit: if contact { 0.25 * skin * skin } else { f32::MAX },
             reach: distance + skin,
@@ -214,7 +215,7 @@ impl GpuSimulation {
             block_grid_x: block_grid.x,
             block_grid_y: block_grid.y,
             scan_blocks: scan_blocks as u32,
-            pad: 0,
+            rules,
         };
 
         let kernels = Kernels::new(&ctx)?;

@@ -10,7 +10,9 @@ use shatter_core::random::SplitMix64;
 use shatter_gpu::{GpuContext, wgpu};
 
 use super::shaders;
-use super::wgsl_structs::{Params, SCAN_BLOCK, SLICE, Status, WG};
+use super::wgsl_structs::{
+    Params, RULE_BREAKING_FORCE, RULE_LAMMPS_CONTACT, RULE_SIGNED_BOOST, SCAN_BLOCK, SLICE, Status, WG,
+};
 use crate::bond_layouts::gpu_layout::GpuBondLayout;
 use crate::twins::{self, I4, U4, V4};
 
@@ -414,8 +416,34 @@ fn contact_lists(scene: &Scene) -> (Vec<u32>, Vec<u32>) {
 
 #[test]
 fn force_kernels_match_their_twins() {
+    force_kernels_match_their_twins_under(false);
+}
+
+#[test]
+fn force_kernels_match_their_twins_under_the_lammps_rules() {
+    force_kernels_match_their_twins_under(true);
+}
+
+/// The force kernels against their twins, under Levine's rules or LAMMPS's (signed boost, the
+/// breaking step's force, short-range contact within 1.35 lambda).
+fn force_kernels_match_their_twins_under(lammps: bool) {
     // A small binding limit: the bonds fall into several ranges, each its own dispatch.
-    let scene = Scene::new(3, 64 * 1024);
+    let mut scene = Scene::new(3, 64 * 1024);
+    if lammps {
+        let (distance, skin) = (1.35e-3f32, 0.5 * 1.35e-3f32);
+        let c = 18.0 * 14.9e9 / (std::f64::consts::PI * 0.003f64.powi(4));
+        scene.params = Params {
+            rules: RULE_SIGNED_BOOST | RULE_BREAKING_FORCE | RULE_LAMMPS_CONTACT,
+            contact_distance: distance,
+            reach: distance + skin,
+            skin_limit: 0.25 * skin * skin,
+            inverse_cell: 1.0 / (2.0 * (distance + skin)),
+            contact_cap: 64,
+            contact_stiffness: (15.0 * c / (0.003 * 2200.0 * 2200.0)) as f32,
+            ..scene.params
+        };
+    }
+    let scene = scene;
     assert!(scene.layout.ranges.len() >= 3, "{} ranges", scene.layout.ranges.len());
     let (n, p) = (scene.n, scene.params);
     let pb = uniform(&p);

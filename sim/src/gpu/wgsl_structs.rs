@@ -10,6 +10,15 @@ pub const WG: usize = 64;
 /// Counts scanned per workgroup by the prefix sum (the shaders' `SCAN_BLOCK`).
 pub const SCAN_BLOCK: usize = 512;
 
+/// `RULE_SIGNED_BOOST`: the boost is -alpha s_min whatever the sign of s_min.
+pub const RULE_SIGNED_BOOST: u32 = 1;
+/// `RULE_BREAKING_FORCE`: a breaking bond pulls in its breaking step.
+pub const RULE_BREAKING_FORCE: u32 = 2;
+/// `RULE_LAMMPS_CONTACT`: LAMMPS's short-range contact.
+pub const RULE_LAMMPS_CONTACT: u32 = 4;
+/// `NO_STRETCH`: the smallest stretch of a particle with no bond yet seen (signed boost).
+pub const NO_STRETCH: f32 = 3.0e38;
+
 /// `Params`: everything constant during a batch of steps.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
@@ -76,8 +85,9 @@ pub struct Params {
     pub block_grid_y: u32,
     /// Scan blocks.
     pub scan_blocks: u32,
-    /// Padding.
-    pub pad: u32,
+    /// The rules other than Levine's, as bits ([`RULE_SIGNED_BOOST`], [`RULE_BREAKING_FORCE`],
+    /// [`RULE_LAMMPS_CONTACT`]).
+    pub rules: u32,
 }
 
 /// `Range`: one range of particles whose bond arrays share one binding each.

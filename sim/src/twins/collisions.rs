@@ -1,7 +1,7 @@
 //! Twin of `collisions.wgsl`: the contact force of eq. 6 over each particle's candidates.
 
 use super::common::{U4, V4, add, dot3, scale, sub, xyz};
-use crate::gpu::wgsl_structs::{Params, Range, SLICE};
+use crate::gpu::wgsl_structs::{Params, RULE_LAMMPS_CONTACT, Range, SLICE};
 
 /// `bonded` of `collisions.wgsl`: an intact bond between the row's particle and j.
 fn bonded(row: U4, j: u32, neighbor: &[u32], bits: &[u32]) -> bool {
@@ -39,6 +39,8 @@ pub fn collisions(
             continue;
         }
         let row = rows[i];
+        let lammps = params.rules & RULE_LAMMPS_CONTACT != 0;
+        let own_mass = body[2 * i][3];
         let x = xyz(body[2 * i]);
         let p = add(x, xyz(body[2 * i + 1]));
         let mut sum = [0.0f32; 3];
@@ -47,6 +49,16 @@ pub fn collisions(
             let d = sub(p, add(xyz(body[2 * j as usize]), xyz(body[2 * j as usize + 1])));
             let r2 = dot3(d, d);
             let xi = sub(x, xyz(body[2 * j as usize]));
+            if lammps {
+                let reach = (0.9 * dot3(xi, xi).sqrt()).min(params.contact_distance);
+                if r2 >= reach * reach || r2 == 0.0 {
+                    continue;
+                }
+                let r = r2.sqrt();
+                let s = params.contact_stiffness * own_mass * body[2 * j as usize][3] * (reach - r) / r;
+                sum = add(sum, scale(d, s));
+                continue;
+            }
             let reach = crate::contact::contact_reach(params.contact_distance, dot3(xi, xi));
             if r2 >= reach * reach || r2 == 0.0 || bonded(row, j, neighbor, bits) {
                 continue;

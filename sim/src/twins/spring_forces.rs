@@ -3,7 +3,7 @@
 //! break events; each workgroup's external power.
 
 use super::common::{U4, V4, add, dot3, scale, sub, xyz};
-use crate::gpu::wgsl_structs::{Params, Range, SLICE, Status, WG};
+use crate::gpu::wgsl_structs::{NO_STRETCH, Params, RULE_BREAKING_FORCE, RULE_SIGNED_BOOST, Range, SLICE, Status, WG};
 
 /// `cube_root` of `spring_forces.wgsl`: pow, then one Newton step.
 pub fn cube_root(x: f32) -> f32 {
@@ -134,8 +134,10 @@ fn particle(
     let record = body[2 * i + 1];
     let row = rows[i];
     let step = status.step;
+    let signed = params.rules & RULE_SIGNED_BOOST != 0;
+    let breaking_force = params.rules & RULE_BREAKING_FORCE != 0;
     let mut f = [0.0f32; 3];
-    let mut smallest = 0.0f32;
+    let mut smallest = if signed { NO_STRETCH } else { 0.0f32 };
     let mut broke = 0u32;
     let mut word = 0u32;
     let mut changed = false;
@@ -174,9 +176,17 @@ fn particle(
                         events[slot as usize] = [step, row[3] + k];
                     }
                 }
+                if breaking_force {
+                    f = add(f, scale(y, k_ij * growth * inverse));
+                    if k_ij > 0.0 || !signed {
+                        smallest = smallest.min(s);
+                    }
+                }
             } else {
                 f = add(f, scale(y, k_ij * growth * inverse));
-                smallest = smallest.min(s);
+                if k_ij > 0.0 || !signed {
+                    smallest = smallest.min(s);
+                }
             }
         }
         if changed && (bit == 31 || k + 1 == row[2]) {
@@ -187,7 +197,7 @@ fn particle(
     if broke != 0 {
         broken_count[i] += broke;
     }
-    boost_next[i] = smallest * -params.alpha;
+    boost_next[i] = if smallest >= NO_STRETCH { 0.0 } else { smallest * -params.alpha };
     if params.contact_enabled != 0 && contact_count[i] != 0 {
         f = add(f, xyz(contact_force[i]));
     }
