@@ -96,8 +96,8 @@ fn main() {
     let mut args = std::env::args().skip(1).filter_map(|arg| arg.parse::<usize>().ok());
     let steps = args.next().unwrap_or(100);
     let side = args.next().unwrap_or(49);
-    let config = config(side, "levine");
-    let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
+    let levine = config(side, "levine");
+    let particles = shatter_preprocess::preprocess(&levine, &NoProgress).expect("preprocess").particles;
     let bonds = particles.bonds.unique_count();
     let updates = (bonds * steps) as f64;
     let cores = rayon::current_num_threads();
@@ -105,9 +105,9 @@ fn main() {
         "bond updates: {} particles ({side}^3), {bonds} bonds at N = 3, {steps} steps; a bond update = one bond, one step",
         particles.len()
     );
-    let one = time_ours(&config, &particles, steps, 1);
+    let one = time_ours(&levine, &particles, steps, 1);
     println!("  shatter CPU, 1 thread:   {one:7.2} s  {:8.1} M bond updates/s per core", updates / one / 1e6);
-    let all = time_ours(&config, &particles, steps, cores);
+    let all = time_ours(&levine, &particles, steps, cores);
     println!(
         "  shatter CPU, {cores} threads:  {all:7.2} s  {:8.1} M bond updates/s ({:.1} per core)",
         updates / all / 1e6,

@@ -451,7 +451,7 @@ impl CpuSimulation {
             }
         }
         let velocity = [&vel[0][..], &vel[1][..], &vel[2][..]];
-        let alpha = model.alpha;
+        let (alpha, signed_boost) = (model.alpha, pass_rules.signed_boost);
         let (contact_stiffness, contact_distance) = (model.contact_stiffness_pa, model.contact_distance_m);
         // LAMMPS's short-range force: its stiffness 15 c / delta and lambda
         let short_range = (model.rules.contact == ContactModel::Lammps)
@@ -484,9 +484,15 @@ impl CpuSimulation {
                         min_stretch[local] = smallest[slot];
                     }
                 }
-                for value in min_stretch.iter_mut() {
-                    // no intact bond (signed boost): no boost either
-                    *value = if value.is_finite() { -alpha * *value } else { 0.0 };
+                if signed_boost {
+                    for value in min_stretch.iter_mut() {
+                        // no intact bond: no boost either
+                        *value = if value.is_finite() { -alpha * *value } else { 0.0 };
+                    }
+                } else {
+                    for value in min_stretch.iter_mut() {
+                        *value *= -alpha;
+                    }
                 }
                 let mut force = [fx, fy, fz];
                 match (contacts, short_range) {

@@ -4,9 +4,10 @@
 //! cases were set up and LAMMPS's own spread under a 1e-12 m perturbation of its atoms), on the
 //! CPU and on the GPU backend.
 //!
-//! Each case is ported mechanically (docs/LAMMPS.md): the same simple-cubic lattice, c, horizon,
-//! s00 and alpha, dt, and `fix indent` with its K times an atom's volume (LAMMPS's forces are
-//! per unit volume). The requirements: mean damage within 5% at both times, the count of
+//! Each case is ported mechanically, in LAMMPS's own terms (docs/LAMMPS.md): the same
+//! simple-cubic lattice, c (`bond_constant_n_m6`), horizon (`horizon_m`), s00 and alpha, dt, and
+//! `fix indent`'s K (`lammps_stiffness_n_m5`, which becomes K times an atom's volume: LAMMPS's
+//! forces are per unit volume). The requirements: mean damage within 5% at both times, the count of
 //! particles over half damaged within 5%, and a per-particle damage correlation of at least 0.9
 //! at the earlier time.
 //!
@@ -90,20 +91,18 @@ fn agrees(ours: f64, theirs: f64, range: [f64; 2]) -> bool {
 fn scene(cells: [u32; 3], radius: f64, gap: f64, speed: f64, k: f64) -> PipelineConfig {
     let size = cells.map(|n| f64::from(n) * A);
     let top = size[1] / 2.0 - 0.5 * A;
-    let bulk_modulus = C * std::f64::consts::PI * DELTA.powi(4) / 18.0;
+    // LAMMPS's own terms: its horizon, c and fix indent K (docs/LAMMPS.md)
     let text = format!(
         "[scene]\nname = \"lammps\"\noutput_dir = \"out\"\nseed = 1\n\
-         [geometry]\nsource = \"box\"\nbox_size_m = {size:?}\nsampler = \"grid\"\nspacing_m = {A}\nhorizon_factor = {}\n\
-         [material]\ndensity_kg_m3 = {DENSITY}\nbulk_modulus_pa = {bulk_modulus}\ncritical_stretch = {S00}\n\
+         [geometry]\nsource = \"box\"\nbox_size_m = {size:?}\nsampler = \"grid\"\nspacing_m = {A}\nhorizon_m = {DELTA}\n\
+         [material]\ndensity_kg_m3 = {DENSITY}\nbond_constant_n_m6 = {C:e}\ncritical_stretch = {S00}\n\
          threshold_jitter = 0.0\ncompression_alpha = {ALPHA}\n\
          [sim]\nrules = \"lammps\"\nbreak_rule = \"min\"\nstiffness_correction = \"none\"\ndt_s = {DT}\n\
          gravity_m_s2 = [0.0, 0.0, 0.0]\n\
          [[sim.indenter]]\ncenter_m = [0.0, {}, 0.0]\nvelocity_m_s = [0.0, {}, 0.0]\nradius_m = {radius}\n\
-         stiffness_n_m2 = {}\n",
-        DELTA / A,
+         lammps_stiffness_n_m5 = {k:e}\n",
         top + radius + gap,
         -speed,
-        k * A.powi(3),
     );
     PipelineConfig::from_toml_str(&text, Path::new("lammps.toml")).expect("the ported scene is valid")
 }

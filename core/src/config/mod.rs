@@ -12,6 +12,7 @@ use serde::{Deserialize, Serialize};
 
 mod array_lengths;
 pub mod derived;
+mod lammps_terms;
 pub mod post;
 pub mod render;
 pub mod sim;
@@ -124,8 +125,13 @@ pub struct GeometryConfig {
     /// between the points of a layer for `tet_shell`, the minimum distance between sites for
     /// `voronoi` (unless `[geometry.voronoi] particles` is given).
     pub spacing_m: f64,
-    /// N in delta = N * lambda: particles closer than delta are bonded.
+    /// N in delta = N * lambda: particles closer than delta are bonded. May be left out for
+    /// `horizon_m`.
+    #[serde(default = "lammps_terms::unset")]
     pub horizon_factor: f64,
+    /// The horizon delta in metres (LAMMPS's `pair_coeff` cutoff) instead of `horizon_factor`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub horizon_m: Option<f64>,
     /// `[geometry.transform]`: placement of the source in the world.
     #[serde(default)]
     pub transform: TransformConfig,
@@ -285,8 +291,13 @@ impl Default for MeshRepairConfig {
 pub struct MaterialConfig {
     /// Mass density rho in kg/m^3.
     pub density_kg_m3: f64,
-    /// Bulk modulus K in Pa.
+    /// Bulk modulus K in Pa. May be left out for `bond_constant_n_m6`.
+    #[serde(default = "lammps_terms::unset")]
     pub bulk_modulus_pa: f64,
+    /// LAMMPS's bond constant c (`pair_coeff`'s first value), N/m^6, instead of
+    /// `bulk_modulus_pa`: K = c pi delta^4 / 18.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bond_constant_n_m6: Option<f64>,
     /// Fracture energy G in J/m^2; the mean critical stretch is sqrt(5 G / (9 K delta)).
     /// Default 8 J/m^2 (soda-lime glass) unless `critical_stretch` is given.
     #[serde(default)]
@@ -375,6 +386,7 @@ impl PipelineConfig {
         check.that(!output_dir.contains('\0'), "scene.output_dir", &format!("{output_dir:?}"), || {
             "must not contain a NUL character: no file system names a folder so".to_string()
         })?;
+        lammps_terms::resolve(&mut config, &check)?;
         config.resolve_paths();
         config.validate()?;
         Ok(config)

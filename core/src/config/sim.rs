@@ -302,8 +302,12 @@ pub struct IndenterConfig {
     pub velocity_m_s: [f64; 3],
     /// Radius R, metres.
     pub radius_m: f64,
-    /// K, N/m^2.
+    /// K, N/m^2. May be left out for `lammps_stiffness_n_m5`.
+    #[serde(default = "super::lammps_terms::unset")]
     pub stiffness_n_m2: f64,
+    /// LAMMPS's `fix indent` K, per unit volume (N/m^5), instead of `stiffness_n_m2`: K lambda^3.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lammps_stiffness_n_m5: Option<f64>,
 }
 
 /// `[[sim.weakened_path]]`: a persistent random walk; bonds whose midpoint lies within `radius_m`
