@@ -1,35 +1,21 @@
 //! The `shatter` command line as users meet it: exit codes, messages, files written and kept.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
-const GOOD: &str = r#"
-[scene]
-name = "glass_plate"
-output_dir = "out"
-seed = 1
-[geometry]
-source = "box"
-box_size_m = [0.01, 0.01, 0.004]
-sampler = "grid"
-spacing_m = 0.001
-horizon_factor = 3.0
-[material]
-density_kg_m3 = 2200.0
-bulk_modulus_pa = 14.9e9
-"#;
+use support::{SMALL_PLATE as GOOD, shatter, stderr};
 
-fn shatter(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_shatter")).args(args).current_dir(dir).output().expect("shatter runs")
-}
-
-fn stderr(output: &Output) -> String {
-    String::from_utf8_lossy(&output.stderr).into_owned()
-}
+mod support;
 
 fn mesh_path(name: &str) -> String {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/meshes").join(name);
     path.display().to_string()
+}
+
+/// The good scene on the spot mesh instead of the box.
+fn spot_scene() -> String {
+    GOOD.replace("source = \"box\"", &format!("source = {:?}", mesh_path("spot_triangulated.obj")))
+        .replace("box_size_m = [0.01, 0.01, 0.004]\n", "")
 }
 
 /// A temporary folder holding `pipeline.toml` with `text`.
@@ -368,16 +354,13 @@ fn what_cannot_fit_in_memory_is_refused_before_it_is_allocated() {
         ),
         (
             "a mesh filled finely",
-            GOOD.replace("source = \"box\"", &format!("source = {:?}", mesh_path("spot_triangulated.obj")))
-                .replace("box_size_m = [0.01, 0.01, 0.004]\n", "")
-                .replace("spacing_m = 0.001", "spacing_m = 0.005"),
+            spot_scene().replace("spacing_m = 0.001", "spacing_m = 0.005"),
             "preprocess",
             "geometry.spacing_m and geometry.horizon_factor: sampling the mesh into about 5.746e6 cube particles",
         ),
         (
             "a tet shell sampled finely",
-            GOOD.replace("source = \"box\"", &format!("source = {:?}", mesh_path("spot_triangulated.obj")))
-                .replace("box_size_m = [0.01, 0.01, 0.004]\n", "")
+            spot_scene()
                 .replace("sampler = \"grid\"", "sampler = \"tet_shell\"")
                 .replace("spacing_m = 0.001", "spacing_m = 0.002"),
             "preprocess",
@@ -385,8 +368,7 @@ fn what_cannot_fit_in_memory_is_refused_before_it_is_allocated() {
         ),
         (
             "many Voronoi cells",
-            GOOD.replace("source = \"box\"", &format!("source = {:?}", mesh_path("spot_triangulated.obj")))
-                .replace("box_size_m = [0.01, 0.01, 0.004]\n", "")
+            spot_scene()
                 .replace("sampler = \"grid\"", "sampler = \"voronoi\"")
                 .replace("horizon_factor = 3.0", "horizon_factor = 3.0\n[geometry.voronoi]\nparticles = 100000000"),
             "preprocess",
@@ -428,10 +410,7 @@ fn later_stages_refuse_a_particle_file_too_large_for_memory() {
     // 26,625 cubes filling the spot mesh: a 35 MB particle file whose simulation needs about 200
     // MiB and whose render about 250 MiB, under a 400 MB address-space limit that leaves about 80
     // MiB after the process's own libraries and its threads' heap arenas
-    let text = GOOD
-        .replace("source = \"box\"", &format!("source = {:?}", mesh_path("spot_triangulated.obj")))
-        .replace("box_size_m = [0.01, 0.01, 0.004]\n", "")
-        .replace("spacing_m = 0.001", "spacing_m = 0.03");
+    let text = spot_scene().replace("spacing_m = 0.001", "spacing_m = 0.03");
     let (dir, _) = scene(&format!("{text}[sim]\nframes = 2\nsteps_per_frame = 2\n"));
     assert!(shatter(&["preprocess"], dir.path()).status.success());
     for (command, message) in [

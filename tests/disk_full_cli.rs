@@ -6,37 +6,22 @@
 
 use std::process::Command;
 
-use support::{shatter, stderr, tree_files};
+use support::{SMALL_PLATE, shatter, stderr, tree_files};
 
 mod support;
 
-const SCENE: &str = r#"
-[scene]
-name = "plate"
-output_dir = "out"
-seed = 1
-[geometry]
-source = "box"
-box_size_m = [0.01, 0.01, 0.004]
-sampler = "grid"
-spacing_m = 0.001
-horizon_factor = 3.0
-[material]
-density_kg_m3 = 2200.0
-bulk_modulus_pa = 14.9e9
-[sim]
-frames = 4
-steps_per_frame = 5
-[render]
-backend = "cpu"
-resolution = [64, 36]
-samples_per_pixel = 1
-"#;
+/// The small plate, run briefly and rendered small.
+fn scene() -> String {
+    format!(
+        "{SMALL_PLATE}[sim]\nframes = 4\nsteps_per_frame = 5\n[render]\nbackend = \"cpu\"\nresolution = [64, 36]\n\
+         samples_per_pixel = 1\n"
+    )
+}
 
 #[test]
 fn a_full_disk_fails_every_stage_and_keeps_the_previous_outputs() {
     let dir = tempfile::tempdir().expect("tempdir");
-    std::fs::write(dir.path().join("pipeline.toml"), SCENE).expect("config");
+    std::fs::write(dir.path().join("pipeline.toml"), scene()).expect("config");
     assert!(shatter(&["run"], dir.path()).status.success());
     let outputs = || tree_files(&dir.path().join("out"), &["shatter.lock"]);
     let before = outputs();

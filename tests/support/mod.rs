@@ -6,6 +6,24 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
+/// A small good scene: a 10 x 10 x 4 mm glass plate of 1 mm cubes at N = 3 (400 particles),
+/// with every other setting at its default.
+pub const SMALL_PLATE: &str = r#"
+[scene]
+name = "glass_plate"
+output_dir = "out"
+seed = 1
+[geometry]
+source = "box"
+box_size_m = [0.01, 0.01, 0.004]
+sampler = "grid"
+spacing_m = 0.001
+horizon_factor = 3.0
+[material]
+density_kg_m3 = 2200.0
+bulk_modulus_pa = 14.9e9
+"#;
+
 /// Runs `shatter ARGS` in `dir`.
 pub fn shatter(args: &[&str], dir: &Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_shatter")).args(args).current_dir(dir).output().expect("shatter runs")
