@@ -1,5 +1,5 @@
 //! `shatter inspect`: summarise any stage file (particles, checkpoint, point caches of the
-//! simulation and of post, break log, fragments).
+//! simulation and of post, break log, fragments, the USD shot, rendered EXR frames).
 
 use std::io::Read;
 use std::path::Path;
@@ -23,6 +23,10 @@ pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
         .map_err(|error| anyhow::anyhow!("{}: cannot read: {error}", path.display()))?;
     let summary = if magic[..read.min(4)] == *b"ply\n" {
         point_frame(path)?
+    } else if magic[..read.min(4)] == [0x76, 0x2f, 0x31, 0x01] {
+        exr_frame(path)?
+    } else if magic[..read.min(5)] == *b"#usda" {
+        usd_shot(path)?
     } else if &magic == b"SHBREAKS" {
         break_log(path)?
     } else {
@@ -84,6 +88,45 @@ fn point_frame(path: &Path) -> Result<serde_json::Value, Failure> {
         "max_speed_m_s": speed,
         "mean_damage": frame.damage.iter().map(|d| f64::from(*d)).sum::<f64>() / n.max(1) as f64,
         "damaged_particles": damaged,
+    }))
+}
+
+/// A rendered frame: its size, channels, alpha coverage and fragment ids.
+fn exr_frame(path: &Path) -> Result<serde_json::Value, Failure> {
+    let (width, height, channels) = shatter_render::image_out::read_exr(path)?;
+    let channel = |name: &str| channels.iter().find(|c| c.name == name);
+    let covered = channel("A").map(|a| a.values.iter().filter(|v| **v > 0.0).count());
+    let fragments = channel("fragment").map(|f| {
+        let mut ids: Vec<u32> = f.values.iter().map(|v| *v as u32).filter(|id| *id != 0).collect();
+        ids.sort_unstable();
+        ids.dedup();
+        ids.len()
+    });
+    Ok(json!({
+        "kind": "render",
+        "width": width,
+        "height": height,
+        "channels": channels.iter().map(|c| format!("{} ({})", c.name, c.sample_type)).collect::<Vec<_>>(),
+        "covered_pixels": covered,
+        "fragments_seen": fragments,
+    }))
+}
+
+/// Post's USD shot: its pieces and time codes.
+fn usd_shot(path: &Path) -> Result<serde_json::Value, Failure> {
+    let text =
+        std::fs::read_to_string(path).map_err(|error| anyhow::anyhow!("{}: cannot read: {error}", path.display()))?;
+    let field = |name: &str| {
+        text.lines()
+            .find_map(|line| line.trim().strip_prefix(name)?.trim().strip_prefix('=').map(|v| v.trim().to_owned()))
+    };
+    let pieces = text.lines().filter(|line| line.trim_start().starts_with("def Mesh ")).count();
+    Ok(json!({
+        "kind": "usd",
+        "pieces": pieces,
+        "start_time_code": field("startTimeCode"),
+        "end_time_code": field("endTimeCode"),
+        "frames_per_second": field("framesPerSecond"),
     }))
 }
 

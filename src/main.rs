@@ -6,6 +6,7 @@ mod pipeline;
 mod post;
 mod preprocess;
 mod progress_bars;
+mod progress_log;
 mod render;
 mod sim;
 mod stamps;
@@ -31,6 +32,21 @@ const EXIT_BAD_INPUT: u8 = 2;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Worker threads of every stage (default: one per core; at most 1024). Results do not
+    /// depend on it.
+    #[arg(long, global = true, value_name = "N", value_parser = parse_threads)]
+    threads: Option<usize>,
+}
+
+/// The most worker threads `--threads` accepts: far more than any machine's cores, far fewer
+/// than would exhaust memory starting them.
+const MAX_THREADS: usize = 1024;
+
+fn parse_threads(text: &str) -> Result<usize, String> {
+    match text.parse::<usize>() {
+        Ok(threads) if (1..=MAX_THREADS).contains(&threads) => Ok(threads),
+        _ => Err(format!("must be a whole number from 1 to {MAX_THREADS}")),
+    }
 }
 
 #[derive(Debug, clap::Args)]
@@ -132,6 +148,12 @@ fn open_scene(arg: &ConfigArg) -> Result<(PipelineConfig, OutputLock), Failure> 
 }
 
 fn run(cli: Cli) -> Result<(), Failure> {
+    if let Some(threads) = cli.threads {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build_global()
+            .map_err(|error| anyhow::anyhow!("cannot start {threads} worker threads: {error}"))?;
+    }
     // Each writing command holds its folder's lock (`_lock`) until it returns.
     match cli.command {
         Command::Preprocess(arg) => {
@@ -191,7 +213,24 @@ fn describe(error: &anyhow::Error) -> String {
     message
 }
 
+/// Keeps Mesa's Wayland client quiet on machines without a display (a farm node, CI): when
+/// XDG_RUNTIME_DIR is unset, every GPU probe printed "XDG_RUNTIME_DIR is invalid or not set"
+/// twice. Pointing it at a folder that holds no display socket makes the probe fail silently;
+/// a set XDG_RUNTIME_DIR is left alone.
+fn quiet_display_probe() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none_or(|dir| dir.is_empty()) {
+        let folder = std::env::temp_dir().join("shatter-no-display");
+        // SAFETY: called first thing in `main`, before any thread exists, so nothing reads the
+        // environment while it changes.
+        #[allow(unsafe_code)]
+        unsafe {
+            std::env::set_var("XDG_RUNTIME_DIR", folder);
+        }
+    }
+}
+
 fn main() -> ExitCode {
+    quiet_display_probe();
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,

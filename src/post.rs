@@ -3,11 +3,11 @@
 use shatter_core::PipelineConfig;
 
 use crate::Failure;
-use crate::progress_bars::Bars;
+use crate::progress_bars::for_stderr;
 
 /// Runs the post stage.
 pub fn run(config: &PipelineConfig) -> Result<(), Failure> {
-    let report = shatter_post::run_post(config, &Bars::default())?;
+    let report = shatter_post::run_post(config, &*for_stderr())?;
     let histogram: Vec<String> = report
         .size_histogram
         .iter()

@@ -6,12 +6,12 @@ use anyhow::Context;
 use shatter_core::{OutputLayout, PipelineConfig};
 
 use crate::Failure;
-use crate::progress_bars::Bars;
+use crate::progress_bars::for_stderr;
 
 /// Preprocesses the scene and writes its particle file.
 pub fn run(config: &PipelineConfig) -> Result<(), Failure> {
     let started = Instant::now();
-    let result = shatter_preprocess::preprocess(config, &Bars::default())?;
+    let result = shatter_preprocess::preprocess(config, &*for_stderr())?;
     for line in result.mesh_report.iter().flat_map(|report| report.lines()) {
         println!("{line}");
     }

@@ -1,12 +1,25 @@
-//! Progress bars (indicatif) for the library's progress reports.
+//! Progress bars (indicatif) for the library's progress reports on a terminal, and the choice
+//! between them and plain log lines ([`crate::progress_log`]) when stderr is a file or a pipe.
 
+use std::io::IsTerminal;
 use std::sync::Mutex;
 use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use shatter_core::Progress;
 
-/// Draws one bar per phase on stderr (nothing when stderr is not a terminal).
+use crate::progress_log::LogLines;
+
+/// Bars on a terminal, plain lines at least every `SHATTER_LOG_EVERY_S` (default 10 s) otherwise.
+pub fn for_stderr() -> Box<dyn Progress> {
+    if std::io::stderr().is_terminal() {
+        Box::new(Bars::default())
+    } else {
+        Box::new(LogLines::new(crate::progress_log::interval_from_env()))
+    }
+}
+
+/// Draws one bar per phase on stderr.
 #[derive(Debug, Default)]
 pub struct Bars {
     current: Mutex<Option<ProgressBar>>,

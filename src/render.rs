@@ -4,7 +4,7 @@ use shatter_core::PipelineConfig;
 use shatter_render::render_driver::{AfterFrame, RenderError, parse_frames, run_render};
 
 use crate::Failure;
-use crate::progress_bars::Bars;
+use crate::progress_bars::for_stderr;
 use crate::sim::BackendArg;
 
 /// Command-line choices of `shatter render`.
@@ -36,7 +36,7 @@ pub fn render_frames(
     after_frame: AfterFrame,
 ) -> Result<(), Failure> {
     let backend = backend.map(BackendArg::backend);
-    let report = run_render(config, Some(frames), backend, &Bars::default(), after_frame)?;
+    let report = run_render(config, Some(frames), backend, &*for_stderr(), after_frame)?;
     let [width, height] = report.resolution;
     println!(
         "render: {} frames at {width} x {height}, {} samples per pixel ({:.2} M primary rays/s)",

@@ -5,7 +5,7 @@ use shatter_core::config::sim::BackendChoice;
 use shatter_sim::sim_driver::{RunOptions, run_sim};
 
 use crate::Failure;
-use crate::progress_bars::Bars;
+use crate::progress_bars::for_stderr;
 
 /// Command-line choices of `shatter sim`.
 #[derive(Debug, Clone, clap::Args)]
@@ -17,23 +17,9 @@ pub struct SimArgs {
     /// Continue from the last checkpoint instead of starting over.
     #[arg(long)]
     pub resume: bool,
-    /// Worker threads (default: one per core; at most 1024). Results do not depend on it.
-    #[arg(long, value_name = "N", value_parser = parse_threads)]
-    pub threads: Option<usize>,
     /// Run even when sim.dt_s exceeds the stable time step.
     #[arg(long)]
     pub allow_unstable_dt: bool,
-}
-
-/// The most worker threads `--threads` accepts: far more than any machine's cores, far fewer
-/// than would exhaust memory starting them.
-const MAX_THREADS: usize = 1024;
-
-fn parse_threads(text: &str) -> Result<usize, String> {
-    match text.parse::<usize>() {
-        Ok(threads) if (1..=MAX_THREADS).contains(&threads) => Ok(threads),
-        _ => Err(format!("must be a whole number from 1 to {MAX_THREADS}")),
-    }
 }
 
 /// `--backend` values.
@@ -61,13 +47,8 @@ impl BackendArg {
 /// Runs the simulation stage.
 pub fn run(config: &PipelineConfig, args: &SimArgs) -> Result<(), Failure> {
     let backend = args.backend.map_or(config.sim.backend, BackendArg::backend);
-    let mut pool = rayon::ThreadPoolBuilder::new();
-    if let Some(threads) = args.threads {
-        pool = pool.num_threads(threads);
-    }
-    let pool = pool.build().map_err(|error| anyhow::anyhow!("cannot start worker threads: {error}"))?;
     let options = RunOptions { backend: Some(backend), resume: args.resume, allow_unstable_dt: args.allow_unstable_dt };
-    let report = pool.install(|| run_sim(config, options, &Bars::default()))?;
+    let report = run_sim(config, options, &*for_stderr())?;
     for warning in &report.warnings {
         eprintln!("warning: {warning}");
     }
