@@ -58,9 +58,19 @@ pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
     Ok(())
 }
 
-/// A simulation's point cache, or (with a `fragment` column and no velocities) post's.
+/// A simulation's point cache, post's (a `fragment` column and no velocities), or post's debris
+/// points (a `broken_bonds` column).
 fn point_frame(path: &Path) -> Result<serde_json::Value, Failure> {
     let cache = PointCache::read(path)?;
+    if let Some(broken) = cache.ints("broken_bonds") {
+        return Ok(json!({
+            "kind": "debris_points",
+            "frame": cache.comment("frame"),
+            "time_s": cache.comment("time_s"),
+            "points": cache.len(),
+            "broken_bond_ends": broken.iter().map(|b| i64::from(*b)).sum::<i64>(),
+        }));
+    }
     if cache.floats("vx").is_none()
         && let Some(fragment) = cache.ints("fragment")
     {

@@ -41,11 +41,14 @@ stiffness_pa = 3e7
 /// as the last frame has fragments; every mesh has points, face counts summing to its index
 /// count, indices within its points; every mesh's transform is sampled at each frame; and the
 /// transform of the piece holding element 0 at frame 6 maps its rest position (first point of the
-/// piece's mesh is not used: the test passes the expected position in).
+/// piece's mesh is not used: the test passes the expected position in); the debris Points prim
+/// is sampled at every frame, with as many velocities and primvars as points, and its
+/// `brokenBonds` over all frames add up to the bond ends the test passes in.
 const USD_CHECK: &str = r#"
 import sys
 from pxr import Usd, UsdGeom, Gf
 path, fragments, rest, expected = sys.argv[1], int(sys.argv[2]), [float(v) for v in sys.argv[3:6]], [float(v) for v in sys.argv[6:9]]
+bond_ends = int(sys.argv[9])
 stage = Usd.Stage.Open(path)
 assert stage, "the stage does not open"
 assert stage.GetStartTimeCode() == 1 and stage.GetEndTimeCode() == 6, (stage.GetStartTimeCode(), stage.GetEndTimeCode())
@@ -68,7 +71,18 @@ for prim in meshes:
     error = (moved - Gf.Vec3d(*expected)).GetLength()
     best = error if best is None else min(best, error)
 assert best < 1e-5, best
-print("usd ok", len(meshes))
+debris = UsdGeom.Points(stage.GetPrimAtPath("/Shatter/debris"))
+assert debris, "no debris points"
+assert list(debris.GetPointsAttr().GetTimeSamples()) == [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]
+total = 0
+for frame in range(1, 7):
+    points = debris.GetPointsAttr().Get(frame)
+    assert len(debris.GetVelocitiesAttr().Get(frame)) == len(points), frame
+    counts = UsdGeom.PrimvarsAPI(debris).GetPrimvar("brokenBonds").Get(frame)
+    assert len(counts) == len(points), frame
+    total += sum(counts)
+assert total == bond_ends, (total, bond_ends)
+print("usd ok", len(meshes), "debris", total)
 "#;
 
 #[test]
@@ -101,6 +115,22 @@ fn post_writes_fragments_point_caches_and_a_usd_that_usd_reads() {
         fragments.to_string(),
     ];
     args.extend(rest.iter().chain(&now).map(|v| v.to_string()));
+    // every broken bond emits from both its ends, in its frame's debris file and the USD
+    let broken: usize = shatter_core::frames::BreakLog::read(&dir.path().join("out/frames/breaks.log"))
+        .expect("break log")
+        .iter()
+        .map(|block| block.events.len())
+        .sum();
+    assert!(broken > 10, "the plate breaks");
+    let debris_ends: i64 = (1..=6)
+        .map(|frame| {
+            let path = dir.path().join(format!("out/fragments/debris.{frame:04}.ply"));
+            let cache = shatter_core::ply::PointCache::read(&path).expect("debris points");
+            cache.ints("broken_bonds").expect("counts").iter().map(|c| i64::from(*c)).sum::<i64>()
+        })
+        .sum();
+    assert_eq!(debris_ends, 2 * broken as i64);
+    args.push((2 * broken).to_string());
     let check = Command::new("python3").args(&args).output().expect("python3 runs");
     assert!(
         check.status.success(),

@@ -96,6 +96,11 @@ impl OutputLayout {
         self.fragments_dir().join(points_name(frame))
     }
 
+    /// The debris emitter points of `frame` (break events, post).
+    pub fn debris_points(&self, frame: u32) -> PathBuf {
+        self.fragments_dir().join(format!("debris.{frame:04}.ply"))
+    }
+
     /// The USD shot.
     pub fn usd(&self) -> PathBuf {
         self.fragments_dir().join("fragments.usda")

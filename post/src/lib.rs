@@ -12,6 +12,7 @@
 //! - [`post_driver`]: the stage's driver.
 
 pub mod components;
+pub mod debris;
 pub mod kabsch;
 pub mod post_driver;
 pub mod smoothing;

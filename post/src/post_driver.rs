@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use shatter_core::digest;
 use shatter_core::fragments::{FragmentFrame, FragmentMeta};
-use shatter_core::frames::{BreakLog, FrameFileError, PointFrame};
+use shatter_core::frames::{BreakEvent, BreakLog, FrameFileError, PointFrame};
 use shatter_core::layout::missing_input;
 use shatter_core::memory::{self, MemoryError, SetSize};
 use shatter_core::particles::ParticleSet;
@@ -16,6 +16,7 @@ use shatter_core::stage_file::StageFileError;
 use shatter_core::{OutputLayout, PipelineConfig, Progress};
 
 use crate::components::size_histogram;
+use crate::debris::{self, DebrisFrame, debris_frame};
 use crate::kabsch::RigidMotion;
 use crate::surfaces;
 use crate::tracker::FragmentTracker;
@@ -98,13 +99,14 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
     let mut tracker = FragmentTracker::new(&particles, mass);
     let smoothing = config.post.smoothing_frames;
     let mut history: Vec<(usize, Vec<RigidMotion>)> = Vec::new();
+    let mut debris: Vec<DebrisFrame> = Vec::new();
     let mut last = None;
     progress.start("post", u64::from(total));
     for frame in 1..=total {
-        for block in blocks.iter().filter(|b| b.frame == frame) {
-            for event in &block.events {
-                tracker.break_bond(event.bond);
-            }
+        let events: Vec<BreakEvent> =
+            blocks.iter().filter(|b| b.frame == frame).flat_map(|b| b.events.iter().copied()).collect();
+        for event in &events {
+            tracker.break_bond(event.bond);
         }
         let points = PointFrame::read(&layout.frame_points(frame))?;
         if points.inputs != Some(sim_inputs) {
@@ -142,9 +144,13 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
             mass_kg: tracked.mass_kg.clone(),
         };
         fragments.write(&layout.fragments(frame))?;
+        let frame_debris =
+            debris_frame(frame, &events, &particles.bonds, &points, &tracked.fragment_of, config.sim.dt_s);
         if config.post.point_caches {
             write_point_cache(&layout.fragment_points(frame), &points, &tracked.fragment_of)?;
+            debris::write_point_cache(&layout.debris_points(frame), &frame_debris, points.step, points.time_s)?;
         }
+        debris.push(frame_debris);
         history.push((tracked.motion.len(), tracked.motion.clone()));
         progress.advance(1);
         progress.message(&format!("frame {frame}/{total}: {} fragments", tracked.motion.len()));
@@ -167,7 +173,8 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
             })
             .collect();
         let path = layout.usd();
-        write_usda(&path, &meshes, &transforms, 1, config.scene.frames_per_second)
+        let width = 0.5 * particles.meta.lambda_m;
+        write_usda(&path, &meshes, &transforms, 1, config.scene.frames_per_second, &debris, width)
             .map_err(|source| PostError::Usd { path, source })?;
     }
     Ok(PostReport {

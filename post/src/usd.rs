@@ -7,6 +7,7 @@ use std::path::Path;
 
 use glam::{DMat3, DQuat, DVec3};
 
+use super::debris::DebrisFrame;
 use super::surfaces::SurfaceMesh;
 
 /// A piece's rigid motion at one frame: x = R X + t.
@@ -32,13 +33,17 @@ fn matrix(transform: &PieceTransform) -> [[f64; 4]; 4] {
 }
 
 /// Writes `path` (atomically): `meshes[p]` with `transforms[frame index][p]`, frames numbered from
-/// `first_frame`, `fps` time codes per second.
+/// `first_frame`, `fps` time codes per second, and the `debris` emitter points of each frame as a
+/// `Points` prim (`/Shatter/debris`, points of `width_m`, time-sampled: a frame without breaks
+/// holds none) with velocities and the primvars `brokenBonds`, `fragment`, `otherFragment`.
 pub fn write_usda(
     path: &Path,
     meshes: &[SurfaceMesh],
     transforms: &[Vec<PieceTransform>],
     first_frame: u32,
     fps: f64,
+    debris: &[DebrisFrame],
+    width_m: f64,
 ) -> std::io::Result<()> {
     let last_frame = first_frame + transforms.len().saturating_sub(1) as u32;
     let mut text = String::new();
@@ -72,8 +77,36 @@ pub fn write_usda(
         prim.push_str("        }\n        uniform token[] xformOpOrder = [\"xformOp:transform\"]\n    }\n");
         out.extend_from_slice(prim.as_bytes());
     }
+    if !debris.is_empty() {
+        out.extend_from_slice(debris_prim(debris, width_m).as_bytes());
+    }
     out.extend_from_slice(b"}\n");
     shatter_core::atomic_file::write_atomically(path, &[&out])
+}
+
+/// The `Points` prim of the debris: each attribute sampled at every frame.
+fn debris_prim(debris: &[DebrisFrame], width_m: f64) -> String {
+    let mut prim = String::from("    def Points \"debris\"\n    {\n");
+    let vector = |v: &[f32; 3]| format!("({}, {}, {})", v[0], v[1], v[2]);
+    let mut samples = |kind: &str, name: &str, value: &dyn Fn(&DebrisFrame) -> Vec<String>| {
+        let _ = writeln!(prim, "        {kind} {name}.timeSamples = {{");
+        for frame in debris {
+            let _ = write!(prim, "            {}: [", frame.frame);
+            join(&mut prim, value(frame).into_iter());
+            prim.push_str("],\n");
+        }
+        prim.push_str("        }\n");
+    };
+    samples("point3f[]", "points", &|f| f.position.iter().map(vector).collect());
+    samples("vector3f[]", "velocities", &|f| f.velocity.iter().map(vector).collect());
+    samples("int[]", "primvars:brokenBonds", &|f| f.broken_bonds.iter().map(i32::to_string).collect());
+    samples("int[]", "primvars:fragment", &|f| f.fragment.iter().map(i32::to_string).collect());
+    samples("int[]", "primvars:otherFragment", &|f| f.other_fragment.iter().map(i32::to_string).collect());
+    samples("float[]", "primvars:breakTime", &|f| f.time_s.iter().map(f32::to_string).collect());
+    let _ =
+        writeln!(prim, "        float[] widths = [{width_m}] (\n            interpolation = \"constant\"\n        )");
+    prim.push_str("    }\n");
+    prim
 }
 
 fn join(out: &mut String, items: impl Iterator<Item = String>) {
