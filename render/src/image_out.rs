@@ -5,8 +5,8 @@ use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
 use exr::prelude::{
-    AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, LineOrder, SmallVec, Text,
-    WritableImage, f16, read_all_flat_layers_from_file,
+    AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image, Layer, LayerAttributes, LineOrder, SmallVec,
+    Text, WritableImage, f16, read_all_flat_layers_from_file,
 };
 
 use crate::trace::Pixel;
@@ -35,11 +35,47 @@ pub enum ImageError {
 /// The channels of a shatter EXR frame, in the sorted order EXR stores them.
 pub const EXR_CHANNELS: [&str; 9] = ["A", "B", "G", "N.X", "N.Y", "N.Z", "R", "Z", "fragment"];
 
+/// What an EXR's header says of its frame besides the pixels: the camera (OpenEXR's standard
+/// `worldToCamera` and `worldToNDC`, see [`crate::scene::Camera::world_to_ndc`]), the playback rate
+/// (`framesPerSecond`), and the frame's simulated time (`shatterSimulationTime`, seconds).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameHeader {
+    /// A human-readable comment.
+    pub comment: String,
+    /// World to camera, Imath row-vector matrix, row-major.
+    pub world_to_camera: [f32; 16],
+    /// World to normalized device coordinates, likewise.
+    pub world_to_ndc: [f32; 16],
+    /// Playback frames per second.
+    pub frames_per_second: f64,
+    /// Simulated time at the frame, seconds.
+    pub simulation_time_s: f64,
+}
+
+/// A frame rate as OpenEXR's rational: whole rates exactly, NTSC's 24000/1001 family by their
+/// usual fractions, anything else to a thousandth.
+fn rational(rate: f64) -> (i32, u32) {
+    let ntsc = rate * 1001.0 / 1000.0;
+    if (rate - rate.round()).abs() < 1e-9 {
+        (rate.round() as i32, 1)
+    } else if (ntsc - ntsc.round()).abs() < 1e-6 {
+        ((ntsc.round() * 1000.0) as i32, 1001)
+    } else {
+        ((rate * 1000.0).round() as i32, 1000)
+    }
+}
+
 /// Writes `pixels` (row-major, top row first) as an EXR with channels R, G, B, A (half, linear),
 /// Z (float: distance along the camera ray to the first surface; infinity where there is none),
 /// N.X, N.Y, N.Z (float: world-space unit normal there) and fragment (uint: fragment id + 1 of
-/// the first element seen, 0 for none). `comment` goes into the header.
-pub fn write_exr(path: &Path, width: usize, height: usize, pixels: &[Pixel], comment: &str) -> Result<(), ImageError> {
+/// the first element seen, 0 for none). `header` goes into the header.
+pub fn write_exr(
+    path: &Path,
+    width: usize,
+    height: usize,
+    pixels: &[Pixel],
+    header: &FrameHeader,
+) -> Result<(), ImageError> {
     let column = |f: &dyn Fn(&Pixel) -> f32| pixels.iter().map(f).collect::<Vec<f32>>();
     let half = |f: &dyn Fn(&Pixel) -> f32| FlatSamples::F16(pixels.iter().map(|p| f16::from_f32(f(p))).collect());
     let channels = AnyChannels::sort(SmallVec::from_vec(vec![
@@ -53,11 +89,17 @@ pub fn write_exr(path: &Path, width: usize, height: usize, pixels: &[Pixel], com
         AnyChannel::new("N.Z", FlatSamples::F32(column(&|p| p.normal[2]))),
         AnyChannel::new("fragment", FlatSamples::U32(pixels.iter().map(|p| p.fragment).collect())),
     ]));
-    let attributes = LayerAttributes {
-        comments: Some(Text::from(comment)),
+    let mut attributes = LayerAttributes {
+        comments: Some(Text::from(header.comment.as_str())),
         software_name: Some(Text::from("shatter")),
+        world_to_camera: Some(header.world_to_camera),
+        world_to_normalized_device: Some(header.world_to_ndc),
+        frames_per_second: Some(rational(header.frames_per_second)),
         ..LayerAttributes::default()
     };
+    // One custom attribute only: the exr crate writes them in hash-map order, and the same pixels
+    // must always make the same bytes (the frame number is in the file name and the comment).
+    attributes.other.insert(Text::from("shatterSimulationTime"), AttributeValue::F64(header.simulation_time_s));
     // Increasing line order: blocks compressed in parallel are still written in order, so the
     // same pixels always make the same bytes (FAST_LOSSLESS alone leaves the order unspecified).
     let encoding = Encoding { line_order: LineOrder::Increasing, ..Encoding::FAST_LOSSLESS };
@@ -142,6 +184,39 @@ pub fn write_png(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Camera;
+    use glam::DVec3;
+
+    fn test_header() -> FrameHeader {
+        let camera = Camera::look_at(DVec3::new(0.0, 0.2, 1.0), DVec3::ZERO, DVec3::Y, 40.0, 4, 3);
+        FrameHeader {
+            comment: "frame 1".into(),
+            world_to_camera: camera.world_to_camera(),
+            world_to_ndc: camera.world_to_ndc(),
+            frames_per_second: 24.0,
+            simulation_time_s: 1.25e-4,
+        }
+    }
+
+    #[test]
+    fn the_header_carries_the_camera_the_rate_and_the_time() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("shot.0001.exr");
+        let pixels =
+            vec![Pixel { color: [0.5; 3], alpha: 1.0, depth: 1.0, normal: [0.0; 3], fragment: 1, element: NONE }; 12];
+        let header = test_header();
+        write_exr(&path, 4, 3, &pixels, &header).expect("write");
+        let meta = exr::meta::MetaData::read_from_file(&path, false).expect("header");
+        let attributes = &meta.headers[0].own_attributes;
+        assert_eq!(attributes.world_to_camera, Some(header.world_to_camera));
+        assert_eq!(attributes.world_to_normalized_device, Some(header.world_to_ndc));
+        assert_eq!(attributes.frames_per_second, Some((24, 1)));
+        let time = attributes.other.get(&Text::from("shatterSimulationTime"));
+        assert_eq!(time, Some(&AttributeValue::F64(1.25e-4)));
+        assert_eq!(rational(23.976023976023978), (24000, 1001));
+        assert_eq!(rational(29.97002997002997), (30000, 1001));
+        assert_eq!(rational(12.5), (12500, 1000));
+    }
     use crate::trace::NONE;
 
     #[test]
@@ -158,7 +233,7 @@ mod tests {
             .collect();
         let dir = tempfile::tempdir().expect("tempdir");
         let path = dir.path().join("shot.0001.exr");
-        write_exr(&path, 4, 3, &pixels, "frame 1").expect("write");
+        write_exr(&path, 4, 3, &pixels, &test_header()).expect("write");
         let (width, height, channels) = read_exr(&path).expect("read");
         assert_eq!((width, height), (4, 3));
         let names: Vec<&str> = channels.iter().map(|c| c.name.as_str()).collect();
@@ -195,7 +270,7 @@ mod tests {
         let bytes: Vec<Vec<u8>> = (0..6)
             .map(|k| {
                 let path = dir.path().join(format!("shot.{k:04}.exr"));
-                write_exr(&path, width, height, &pixels, "frame").expect("write");
+                write_exr(&path, width, height, &pixels, &test_header()).expect("write");
                 std::fs::read(&path).expect("read")
             })
             .collect();

@@ -18,7 +18,7 @@ use shatter_gpu::{AdapterChoice, GpuContext, GpuError};
 
 use crate::element_kdtree::Aabb;
 use crate::gpu_trace::GpuTracer;
-use crate::image_out::{ImageError, write_exr, write_png};
+use crate::image_out::{FrameHeader, ImageError, write_exr, write_png};
 use crate::lighting::{EnvironmentMap, LightingError, key_light, sh_project};
 use crate::scene::{Camera, SceneGeometry};
 use crate::trace::{FloorLook, Look, Pixel, render};
@@ -279,8 +279,14 @@ pub fn run_render(
         }
         let scene = SceneGeometry::build(&particles, fragments.as_ref());
         let pixels = tracer.render(&scene, &look, &camera, samples)?;
-        let comment = format!("shatter render: scene {}, frame {frame}", config.scene.name);
-        write_exr(&layout.render_frame(frame, "exr"), width as usize, height as usize, &pixels, &comment)?;
+        let header = FrameHeader {
+            comment: format!("shatter render: scene {}, frame {frame}", config.scene.name),
+            world_to_camera: camera.world_to_camera(),
+            world_to_ndc: camera.world_to_ndc(),
+            frames_per_second: config.scene.frames_per_second,
+            simulation_time_s: fragments.as_ref().map_or(0.0, |f| f.meta.time_s),
+        };
+        write_exr(&layout.render_frame(frame, "exr"), width as usize, height as usize, &pixels, &header)?;
         if render_config.previews {
             let exposure = render_config.preview_exposure_stops as f32;
             write_png(&layout.render_frame(frame, "png"), width as usize, height as usize, &pixels, exposure)?;

@@ -240,6 +240,42 @@ impl Camera {
         Camera::look_at(centre + direction * distance, centre, DVec3::Y, fov_deg, width, height)
     }
 
+    /// OpenEXR's `worldToCamera`: world points to the camera's left-handed space (x right, y up,
+    /// z along the view, the origin at the eye), as an Imath row-vector matrix (p' = p M, the
+    /// translation in the last row), row-major.
+    pub fn world_to_camera(&self) -> [f32; 16] {
+        let unit = |v: [f32; 3]| DVec3::from_array(v.map(f64::from)).normalize();
+        let (right, up, forward) = (unit(self.right), unit(self.up), unit(self.forward));
+        let eye = DVec3::from_array(self.origin.map(f64::from));
+        let m = [
+            [right.x, up.x, forward.x, 0.0],
+            [right.y, up.y, forward.y, 0.0],
+            [right.z, up.z, forward.z, 0.0],
+            [-right.dot(eye), -up.dot(eye), -forward.dot(eye), 1.0],
+        ];
+        m.concat().iter().map(|v| *v as f32).collect::<Vec<f32>>().try_into().unwrap_or([0.0; 16])
+    }
+
+    /// OpenEXR's `worldToNDC`: world points to the image plane, (0, 0) the display window's upper
+    /// left corner and (1, 1) its lower right, x right and y down, after the division by the
+    /// last component (p' = p M; NDC = (p'x / p'w, p'y / p'w)). NDC times the image size is the
+    /// pixel position, pixel (i, j) covering [i, i + 1) x [j, j + 1).
+    pub fn world_to_ndc(&self) -> [f32; 16] {
+        let length = |v: [f32; 3]| DVec3::from_array(v.map(f64::from)).length();
+        // the camera-space point (x, y, z) lands at sx = x / (z |right|), sy = y / (z |up|) in
+        // [-1, 1] (y up), so NDC = ((sx + 1) / 2, (1 - sy) / 2)
+        let (a, b) = (0.5 / length(self.right), 0.5 / length(self.up));
+        let projection = [[a, 0.0, 0.0, 0.0], [0.0, -b, 0.0, 0.0], [0.5, 0.5, 1.0, 1.0], [0.0, 0.0, 0.0, 0.0]];
+        let camera = self.world_to_camera().map(f64::from);
+        let mut m = [0.0f32; 16];
+        for row in 0..4 {
+            for column in 0..4 {
+                m[4 * row + column] = (0..4).map(|k| camera[4 * row + k] * projection[k][column]).sum::<f64>() as f32;
+            }
+        }
+        m
+    }
+
     /// The unit direction through image point (px, py) in pixels (y down).
     pub fn direction(&self, px: f32, py: f32) -> [f32; 3] {
         let sx = 2.0 * px / self.width as f32 - 1.0;
@@ -247,5 +283,34 @@ impl Camera {
         let d = [0, 1, 2].map(|k| self.forward[k] + sx * self.right[k] + sy * self.up[k]);
         let length = crate::primitives::dot(d, d).sqrt();
         d.map(|v| v / length)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Projects `p` with a row-vector matrix and divides: (x / w, y / w).
+    fn project(m: &[f32; 16], p: DVec3) -> (f64, f64) {
+        let v = [p.x, p.y, p.z, 1.0];
+        let column = |c: usize| (0..4).map(|r| v[r] * f64::from(m[4 * r + c])).sum::<f64>();
+        (column(0) / column(3), column(1) / column(3))
+    }
+
+    #[test]
+    fn world_to_ndc_sends_a_point_on_a_pixel_ray_to_that_pixel() {
+        let camera = Camera::look_at(DVec3::new(0.3, 0.4, 0.9), DVec3::new(0.0, 0.05, 0.0), DVec3::Y, 35.0, 320, 180);
+        let eye = DVec3::from_array(camera.origin.map(f64::from));
+        for (px, py, t) in [(0.5, 0.5, 0.7), (160.0, 90.0, 1.0), (319.5, 12.25, 1.4), (33.0, 179.5, 0.3)] {
+            let direction = DVec3::from_array(camera.direction(px as f32, py as f32).map(f64::from));
+            let (x, y) = project(&camera.world_to_ndc(), eye + direction * t);
+            assert!((x * 320.0 - px).abs() < 1e-3 && (y * 180.0 - py).abs() < 1e-3, "({px}, {py}) -> ({x}, {y})");
+            // camera space: x right, y up, z the distance along the view
+            let m = camera.world_to_camera();
+            let p = eye + direction * t;
+            let z = (0..3).map(|k| [p.x, p.y, p.z][k] * f64::from(m[4 * k + 2])).sum::<f64>() + f64::from(m[14]);
+            let forward = DVec3::from_array(camera.forward.map(f64::from));
+            assert!((z - t * direction.dot(forward)).abs() < 1e-5);
+        }
     }
 }
