@@ -16,7 +16,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use shatter_core::memory::MemoryError;
-use shatter_core::output_lock::OutputLock;
+use shatter_core::output_lock::{Access, OutputLock};
 use shatter_core::{ConfigError, OutputLayout, PipelineConfig};
 use shatter_post::PostError;
 use shatter_preprocess::PreprocessError;
@@ -133,15 +133,19 @@ impl<E: Into<anyhow::Error>> From<E> for Failure {
 }
 
 /// The scene of a command that writes into its output folder: its config, and the folder's lock,
-/// held until the command ends (one writer per folder; a second fails at once, exit code 1).
-fn open_scene(arg: &ConfigArg) -> Result<(PipelineConfig, OutputLock), Failure> {
+/// held until the command ends (one writer per folder, or renders side by side; anything else
+/// fails at once, exit code 1).
+fn open_scene(arg: &ConfigArg, access: Access) -> Result<(PipelineConfig, OutputLock), Failure> {
     let config = PipelineConfig::load(&arg.config)?;
     for key in config.unused_keys() {
         eprintln!("warning: {}: {key} is set but has no effect", arg.config.display());
     }
-    let lock = OutputLock::acquire(&OutputLayout::of(&config))?;
-    // A run killed mid-write leaves hidden temporary files; the next run of the scene clears them.
-    if let Err(error) = shatter_core::atomic_file::remove_abandoned_temporaries(config.output_dir()) {
+    let lock = OutputLock::acquire(&OutputLayout::of(&config), access)?;
+    // A run killed mid-write leaves hidden temporary files; the next sole writer of the scene
+    // clears them (never a render, whose neighbours' temporaries are still being written).
+    if access == Access::Exclusive
+        && let Err(error) = shatter_core::atomic_file::remove_abandoned_temporaries(config.output_dir())
+    {
         eprintln!("warning: {}: cannot clear abandoned temporary files: {error}", config.output_dir().display());
     }
     Ok((config, lock))
@@ -157,26 +161,26 @@ fn run(cli: Cli) -> Result<(), Failure> {
     // Each writing command holds its folder's lock (`_lock`) until it returns.
     match cli.command {
         Command::Preprocess(arg) => {
-            let (config, _lock) = open_scene(&arg)?;
+            let (config, _lock) = open_scene(&arg, Access::Exclusive)?;
             check_memory(&config, Stage::Preprocess, Stage::Preprocess)?;
             preprocess::run(&config)
         }
         Command::Sim { config, options } => {
-            let (config, _lock) = open_scene(&config)?;
+            let (config, _lock) = open_scene(&config, Access::Exclusive)?;
             check_memory(&config, Stage::Sim, Stage::Sim)?;
             sim::run(&config, &options)
         }
         Command::Post(arg) => {
-            let (config, _lock) = open_scene(&arg)?;
+            let (config, _lock) = open_scene(&arg, Access::Exclusive)?;
             post::run(&config)
         }
         Command::Render { config, options } => {
-            let (config, _lock) = open_scene(&config)?;
+            let (config, _lock) = open_scene(&config, Access::Shared)?;
             check_memory(&config, Stage::Render, Stage::Render)?;
             render::run(&config, &options)
         }
         Command::Run { config, options, until } => {
-            let (config, _lock) = open_scene(&config)?;
+            let (config, _lock) = open_scene(&config, Access::Exclusive)?;
             check_memory(&config, Stage::Preprocess, until)?;
             pipeline::run(&config, &options, until)
         }

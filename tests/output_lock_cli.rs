@@ -9,7 +9,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use shatter_core::OutputLayout;
-use shatter_core::output_lock::OutputLock;
+use shatter_core::output_lock::{Access, OutputLock};
 use support::{folder_files, shatter};
 
 const CONFIG: &str = r#"
@@ -63,7 +63,7 @@ fn every_writing_command_is_refused_while_another_holds_the_folder() {
     assert!(shatter(&["run", "--until", "preprocess"], dir.path()).status.success());
     let particles = std::fs::read(layout(dir.path()).particles()).expect("particles");
 
-    let held = OutputLock::acquire(&layout(dir.path())).expect("the test holds the folder");
+    let held = OutputLock::acquire(&layout(dir.path()), Access::Exclusive).expect("the test holds the folder");
     let holder = format!("pid {}", std::process::id());
     for args in [&["preprocess"][..], &["sim"], &["post"], &["render"], &["run"]] {
         let output = shatter(args, dir.path());
@@ -80,6 +80,23 @@ fn every_writing_command_is_refused_while_another_holds_the_folder() {
     drop(held);
     let output = shatter(&["run", "--until", "preprocess"], dir.path());
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+}
+
+#[test]
+fn renders_of_frame_chunks_share_the_folder_and_keep_writers_out() {
+    let dir = scene();
+    assert!(shatter(&["run", "--until", "post"], dir.path()).status.success());
+    // a render of other frames holds the folder, as a farm's chunk would
+    let render = OutputLock::acquire(&layout(dir.path()), Access::Shared).expect("a render holds the folder");
+    let output = shatter(&["render", "--frames", "1-2"], dir.path());
+    assert!(output.status.success(), "a render beside it: {}", String::from_utf8_lossy(&output.stderr));
+    for args in [&["sim"][..], &["post"], &["run"]] {
+        let output = shatter(args, dir.path());
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(1), "{args:?} beside a render: {stderr}");
+        assert!(stderr.contains("renders sharing the folder"), "{args:?}: {stderr}");
+    }
+    drop(render);
 }
 
 #[test]
