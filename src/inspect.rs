@@ -106,7 +106,7 @@ fn exr_frame(path: &Path) -> Result<serde_json::Value, Failure> {
     let (width, height, channels) = shatter_render::image_out::read_exr(path)?;
     let channel = |name: &str| channels.iter().find(|c| c.name == name);
     let covered = channel("A").map(|a| a.values.iter().filter(|v| **v > 0.0).count());
-    let fragments = channel("fragment").map(|f| {
+    let fragments = channel("ViewLayer.FragmentIndex.X").map(|f| {
         let mut ids: Vec<u32> = f.values.iter().map(|v| *v as u32).filter(|id| *id != 0).collect();
         ids.sort_unstable();
         ids.dedup();

@@ -43,10 +43,12 @@ stiffness_pa = 3e7
 /// transform of the piece holding element 0 at frame 6 maps its rest position (first point of the
 /// piece's mesh is not used: the test passes the expected position in); the debris Points prim
 /// is sampled at every frame, with as many velocities and primvars as points, and its
-/// `brokenBonds` over all frames add up to the bond ends the test passes in.
+/// `brokenBonds` over all frames add up to the bond ends the test passes in; every mesh's faces
+/// are partitioned into `outer` and `fracture` GeomSubsets bound to the materials of
+/// `/Shatter/Looks`, and the broken plate has fracture faces.
 const USD_CHECK: &str = r#"
 import sys
-from pxr import Usd, UsdGeom, Gf
+from pxr import Usd, UsdGeom, UsdShade, Gf
 path, fragments, rest, expected = sys.argv[1], int(sys.argv[2]), [float(v) for v in sys.argv[3:6]], [float(v) for v in sys.argv[6:9]]
 bond_ends = int(sys.argv[9])
 stage = Usd.Stage.Open(path)
@@ -55,6 +57,7 @@ assert stage.GetStartTimeCode() == 1 and stage.GetEndTimeCode() == 6, (stage.Get
 assert stage.GetTimeCodesPerSecond() == 24
 meshes = [p for p in stage.Traverse() if p.IsA(UsdGeom.Mesh)]
 assert len(meshes) == fragments, (len(meshes), fragments)
+fracture_faces = 0
 for prim in meshes:
     mesh = UsdGeom.Mesh(prim)
     points = mesh.GetPointsAttr().Get()
@@ -64,6 +67,18 @@ for prim in meshes:
     assert max(indices) < len(points), prim.GetPath()
     samples = prim.GetAttribute("xformOp:transform").GetTimeSamples()
     assert list(samples) == [1.0, 2.0, 3.0, 4.0, 5.0, 6.0], samples
+    valid, reason = UsdGeom.Subset.ValidateFamily(mesh, UsdGeom.Tokens.face, "materialBind")
+    assert valid, (prim.GetPath(), reason)
+    covered = 0
+    for subset in UsdGeom.Subset.GetGeomSubsets(mesh, UsdGeom.Tokens.face, "materialBind"):
+        material, _ = UsdShade.MaterialBindingAPI(subset.GetPrim()).ComputeBoundMaterial()
+        name = subset.GetPrim().GetName()
+        assert material and material.GetPath() == "/Shatter/Looks/" + name, (subset.GetPath(), material)
+        covered += len(subset.GetIndicesAttr().Get())
+        if name == "fracture":
+            fracture_faces += len(subset.GetIndicesAttr().Get())
+    assert covered == len(counts), (prim.GetPath(), covered, len(counts))
+assert fracture_faces > 0, "no fracture faces in a broken plate"
 best = None
 for prim in meshes:
     m = UsdGeom.Xformable(prim).GetLocalTransformation(6)

@@ -182,7 +182,9 @@ pub fn render_need(size: &SetSize, resolution: [u32; 2]) -> Need {
         ElementType::Tet => 2800.0,
         ElementType::Cube | ElementType::Trimtope => 4500.0,
     };
-    let bytes = SIM_BASE_BYTES as f64 / 2.0 + per_particle * size.particles + 150.0 * size.triangles + 200.0 * pixels;
+    // per pixel: the traced pixel and its matte counts, the motion pass, two Cryptomattes' ranks
+    // and channels, the EXR's other channels and its encoding (345 bytes measured at 1080p)
+    let bytes = SIM_BASE_BYTES as f64 / 2.0 + per_particle * size.particles + 150.0 * size.triangles + 400.0 * pixels;
     Need {
         bytes,
         keys: "geometry.spacing_m and render.resolution",

@@ -216,6 +216,25 @@ pub struct ValueStats {
 }
 
 impl ParticleSet {
+    /// The face of element `from` that it shares with the adjacent element `to` (an adjacency
+    /// pair), numbered as the renderer numbers an element's planes: for a cube, 2 k for the face on
+    /// the positive side of its own axis k and 2 k + 1 for the negative side; for a tetrahedron, k
+    /// for the face opposite vertex k (None if the two share no face). Trimtopes: None (every cell
+    /// plane is shared; their outer surface is their triangles).
+    pub fn shared_face(&self, from: usize, to: usize) -> Option<usize> {
+        match &self.elements {
+            Elements::Cubes { orientation, .. } => {
+                let (a, b) = (self.rest_position_m[from], self.rest_position_m[to]);
+                let [x, y, z, w] = *orientation;
+                let d = rotate([-x, -y, -z, w], [b[0] - a[0], b[1] - a[1], b[2] - a[2]]);
+                let axis = (0..3).fold(0, |best, k| if d[k].abs() > d[best].abs() { k } else { best });
+                Some(2 * axis + usize::from(d[axis] <= 0.0))
+            }
+            Elements::Tets { vertices_m } => (0..4).find(|&k| !vertices_m[to].contains(&vertices_m[from][k])),
+            Elements::Trimtopes { .. } => None,
+        }
+    }
+
     /// Number of particles.
     pub fn len(&self) -> usize {
         self.rest_position_m.len()
@@ -478,6 +497,16 @@ fn validate_offsets(name: &str, offsets: &[u64], rows: usize, entries: usize) ->
         return Err(format!("{name} decreases"));
     }
     Ok(())
+}
+
+/// `v` rotated by the unit quaternion `q` = [x, y, z, w].
+fn rotate(q: [f32; 4], v: [f32; 3]) -> [f32; 3] {
+    let cross =
+        |a: [f32; 3], b: [f32; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let u = [q[0], q[1], q[2]];
+    let t = cross(u, v).map(|c| 2.0 * c);
+    let s = cross(u, t);
+    [0, 1, 2].map(|k| v[k] + q[3] * t[k] + s[k])
 }
 
 #[cfg(test)]

@@ -174,7 +174,10 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
             .collect();
         let path = layout.usd();
         let width = 0.5 * particles.meta.lambda_m;
-        write_usda(&path, &meshes, &transforms, 1, config.scene.frames_per_second, &debris, width)
+        let fps = config.scene.frames_per_second;
+        // physical m/s to metres per playback second
+        let velocity_scale = config.sim.dt_s * f64::from(config.sim.steps_per_frame) * fps;
+        write_usda(&path, &meshes, &transforms, 1, fps, &debris, width, velocity_scale)
             .map_err(|source| PostError::Usd { path, source })?;
     }
     Ok(PostReport {

@@ -1,5 +1,6 @@
 //! The outer surface of a piece made of elements, in the rest frame: each element's faces except
-//! those it shares with an adjacent element of the same piece.
+//! those it shares with an adjacent element of the same piece, each marked as the body's original
+//! surface or as a fracture face (a face it shares at rest with an element of another piece).
 
 use glam::{Quat, Vec3};
 use shatter_core::particles::{Elements, ParticleSet};
@@ -13,10 +14,13 @@ pub struct SurfaceMesh {
     pub face_sizes: Vec<u32>,
     /// Vertex indices, face after face, counter-clockwise seen from outside.
     pub indices: Vec<u32>,
+    /// Per face: true for a fracture face, false for the original surface.
+    pub fracture: Vec<bool>,
 }
 
 impl SurfaceMesh {
-    fn push_face(&mut self, corners: &[Vec3]) {
+    fn push_face(&mut self, corners: &[Vec3], fracture: bool) {
+        self.fracture.push(fracture);
         let base = self.points.len() as u32;
         self.points.extend(corners.iter().map(|c| c.to_array()));
         self.face_sizes.push(corners.len() as u32);
@@ -38,43 +42,24 @@ impl SurfaceMesh {
     }
 }
 
-/// The cube face (axis, positive side?) of a cube centred at `from` facing a cube at `to`.
-fn facing(orientation: Quat, from: Vec3, to: Vec3) -> (usize, bool) {
-    let d = orientation.inverse() * (to - from);
-    let axis = d.abs().max_position();
-    (axis, d[axis] > 0.0)
-}
-
 /// One surface mesh per piece: `piece_of[element]` in 0..pieces.
 pub fn piece_surfaces(particles: &ParticleSet, piece_of: &[u32], pieces: usize) -> Vec<SurfaceMesh> {
     let n = particles.len();
-    // Faces hidden because an adjacent element of the same piece covers them, as bit masks.
-    let mut hidden = vec![0u8; n];
-    let position = |i: usize| Vec3::from_array(particles.rest_position_m[i]);
+    // As bit masks per element: faces shared at rest with an adjacent element, and those of them
+    // hidden because that element is in the same piece.
+    let (mut shared, mut hidden) = (vec![0u8; n], vec![0u8; n]);
     for &[a, b] in &particles.adjacency {
         let (a, b) = (a as usize, b as usize);
-        if piece_of[a] != piece_of[b] {
-            continue;
-        }
-        match &particles.elements {
-            Elements::Cubes { orientation, .. } => {
-                let orientation = Quat::from_array(*orientation);
-                for (from, to) in [(a, b), (b, a)] {
-                    let (axis, positive) = facing(orientation, position(from), position(to));
-                    hidden[from] |= 1 << (2 * axis + usize::from(positive));
+        for (from, to) in [(a, b), (b, a)] {
+            if let Some(face) = particles.shared_face(from, to) {
+                shared[from] |= 1 << face;
+                if piece_of[a] == piece_of[b] {
+                    hidden[from] |= 1 << face;
                 }
             }
-            Elements::Tets { vertices_m } => {
-                for (from, to) in [(a, b), (b, a)] {
-                    // the face opposite the one vertex of `from` that `to` lacks
-                    if let Some(k) = (0..4).find(|&k| !vertices_m[to].contains(&vertices_m[from][k])) {
-                        hidden[from] |= 1 << k;
-                    }
-                }
-            }
-            Elements::Trimtopes { .. } => {}
         }
     }
+    let position = |i: usize| Vec3::from_array(particles.rest_position_m[i]);
     let mut meshes = vec![SurfaceMesh::default(); pieces];
     for element in 0..n {
         let mesh = &mut meshes[piece_of[element] as usize];
@@ -85,7 +70,8 @@ pub fn piece_surfaces(particles: &ParticleSet, piece_of: &[u32], pieces: usize) 
                 let centre = position(element);
                 for axis in 0..3 {
                     for positive in [false, true] {
-                        if hidden[element] & (1 << (2 * axis + usize::from(positive))) != 0 {
+                        let bit = 1 << (2 * axis + usize::from(!positive));
+                        if hidden[element] & bit != 0 {
                             continue;
                         }
                         let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
@@ -102,7 +88,7 @@ pub fn piece_surfaces(particles: &ParticleSet, piece_of: &[u32], pieces: usize) 
                         if !positive {
                             quad.reverse();
                         }
-                        mesh.push_face(&quad);
+                        mesh.push_face(&quad, shared[element] & bit != 0);
                     }
                 }
             }
@@ -118,13 +104,13 @@ pub fn piece_surfaces(particles: &ParticleSet, piece_of: &[u32], pieces: usize) 
                     if normal.dot(face[0] - centre) < 0.0 {
                         face.swap(1, 2);
                     }
-                    mesh.push_face(&face);
+                    mesh.push_face(&face, shared[element] & (1 << k) != 0);
                 }
             }
             Elements::Trimtopes { triangle_offsets, triangles_m, .. } => {
                 let range = triangle_offsets[element] as usize..triangle_offsets[element + 1] as usize;
                 for triangle in &triangles_m[range] {
-                    mesh.push_face(&triangle.map(Vec3::from_array));
+                    mesh.push_face(&triangle.map(Vec3::from_array), false);
                 }
             }
         }

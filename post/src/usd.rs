@@ -35,7 +35,10 @@ fn matrix(transform: &PieceTransform) -> [[f64; 4]; 4] {
 /// Writes `path` (atomically): `meshes[p]` with `transforms[frame index][p]`, frames numbered from
 /// `first_frame`, `fps` time codes per second, and the `debris` emitter points of each frame as a
 /// `Points` prim (`/Shatter/debris`, points of `width_m`, time-sampled: a frame without breaks
-/// holds none) with velocities and the primvars `brokenBonds`, `fragment`, `otherFragment`.
+/// holds none) with velocities (the debris' physical velocities times `velocity_scale`, which
+/// makes them metres per playback second as USD defines them) and the primvars `brokenBonds`,
+/// `fragment`, `otherFragment`.
+#[allow(clippy::too_many_arguments)]
 pub fn write_usda(
     path: &Path,
     meshes: &[SurfaceMesh],
@@ -44,6 +47,7 @@ pub fn write_usda(
     fps: f64,
     debris: &[DebrisFrame],
     width_m: f64,
+    velocity_scale: f64,
 ) -> std::io::Result<()> {
     let last_frame = first_frame + transforms.len().saturating_sub(1) as u32;
     let mut text = String::new();
@@ -74,18 +78,72 @@ pub fn write_usda(
                 m.iter().map(|row| format!("({}, {}, {}, {})", row[0], row[1], row[2], row[3])).collect();
             let _ = writeln!(prim, "            {}: ({}),", first_frame + index as u32, rows.join(", "));
         }
-        prim.push_str("        }\n        uniform token[] xformOpOrder = [\"xformOp:transform\"]\n    }\n");
+        prim.push_str("        }\n        uniform token[] xformOpOrder = [\"xformOp:transform\"]\n");
+        prim.push_str(&face_subsets(mesh));
+        prim.push_str("    }\n");
         out.extend_from_slice(prim.as_bytes());
     }
+    out.extend_from_slice(LOOKS.as_bytes());
     if !debris.is_empty() {
-        out.extend_from_slice(debris_prim(debris, width_m).as_bytes());
+        out.extend_from_slice(debris_prim(debris, width_m, velocity_scale).as_bytes());
     }
     out.extend_from_slice(b"}\n");
     shatter_core::atomic_file::write_atomically(path, &[&out])
 }
 
+/// The materials the face subsets bind: neutral looks an artist rebinds (documented in
+/// docs/FORMATS.md).
+const LOOKS: &str = r#"    def Scope "Looks"
+    {
+        def Material "outer"
+        {
+            token outputs:surface.connect = </Shatter/Looks/outer/PreviewSurface.outputs:surface>
+            def Shader "PreviewSurface"
+            {
+                uniform token info:id = "UsdPreviewSurface"
+                color3f inputs:diffuseColor = (0.8, 0.8, 0.82)
+                float inputs:roughness = 0.15
+                token outputs:surface
+            }
+        }
+        def Material "fracture"
+        {
+            token outputs:surface.connect = </Shatter/Looks/fracture/PreviewSurface.outputs:surface>
+            def Shader "PreviewSurface"
+            {
+                uniform token info:id = "UsdPreviewSurface"
+                color3f inputs:diffuseColor = (0.9, 0.82, 0.7)
+                float inputs:roughness = 0.7
+                token outputs:surface
+            }
+        }
+    }
+"#;
+
+/// The mesh's faces as a `materialBind` partition of GeomSubsets: `outer` (the body's original
+/// surface) and `fracture` (faces opened by cracks), each bound to its material under
+/// `/Shatter/Looks` (an empty subset is left out).
+fn face_subsets(mesh: &SurfaceMesh) -> String {
+    let mut text = String::from("        uniform token subsetFamily:materialBind:familyType = \"partition\"\n");
+    for (name, fracture) in [("outer", false), ("fracture", true)] {
+        let faces: Vec<String> =
+            (0..mesh.fracture.len()).filter(|&f| mesh.fracture[f] == fracture).map(|f| f.to_string()).collect();
+        if faces.is_empty() {
+            continue;
+        }
+        let _ = write!(
+            text,
+            "        def GeomSubset \"{name}\" (\n            prepend apiSchemas = [\"MaterialBindingAPI\"]\n        )\n        \
+             {{\n            uniform token elementType = \"face\"\n            uniform token familyName = \"materialBind\"\n            \
+             int[] indices = [{}]\n            rel material:binding = </Shatter/Looks/{name}>\n        }}\n",
+            faces.join(", ")
+        );
+    }
+    text
+}
+
 /// The `Points` prim of the debris: each attribute sampled at every frame.
-fn debris_prim(debris: &[DebrisFrame], width_m: f64) -> String {
+fn debris_prim(debris: &[DebrisFrame], width_m: f64, velocity_scale: f64) -> String {
     let mut prim = String::from("    def Points \"debris\"\n    {\n");
     let vector = |v: &[f32; 3]| format!("({}, {}, {})", v[0], v[1], v[2]);
     let mut samples = |kind: &str, name: &str, value: &dyn Fn(&DebrisFrame) -> Vec<String>| {
@@ -98,7 +156,8 @@ fn debris_prim(debris: &[DebrisFrame], width_m: f64) -> String {
         prim.push_str("        }\n");
     };
     samples("point3f[]", "points", &|f| f.position.iter().map(vector).collect());
-    samples("vector3f[]", "velocities", &|f| f.velocity.iter().map(vector).collect());
+    let scaled = |v: &[f32; 3]| vector(&v.map(|c| (f64::from(c) * velocity_scale) as f32));
+    samples("vector3f[]", "velocities", &|f| f.velocity.iter().map(scaled).collect());
     samples("int[]", "primvars:brokenBonds", &|f| f.broken_bonds.iter().map(i32::to_string).collect());
     samples("int[]", "primvars:fragment", &|f| f.fragment.iter().map(i32::to_string).collect());
     samples("int[]", "primvars:otherFragment", &|f| f.other_fragment.iter().map(i32::to_string).collect());

@@ -71,10 +71,12 @@ fn main() {
         ior: 1.5,
         absorption: [1.0, 0.3, 0.6],
         albedo: [0.8; 3],
+        fracture_albedo: [0.8; 3],
         specular: 0.2,
         shininess: 64.0,
         floor: None,
         max_bounces: 1,
+        glass_split_events: 2,
     };
     let eye = DVec3::new(0.09, 0.12, 0.11);
     let target = DVec3::new(0.0, 0.05, 0.0);
@@ -84,7 +86,7 @@ fn main() {
         let started = Instant::now();
         let image = render(&geometry, &look, &camera(width, height), 1);
         let seconds = started.elapsed().as_secs_f64();
-        let hits = image.iter().filter(|p| p.alpha > 0.0).count();
+        let hits = image.pixels.iter().filter(|p| p.alpha > 0.0).count();
         println!(
             "  CPU ({} threads), {label}: {width} x {height} x 1 spp in {seconds:.2} s: {:.2} M rays/s ({hits} pixels on glass)",
             rayon::current_num_threads(),

@@ -30,13 +30,30 @@ struct Params {
     key_direction: vec4<f32>,
     key_irradiance: vec4<f32>,
     sh: array<vec4<f32>, 9>,
+    // opaque albedo of fracture faces; w unused
+    fracture_albedo: vec4<f32>,
+    // glass split events, 0, 0, 0
+    look_flags: vec4<u32>,
 }
 
 struct PixelOut {
     color: vec4<f32>,   // rgb, alpha
     normal: vec4<f32>,  // xyz, w = depth
-    ids: vec4<u32>,     // fragment + 1, element, 0, 0
+    ids: vec4<u32>,     // fragment + 1, element, surface kind, 0
 }
+
+// mattes.rs MatteCounts
+struct MatteOut {
+    fragments: array<vec2<u32>, 8>,  // (fragment + 1, samples), in order of first appearance
+    surfaces: vec4<u32>,             // outer, fracture, floor, samples
+}
+
+const SURFACE_NONE: u32 = 0u;
+const SURFACE_OUTER: u32 = 1u;
+const SURFACE_FRACTURE: u32 = 2u;
+const SURFACE_FLOOR: u32 = 3u;
+const SPLIT_STACK: u32 = 4u;
+const BRANCH_EVENTS: u32 = 128u;
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> nodes: array<vec2<u32>>;
@@ -53,6 +70,9 @@ struct PixelOut {
 @group(0) @binding(12) var<storage, read> triangle_group_offsets: array<u32>;
 // per group of TRIANGLE_GROUP triangles (a constant the host prepends): min, then max corner
 @group(0) @binding(13) var<storage, read> triangle_groups: array<vec4<f32>>;
+// scene.rs interior_faces: per element, bit k set when plane k rested against another element
+@group(0) @binding(14) var<storage, read> interior_faces: array<u32>;
+@group(0) @binding(15) var<storage, read_write> mattes: array<MatteOut>;
 
 fn infinity() -> f32 {
     return bitcast<f32>(0x7f800000u);
@@ -164,10 +184,16 @@ struct Hit {
     t: f32,
     element: u32,
     normal: vec3<f32>,
+    fracture: bool,
 }
 
 fn miss() -> Hit {
-    return Hit(infinity(), NONE, vec3<f32>(0.0));
+    return Hit(infinity(), NONE, vec3<f32>(0.0), false);
+}
+
+// scene.rs SceneGeometry::is_fracture_face
+fn is_fracture_face(e: u32, plane: u32) -> bool {
+    return params.counts.y == 2u || ((interior_faces[e] >> plane) & 1u) == 1u;
 }
 
 fn plane_normal(e: u32, plane: u32) -> vec3<f32> {
@@ -192,16 +218,16 @@ fn trimtope_hit(e: u32, origin: vec3<f32>, direction: vec3<f32>, t_min: f32) -> 
             let k = first.index;
             let a = triangles[3u * k].xyz;
             let n = cross3(triangles[3u * k + 1u].xyz - a, triangles[3u * k + 2u].xyz - a);
-            return Hit(first.t, e, n / sqrt(dot3(n, n)));
+            return Hit(first.t, e, n / sqrt(dot3(n, n)), false);
         }
-        return Hit(t_in, e, plane_normal(e, span.plane_in));
+        return Hit(t_in, e, plane_normal(e, span.plane_in), true);
     }
     let entry = origin + t_in * direction;
     let nearest = first_triangle(e, entry, sites[e].xyz - entry, 0.0, 1.0);
     if (nearest.index != NONE && nearest.front) {
         return miss();
     }
-    return Hit(t_in, e, plane_normal(e, span.plane_in));
+    return Hit(t_in, e, plane_normal(e, span.plane_in), true);
 }
 
 struct FirstTriangle {
@@ -258,7 +284,7 @@ fn element_hit(e: u32, origin: vec3<f32>, direction: vec3<f32>, t_min: f32) -> H
     }
     let span = polytope_span(e, params.scene_min.w, origin, direction);
     if (span.hit && span.t_in >= t_min && span.plane_in != NONE) {
-        return Hit(span.t_in, e, plane_normal(e, span.plane_in));
+        return Hit(span.t_in, e, plane_normal(e, span.plane_in), is_fracture_face(e, span.plane_in));
     }
     return miss();
 }
@@ -548,6 +574,19 @@ fn floor_albedo(p: vec3<f32>) -> vec3<f32> {
     return floor_texels[y * width + x].xyz;
 }
 
+// trace.rs floor_t
+fn floor_t(o: vec3<f32>, d: vec3<f32>) -> f32 {
+    if (params.flags.z != 0u && d.y < 0.0 && o.y > params.floor.x) {
+        return (params.floor.x - o.y) / d.y;
+    }
+    return infinity();
+}
+
+// trace.rs floor_radiance
+fn floor_radiance(p: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
+    return shade_opaque(floor_albedo(p), vec3<f32>(0.0, 1.0, 0.0), d, 0.0);
+}
+
 struct Traced {
     color: vec3<f32>,
     alpha: f32,
@@ -555,89 +594,144 @@ struct Traced {
     normal: vec3<f32>,
     fragment: u32,
     element: u32,
+    surface: u32,
+}
+
+// trace.rs Branch
+struct Branch {
+    origin: vec3<f32>,
+    direction: vec3<f32>,
+    throughput: vec3<f32>,
+    inside: u32,
+    event: u32,
+}
+
+var<private> stack: array<Branch, SPLIT_STACK>;
+var<private> pending: u32;
+
+// trace.rs split: pushes `reflected` weighted by `reflectance` and weights `path` by the rest
+fn split(path: ptr<function, Branch>, reflected: Branch, reflectance: f32) -> bool {
+    if ((*path).event > params.look_flags.x || pending == SPLIT_STACK) {
+        return false;
+    }
+    var pushed = reflected;
+    pushed.throughput = reflected.throughput * reflectance;
+    stack[pending] = pushed;
+    pending += 1u;
+    (*path).throughput = (*path).throughput * (1.0 - reflectance);
+    return true;
 }
 
 // trace.rs trace_ray
 fn trace_ray(origin: vec3<f32>, direction: vec3<f32>, pixel: u32, sample: u32) -> Traced {
-    var result = Traced(vec3<f32>(0.0), 0.0, infinity(), vec3<f32>(0.0), 0u, NONE);
-    var throughput = vec3<f32>(1.0);
-    var o = origin;
-    var d = direction;
-    var inside = NONE;
-    var first = true;
+    var result = Traced(vec3<f32>(0.0), 0.0, infinity(), vec3<f32>(0.0), 0u, NONE, SURFACE_NONE);
     let eps = 4.0 * params.scene_min.w;
     let ior = params.scene_max.w;
     let glass = params.counts.y == 0u;
-    for (var event = 0u; event < params.size.w; event++) {
-        if (inside != NONE) {
-            let exit = union_exit(inside, o, d);
-            let p = o + exit.t * d;
-            throughput *= exp(-params.absorption.xyz * exit.t);
-            let cos_i = dot3(d, exit.normal);
-            let out = refract3(d, -exit.normal, ior);
-            let reflectance = select(1.0, fresnel(cos_i, ior), out.ok);
-            if (out.ok && random(pixel, sample, event) >= reflectance) {
-                o = p + eps * exit.normal;
-                d = out.direction;
-                inside = NONE;
-            } else {
-                d = reflect3(d, exit.normal);
-                o = p - eps * exit.normal;
-                inside = exit.element;
+    pending = 0u;
+    var path = Branch(origin, direction, vec3<f32>(1.0), NONE, 0u);
+    var branch = 0u;
+    loop {
+        var ended = false;
+        while (path.event < params.size.w) {
+            let event = path.event;
+            let first = branch == 0u && event == 0u;
+            let chance = random(pixel, sample, event + branch * BRANCH_EVENTS);
+            path.event += 1u;
+            let o = path.origin;
+            let d = path.direction;
+            if (path.inside != NONE) {
+                let exit = union_exit(path.inside, o, d);
+                let p = o + exit.t * d;
+                path.throughput *= exp(-params.absorption.xyz * exit.t);
+                var reflected = path;
+                reflected.origin = p - eps * exit.normal;
+                reflected.direction = reflect3(d, exit.normal);
+                reflected.inside = exit.element;
+                let out = refract3(d, -exit.normal, ior);
+                if (out.ok) {
+                    let reflectance = fresnel(dot3(d, exit.normal), ior);
+                    if (split(&path, reflected, reflectance) || chance >= reflectance) {
+                        path.origin = p + eps * exit.normal;
+                        path.direction = out.direction;
+                        path.inside = NONE;
+                    } else {
+                        path = reflected;
+                    }
+                } else {
+                    path = reflected;
+                }
+                continue;
             }
-            continue;
-        }
-        let hit = closest_hit(o, d, 0.0);
-        var t_floor = infinity();
-        if (params.flags.z != 0u && d.y < 0.0 && o.y > params.floor.x) {
-            t_floor = (params.floor.x - o.y) / d.y;
-        }
-        if (t_floor < hit.t) {
-            let p = o + t_floor * d;
+            let hit = closest_hit(o, d, 0.0);
+            let t_floor = floor_t(o, d);
+            if (t_floor < hit.t) {
+                let p = o + t_floor * d;
+                if (first) {
+                    result.alpha = 1.0;
+                    result.depth = t_floor;
+                    result.normal = vec3<f32>(0.0, 1.0, 0.0);
+                    result.surface = SURFACE_FLOOR;
+                }
+                result.color += path.throughput * floor_radiance(p, d);
+                ended = true;
+                break;
+            }
+            if (hit.element == NONE) {
+                if (!first || params.flags.w != 0u) {
+                    result.color += path.throughput * environment_radiance(d);
+                }
+                ended = true;
+                break;
+            }
             if (first) {
                 result.alpha = 1.0;
-                result.depth = t_floor;
-                result.normal = vec3<f32>(0.0, 1.0, 0.0);
+                result.depth = hit.t;
+                result.normal = hit.normal;
+                result.element = hit.element;
+                result.fragment = fragments[hit.element] + 1u;
+                result.surface = select(SURFACE_OUTER, SURFACE_FRACTURE, hit.fracture);
             }
-            let shade = shade_opaque(floor_albedo(p), vec3<f32>(0.0, 1.0, 0.0), d, 0.0);
-            result.color += throughput * shade;
-            return result;
-        }
-        if (hit.element == NONE) {
-            if (first && params.flags.w == 0u) {
-                return result;
+            let p = o + hit.t * d;
+            if (!glass) {
+                let albedo = select(params.albedo.xyz, params.fracture_albedo.xyz, hit.fracture);
+                result.color += path.throughput * shade_opaque(albedo, hit.normal, d, params.absorption.w);
+                ended = true;
+                break;
             }
-            result.color += throughput * environment_radiance(d);
-            if (first) {
-                result.alpha = 0.0;
-            }
-            return result;
-        }
-        if (first) {
-            result.alpha = 1.0;
-            result.depth = hit.t;
-            result.normal = hit.normal;
-            result.element = hit.element;
-            result.fragment = fragments[hit.element] + 1u;
-            first = false;
-        }
-        let p = o + hit.t * d;
-        if (!glass) {
-            result.color += throughput * shade_opaque(params.albedo.xyz, hit.normal, d, params.absorption.w);
-            return result;
-        }
-        let cos_i = -dot3(d, hit.normal);
-        if (random(pixel, sample, event) < fresnel(cos_i, 1.0 / ior)) {
-            d = reflect3(d, hit.normal);
-            o = p + eps * hit.normal;
-        } else {
+            let reflectance = fresnel(-dot3(d, hit.normal), 1.0 / ior);
+            var reflected = path;
+            reflected.origin = p + eps * hit.normal;
+            reflected.direction = reflect3(d, hit.normal);
+            reflected.inside = NONE;
             let into = refract3(d, hit.normal, 1.0 / ior);
             if (into.ok) {
-                d = into.direction;
-                o = p - eps * hit.normal;
-                inside = hit.element;
+                if (split(&path, reflected, reflectance) || chance >= reflectance) {
+                    path.origin = p - eps * hit.normal;
+                    path.direction = into.direction;
+                    path.inside = hit.element;
+                } else {
+                    path = reflected;
+                }
+            } else if (chance < reflectance) {
+                path = reflected;
             }
         }
+        if (!ended) {
+            // out of bounces: escape along the last direction to the floor or the environment
+            let t_floor = floor_t(path.origin, path.direction);
+            if (t_floor < infinity()) {
+                result.color += path.throughput * floor_radiance(path.origin + t_floor * path.direction, path.direction);
+            } else {
+                result.color += path.throughput * environment_radiance(path.direction);
+            }
+        }
+        if (pending == 0u) {
+            return result;
+        }
+        pending -= 1u;
+        path = stack[pending];
+        branch += 1u;
     }
     return result;
 }
@@ -648,6 +742,46 @@ fn camera_direction(px: f32, py: f32) -> vec3<f32> {
     let sy = 1.0 - 2.0 * py / f32(params.size.y);
     let d = params.camera_forward.xyz + sx * params.camera_right.xyz + sy * params.camera_up.xyz;
     return d / sqrt(dot3(d, d));
+}
+
+// mattes.rs MatteCounts::add
+fn add_matte_sample(matte: ptr<function, MatteOut>, fragment: u32, surface: u32) {
+    (*matte).surfaces.w += 1u;
+    if (surface != SURFACE_NONE) {
+        (*matte).surfaces[surface - 1u] += 1u;
+    }
+    if (fragment == 0u) {
+        return;
+    }
+    for (var k = 0u; k < 8u; k++) {
+        let slot = (*matte).fragments[k];
+        if (slot.x == fragment || slot.x == 0u) {
+            (*matte).fragments[k] = vec2<u32>(fragment, slot.y + 1u);
+            return;
+        }
+    }
+}
+
+// trace.rs sample_offset
+fn sample_offset(pixel: u32, sample: u32, samples: u32) -> vec2<f32> {
+    if (sample == 0u) {
+        return vec2<f32>(0.5, 0.5);
+    }
+    let jx = random(pixel, sample, 1000u);
+    let jy = random(pixel, sample, 1001u);
+    let others = samples - 1u;
+    var n = u32(sqrt(f32(others)));
+    while ((n + 1u) * (n + 1u) <= others) {
+        n += 1u;
+    }
+    while (n * n > others) {
+        n -= 1u;
+    }
+    let k = sample - 1u;
+    if (k >= n * n) {
+        return vec2<f32>(jx, jy);
+    }
+    return vec2<f32>((f32(k % n) + jx) / f32(n), (f32(k / n) + jy) / f32(n));
 }
 
 // trace.rs render, for the pixels of this dispatch
@@ -671,22 +805,20 @@ fn trace(
     var sum = vec3<f32>(0.0);
     var alpha = 0.0;
     var out: PixelOut;
+    var matte: MatteOut;
     for (var sample = 0u; sample < samples; sample++) {
-        var jx = 0.5;
-        var jy = 0.5;
-        if (sample != 0u) {
-            jx = random(pixel, sample, 1000u);
-            jy = random(pixel, sample, 1001u);
-        }
-        let d = camera_direction(f32(x) + jx, f32(y) + jy);
+        let offset = sample_offset(pixel, sample, samples);
+        let d = camera_direction(f32(x) + offset.x, f32(y) + offset.y);
         let traced = trace_ray(params.camera_origin.xyz, d, pixel, sample);
         if (sample == 0u) {
             out.normal = vec4<f32>(traced.normal, traced.depth);
-            out.ids = vec4<u32>(traced.fragment, traced.element, 0u, 0u);
+            out.ids = vec4<u32>(traced.fragment, traced.element, traced.surface, 0u);
         }
+        add_matte_sample(&matte, traced.fragment, traced.surface);
         sum += traced.color;
         alpha += traced.alpha;
     }
     out.color = vec4<f32>(sum / f32(samples), alpha / f32(samples));
     pixels[local] = out;
+    mattes[local] = matte;
 }

@@ -6,9 +6,10 @@ use bytemuck::{Pod, Zeroable};
 use shatter_core::particles::ElementType;
 use shatter_gpu::{ComputeKernel, GpuContext, GpuError, wgpu};
 
+use crate::mattes::MatteCounts;
 use crate::primitives::TRIANGLE_GROUP;
 use crate::scene::{Camera, SceneGeometry};
-use crate::trace::{Look, Pixel};
+use crate::trace::{Look, Pixel, Rendered};
 
 const SHADER: &str = include_str!("../shaders/trace.wgsl");
 /// Pixels per dispatch: a multiple of 16 so every batch's output starts at a bindable offset.
@@ -33,6 +34,8 @@ struct Params {
     key_direction: [f32; 4],
     key_irradiance: [f32; 4],
     sh: [[f32; 4]; 9],
+    fracture_albedo: [f32; 4],
+    look_flags: [u32; 4],
 }
 
 /// The shader's `PixelOut`.
@@ -69,7 +72,7 @@ impl GpuTracer {
         look: &Look,
         camera: &Camera,
         samples: u32,
-    ) -> Result<Vec<Pixel>, GpuError> {
+    ) -> Result<Rendered, GpuError> {
         let non_empty = |v: Vec<[f32; 4]>| if v.is_empty() { vec![[0.0; 4]] } else { v };
         let nodes = ctx.create_storage_buffer("kd nodes", &scene.tree.nodes)?;
         let items = ctx.create_storage_buffer(
@@ -88,6 +91,10 @@ impl GpuTracer {
         let triangle_groups = ctx.create_storage_buffer("triangle groups", &non_empty(triangle_groups))?;
         let sites: Vec<[f32; 4]> = scene.sites.iter().map(|s| vec4(*s, 0.0)).collect();
         let sites = ctx.create_storage_buffer("sites", &non_empty(sites))?;
+        let interior_faces = ctx.create_storage_buffer(
+            "interior faces",
+            if scene.interior_faces.is_empty() { &[0u32][..] } else { &scene.interior_faces },
+        )?;
         let fragments = ctx.create_storage_buffer(
             "fragments",
             if scene.fragment.is_empty() { &[0u32][..] } else { &scene.fragment },
@@ -132,10 +139,14 @@ impl GpuTracer {
             key_direction: vec4(look.key.direction, 0.0),
             key_irradiance: vec4(look.key.irradiance, 0.0),
             sh: look.sh.map(|c| vec4(c, 0.0)),
+            fracture_albedo: vec4(look.fracture_albedo, 0.0),
+            look_flags: [look.glass_split_events, 0, 0, 0],
         };
         let uniform = ctx.create_uniform_buffer("trace params", &params)?;
         let pixel_bytes = std::mem::size_of::<PixelOut>() as u64;
         let output = ctx.create_zeroed_storage_buffer("pixels", u64::from(total.max(1)) * pixel_bytes)?;
+        let matte_bytes = std::mem::size_of::<MatteCounts>() as u64;
+        let matte_output = ctx.create_zeroed_storage_buffer("mattes", u64::from(total.max(1)) * matte_bytes)?;
         let mut first = 0u32;
         while first < total {
             let count = BATCH_PIXELS.min(total - first);
@@ -146,6 +157,11 @@ impl GpuTracer {
                 buffer: &output,
                 offset: u64::from(first) * pixel_bytes,
                 size: wgpu::BufferSize::new(u64::from(count) * pixel_bytes),
+            });
+            let matte_slice = wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                buffer: &matte_output,
+                offset: u64::from(first) * matte_bytes,
+                size: wgpu::BufferSize::new(u64::from(count) * matte_bytes),
             });
             let group = self.kernel.bind_group(
                 ctx,
@@ -165,13 +181,16 @@ impl GpuTracer {
                     output_slice,
                     triangle_group_offsets.as_entire_binding(),
                     triangle_groups.as_entire_binding(),
+                    interior_faces.as_entire_binding(),
+                    matte_slice,
                 ],
             )?;
             self.kernel.dispatch_invocations(ctx, &[&group], u64::from(count))?;
             first += count;
         }
         let out: Vec<PixelOut> = ctx.read_buffer(&output, total as usize)?;
-        Ok(out
+        let mattes: Vec<MatteCounts> = ctx.read_buffer(&matte_output, total as usize)?;
+        let pixels = out
             .iter()
             .map(|p| Pixel {
                 color: [p.color[0], p.color[1], p.color[2]],
@@ -180,7 +199,9 @@ impl GpuTracer {
                 normal: [p.normal[0], p.normal[1], p.normal[2]],
                 fragment: p.ids[0],
                 element: p.ids[1],
+                surface: p.ids[2],
             })
-            .collect())
+            .collect();
+        Ok(Rendered { pixels, mattes })
     }
 }

@@ -9,6 +9,7 @@ use exr::prelude::{
     Text, WritableImage, f16, read_all_flat_layers_from_file,
 };
 
+use crate::cryptomatte::{Matte, matte_key};
 use crate::trace::Pixel;
 
 /// Why an image could not be written or read.
@@ -32,8 +33,23 @@ pub enum ImageError {
     },
 }
 
-/// The channels of a shatter EXR frame, in the sorted order EXR stores them.
-pub const EXR_CHANNELS: [&str; 9] = ["A", "B", "G", "N.X", "N.Y", "N.Z", "R", "Z", "fragment"];
+/// The channels of a shatter EXR frame besides the Cryptomattes, in the sorted order EXR stores
+/// them: RGBA (Nuke's rgba, Blender's Combined), then Blender's ViewLayer.Pass.Channel names.
+pub const EXR_CHANNELS: [&str; 13] = [
+    "A",
+    "B",
+    "G",
+    "R",
+    "ViewLayer.Depth.Z",
+    "ViewLayer.FragmentIndex.X",
+    "ViewLayer.Normal.X",
+    "ViewLayer.Normal.Y",
+    "ViewLayer.Normal.Z",
+    "ViewLayer.Vector.W",
+    "ViewLayer.Vector.X",
+    "ViewLayer.Vector.Y",
+    "ViewLayer.Vector.Z",
+];
 
 /// What an EXR's header says of its frame besides the pixels: the camera (OpenEXR's standard
 /// `worldToCamera` and `worldToNDC`, see [`crate::scene::Camera::world_to_ndc`]), the playback rate
@@ -52,6 +68,17 @@ pub struct FrameHeader {
     pub simulation_time_s: f64,
 }
 
+/// A frame's layers: the traced pixels, their motion pass and their Cryptomattes.
+#[derive(Debug, Clone, Copy)]
+pub struct FrameLayers<'a> {
+    /// The pixels, row-major, top row first.
+    pub pixels: &'a [Pixel],
+    /// The motion pass ([`crate::motion`]), one entry per pixel.
+    pub motion: &'a [[f32; 4]],
+    /// The Cryptomattes.
+    pub mattes: &'a [Matte],
+}
+
 /// A frame rate as OpenEXR's rational: whole rates exactly, NTSC's 24000/1001 family by their
 /// usual fractions, anything else to a thousandth.
 fn rational(rate: f64) -> (i32, u32) {
@@ -65,30 +92,37 @@ fn rational(rate: f64) -> (i32, u32) {
     }
 }
 
-/// Writes `pixels` (row-major, top row first) as an EXR with channels R, G, B, A (half, linear),
-/// Z (float: distance along the camera ray to the first surface; infinity where there is none),
-/// N.X, N.Y, N.Z (float: world-space unit normal there) and fragment (uint: fragment id + 1 of
-/// the first element seen, 0 for none). `header` goes into the header.
+/// Writes `layers` as an EXR: R, G, B, A (half, linear); ViewLayer.Depth.Z (float: distance along
+/// the camera ray to the first surface; infinity where there is none); ViewLayer.Normal.X, .Y,
+/// .Z (float: world-space unit normal there); ViewLayer.Vector.X, .Y, .Z, .W (float: the motion
+/// pass); ViewLayer.FragmentIndex.X (uint: fragment id + 1 of the first element seen, 0 for none);
+/// and each Cryptomatte's ranks (float) with its header entries. `header` goes into the header.
 pub fn write_exr(
     path: &Path,
     width: usize,
     height: usize,
-    pixels: &[Pixel],
+    layers: &FrameLayers,
     header: &FrameHeader,
 ) -> Result<(), ImageError> {
-    let column = |f: &dyn Fn(&Pixel) -> f32| pixels.iter().map(f).collect::<Vec<f32>>();
+    let pixels = layers.pixels;
+    let column = |f: &dyn Fn(&Pixel) -> f32| FlatSamples::F32(pixels.iter().map(f).collect());
     let half = |f: &dyn Fn(&Pixel) -> f32| FlatSamples::F16(pixels.iter().map(|p| f16::from_f32(f(p))).collect());
-    let channels = AnyChannels::sort(SmallVec::from_vec(vec![
+    let motion = |k: usize| FlatSamples::F32(layers.motion.iter().map(|v| v[k]).collect());
+    let mut list = vec![
         AnyChannel::new("R", half(&|p| p.color[0])),
         AnyChannel::new("G", half(&|p| p.color[1])),
         AnyChannel::new("B", half(&|p| p.color[2])),
         AnyChannel::new("A", half(&|p| p.alpha)),
-        AnyChannel::new("Z", FlatSamples::F32(column(&|p| p.depth))),
-        AnyChannel::new("N.X", FlatSamples::F32(column(&|p| p.normal[0]))),
-        AnyChannel::new("N.Y", FlatSamples::F32(column(&|p| p.normal[1]))),
-        AnyChannel::new("N.Z", FlatSamples::F32(column(&|p| p.normal[2]))),
-        AnyChannel::new("fragment", FlatSamples::U32(pixels.iter().map(|p| p.fragment).collect())),
-    ]));
+        AnyChannel::new("ViewLayer.Depth.Z", column(&|p| p.depth)),
+        AnyChannel::new("ViewLayer.Normal.X", column(&|p| p.normal[0])),
+        AnyChannel::new("ViewLayer.Normal.Y", column(&|p| p.normal[1])),
+        AnyChannel::new("ViewLayer.Normal.Z", column(&|p| p.normal[2])),
+        AnyChannel::new("ViewLayer.Vector.X", motion(0)),
+        AnyChannel::new("ViewLayer.Vector.Y", motion(1)),
+        AnyChannel::new("ViewLayer.Vector.Z", motion(2)),
+        AnyChannel::new("ViewLayer.Vector.W", motion(3)),
+        AnyChannel::new("ViewLayer.FragmentIndex.X", FlatSamples::U32(pixels.iter().map(|p| p.fragment).collect())),
+    ];
     let mut attributes = LayerAttributes {
         comments: Some(Text::from(header.comment.as_str())),
         software_name: Some(Text::from("shatter")),
@@ -97,9 +131,24 @@ pub fn write_exr(
         frames_per_second: Some(rational(header.frames_per_second)),
         ..LayerAttributes::default()
     };
-    // One custom attribute only: the exr crate writes them in hash-map order, and the same pixels
-    // must always make the same bytes (the frame number is in the file name and the comment).
     attributes.other.insert(Text::from("shatterSimulationTime"), AttributeValue::F64(header.simulation_time_s));
+    for matte in layers.mattes {
+        for (name, values) in matte.channels() {
+            list.push(AnyChannel::new(name.as_str(), FlatSamples::F32(values)));
+        }
+        let key = format!("cryptomatte/{}/", matte_key(&matte.name));
+        for (entry, value) in [
+            ("name", matte.name.clone()),
+            ("hash", "MurmurHash3_32".to_string()),
+            ("conversion", "uint32_to_float32".to_string()),
+            ("manifest", matte.manifest_json()),
+        ] {
+            attributes
+                .other
+                .insert(Text::from(format!("{key}{entry}").as_str()), AttributeValue::Text(Text::from(value.as_str())));
+        }
+    }
+    let channels = AnyChannels::sort(SmallVec::from_vec(list));
     // Increasing line order: blocks compressed in parallel are still written in order, so the
     // same pixels always make the same bytes (FAST_LOSSLESS alone leaves the order unspecified).
     let encoding = Encoding { line_order: LineOrder::Increasing, ..Encoding::FAST_LOSSLESS };
@@ -109,8 +158,47 @@ pub fn write_exr(
         .write()
         .to_buffered(&mut bytes)
         .map_err(|error| ImageError::Format { path: path.to_path_buf(), what: error.to_string() })?;
-    shatter_core::atomic_file::write_atomically(path, &[bytes.get_ref()])
+    let mut bytes = bytes.into_inner();
+    sort_header_attributes(&mut bytes)
+        .map_err(|what| ImageError::Format { path: path.to_path_buf(), what: what.into() })?;
+    shatter_core::atomic_file::write_atomically(path, &[&bytes])
         .map_err(|source| ImageError::Io { path: path.to_path_buf(), source })
+}
+
+/// Puts the attributes of a single-part EXR's header in name order, in place. The exr crate
+/// writes custom attributes in hash-map order, and the same frame must always make the same
+/// bytes; OpenEXR gives attribute order no meaning, and the header keeps its length, so the
+/// offset table after it stays right.
+fn sort_header_attributes(bytes: &mut [u8]) -> Result<(), &'static str> {
+    const MULTIPART: u8 = 0x10; // bit 12 of the version field
+    if bytes.len() < 8 || bytes[..4] != [0x76, 0x2f, 0x31, 0x01] || bytes[5] & MULTIPART != 0 {
+        return Err("not a single-part OpenEXR file");
+    }
+    let zero_after = |from: usize| bytes[from..].iter().position(|&b| b == 0).map(|k| from + k);
+    let mut attributes: Vec<(usize, usize, usize)> = Vec::new(); // (start, name end, end)
+    let mut at = 8;
+    loop {
+        let name_end = zero_after(at).ok_or("header without an end")?;
+        if name_end == at {
+            break;
+        }
+        let type_end = zero_after(name_end + 1).ok_or("attribute without a type")?;
+        let size_at = type_end + 1;
+        let size = bytes.get(size_at..size_at + 4).ok_or("attribute without a size")?;
+        let size = u32::from_le_bytes([size[0], size[1], size[2], size[3]]) as usize;
+        let end = size_at + 4 + size;
+        if end > bytes.len() {
+            return Err("attribute past the end of the file");
+        }
+        attributes.push((at, name_end, end));
+        at = end;
+    }
+    let start = 8;
+    let mut sorted: Vec<&(usize, usize, usize)> = attributes.iter().collect();
+    sorted.sort_by(|a, b| bytes[a.0..a.1].cmp(&bytes[b.0..b.1]));
+    let header: Vec<u8> = sorted.iter().flat_map(|&&(from, _, to)| bytes[from..to].to_vec()).collect();
+    bytes[start..start + header.len()].copy_from_slice(&header);
+    Ok(())
 }
 
 /// One channel of an EXR read back.
@@ -202,10 +290,9 @@ mod tests {
     fn the_header_carries_the_camera_the_rate_and_the_time() {
         let dir = tempfile::tempdir().expect("tempdir");
         let path = dir.path().join("shot.0001.exr");
-        let pixels =
-            vec![Pixel { color: [0.5; 3], alpha: 1.0, depth: 1.0, normal: [0.0; 3], fragment: 1, element: NONE }; 12];
+        let pixels = vec![Pixel { color: [0.5; 3], alpha: 1.0, depth: 1.0, fragment: 1, ..Pixel::EMPTY }; 12];
         let header = test_header();
-        write_exr(&path, 4, 3, &pixels, &header).expect("write");
+        write_exr(&path, 4, 3, &layers(&pixels, &[[0.0; 4]; 12], &[]), &header).expect("write");
         let meta = exr::meta::MetaData::read_from_file(&path, false).expect("header");
         let attributes = &meta.headers[0].own_attributes;
         assert_eq!(attributes.world_to_camera, Some(header.world_to_camera));
@@ -217,7 +304,10 @@ mod tests {
         assert_eq!(rational(29.97002997002997), (30000, 1001));
         assert_eq!(rational(12.5), (12500, 1000));
     }
-    use crate::trace::NONE;
+
+    fn layers<'a>(pixels: &'a [Pixel], motion: &'a [[f32; 4]], mattes: &'a [Matte]) -> FrameLayers<'a> {
+        FrameLayers { pixels, motion, mattes }
+    }
 
     #[test]
     fn exr_frames_read_back_with_their_layers_and_channel_types() {
@@ -228,23 +318,27 @@ mod tests {
                 depth: if i % 2 == 0 { 1.5 + i as f32 } else { f32::INFINITY },
                 normal: [0.0, 1.0, 0.0],
                 fragment: (i % 3) as u32,
-                element: NONE,
+                ..Pixel::EMPTY
             })
             .collect();
+        let motion: Vec<[f32; 4]> = (0..12).map(|i| [i as f32, -1.0, 0.5, 2.0]).collect();
         let dir = tempfile::tempdir().expect("tempdir");
         let path = dir.path().join("shot.0001.exr");
-        write_exr(&path, 4, 3, &pixels, &test_header()).expect("write");
+        write_exr(&path, 4, 3, &layers(&pixels, &motion, &[]), &test_header()).expect("write");
         let (width, height, channels) = read_exr(&path).expect("read");
         assert_eq!((width, height), (4, 3));
         let names: Vec<&str> = channels.iter().map(|c| c.name.as_str()).collect();
         assert_eq!(names, EXR_CHANNELS);
         let channel = |name: &str| channels.iter().find(|c| c.name == name).expect("channel");
         assert_eq!(channel("R").sample_type, "f16");
-        assert_eq!(channel("Z").sample_type, "f32");
-        assert_eq!(channel("fragment").sample_type, "u32");
-        assert_eq!(channel("Z").values[2], 3.5);
-        assert!(channel("Z").values[1].is_infinite());
-        assert_eq!(channel("fragment").values[5], 2.0);
+        let (depth, fragment) = ("ViewLayer.Depth.Z", "ViewLayer.FragmentIndex.X");
+        assert_eq!(channel(depth).sample_type, "f32");
+        assert_eq!(channel(fragment).sample_type, "u32");
+        assert_eq!(channel(depth).values[2], 3.5);
+        assert!(channel(depth).values[1].is_infinite());
+        assert_eq!(channel(fragment).values[5], 2.0);
+        assert_eq!(channel("ViewLayer.Vector.X").values[7], 7.0);
+        assert_eq!(channel("ViewLayer.Vector.W").values[7], 2.0);
         assert!((channel("R").values[7] - 0.7).abs() < 1e-3);
         let png = dir.path().join("shot.0001.png");
         write_png(&png, 4, 3, &pixels, 0.0).expect("png");
@@ -263,14 +357,22 @@ mod tests {
                 depth: 1.0 + (i % 31) as f32,
                 normal: [0.0, 0.0, 1.0],
                 fragment: (i / 500) as u32,
-                element: NONE,
+                ..Pixel::EMPTY
             })
             .collect();
+        let motion = vec![[0.25f32; 4]; width * height];
+        let mut counts = vec![crate::mattes::MatteCounts::default(); width * height];
+        for (i, c) in counts.iter_mut().enumerate() {
+            c.add((i / 500) as u32 + 1, crate::mattes::SURFACE_OUTER);
+            c.add(0, crate::mattes::SURFACE_FLOOR);
+        }
+        let ids: Vec<u32> = (0..40).collect();
+        let mattes = [crate::cryptomatte::fragment_matte(&counts, &ids), crate::cryptomatte::material_matte(&counts)];
         let dir = tempfile::tempdir().expect("tempdir");
         let bytes: Vec<Vec<u8>> = (0..6)
             .map(|k| {
                 let path = dir.path().join(format!("shot.{k:04}.exr"));
-                write_exr(&path, width, height, &pixels, &test_header()).expect("write");
+                write_exr(&path, width, height, &layers(&pixels, &motion, &mattes), &test_header()).expect("write");
                 std::fs::read(&path).expect("read")
             })
             .collect();

@@ -7,13 +7,19 @@
 //! - [`lighting`]: SH environment light, Blinn-Phong, the environment map.
 //! - [`trace`]: the CPU tracer (glass, floor, shading); the CPU twin of `shaders/trace.wgsl`.
 //! - [`gpu_trace`]: the GPU tracer running `shaders/trace.wgsl`.
+//! - [`mattes`]: per-pixel counts of the fragments and surface kinds seen first.
+//! - [`cryptomatte`]: those counts as Cryptomatte ranks with their manifests.
+//! - [`motion`]: the motion pass from the fragments' rigid motions.
 //! - [`image_out`]: EXR and PNG writing.
 //! - [`render_driver`]: the stage's driver (frame ranges, progress).
 
+pub mod cryptomatte;
 pub mod element_kdtree;
 pub mod gpu_trace;
 pub mod image_out;
 pub mod lighting;
+pub mod mattes;
+pub mod motion;
 pub mod primitives;
 pub mod render_driver;
 pub mod scene;

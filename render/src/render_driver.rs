@@ -1,6 +1,7 @@
 //! `shatter render`: the fragments of each frame ray traced to multi-layer EXR (and PNG previews),
 //! frame ranges for render farms, progress with ETA.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -16,12 +17,14 @@ use shatter_core::stage_file::StageFileError;
 use shatter_core::{OutputLayout, PipelineConfig, Progress};
 use shatter_gpu::{AdapterChoice, GpuContext, GpuError};
 
+use crate::cryptomatte::{fragment_matte, material_matte};
 use crate::element_kdtree::Aabb;
 use crate::gpu_trace::GpuTracer;
-use crate::image_out::{FrameHeader, ImageError, write_exr, write_png};
+use crate::image_out::{FrameHeader, FrameLayers, ImageError, write_exr, write_png};
 use crate::lighting::{EnvironmentMap, LightingError, key_light, sh_project};
+use crate::motion::motion_vectors;
 use crate::scene::{Camera, SceneGeometry};
-use crate::trace::{FloorLook, Look, Pixel, render};
+use crate::trace::{FloorLook, Look, Rendered, render};
 
 /// Why rendering failed.
 #[derive(Debug, thiserror::Error)]
@@ -119,7 +122,7 @@ impl Tracer {
         look: &Look,
         camera: &Camera,
         samples: u32,
-    ) -> Result<Vec<Pixel>, RenderError> {
+    ) -> Result<Rendered, RenderError> {
         match self {
             Tracer::Cpu => Ok(render(scene, look, camera, samples)),
             Tracer::Gpu(gpu) => Ok(gpu.1.render(&gpu.0, scene, look, camera, samples)?),
@@ -172,10 +175,12 @@ pub fn look(render: &RenderConfig) -> Result<Look, RenderError> {
         ior: material.glass_ior as f32,
         absorption: material.glass_absorption_per_m.map(|v| v as f32),
         albedo: material.albedo.map(|v| v as f32),
+        fracture_albedo: material.fracture_albedo.unwrap_or(material.albedo).map(|v| v as f32),
         specular: material.specular as f32,
         shininess: material.shininess as f32,
         floor,
         max_bounces: render.max_bounces,
+        glass_split_events: render.glass_split_events,
     })
 }
 
@@ -211,6 +216,43 @@ pub fn camera(render: &RenderConfig, particles: &ParticleSet) -> Camera {
     }
 }
 
+/// Frame `frame`'s fragments, checked against the particle file (`elements`) and the inputs
+/// they must have been made from; None for frame 1 when post has not written it (the rest state).
+fn read_fragments(
+    layout: &OutputLayout,
+    frame: u32,
+    elements: usize,
+    post_inputs: u32,
+) -> Result<Option<FragmentFrame>, RenderError> {
+    let path = layout.fragments(frame);
+    if !path.is_file() {
+        if frame == 1 {
+            return Ok(None);
+        }
+        return Err(RenderError::Input(format!("{}: missing; run `shatter post` first", path.display())));
+    }
+    let fragments = FragmentFrame::read(&path)?;
+    if fragments.fragment_of.len() != elements {
+        return Err(RenderError::Input(format!(
+            "{}: {} elements, but the particle file has {elements}; run `shatter sim` and `shatter post` again",
+            path.display(),
+            fragments.fragment_of.len(),
+        )));
+    }
+    if fragments.meta.inputs != Some(post_inputs) {
+        return Err(RenderError::Input(format!(
+            "{}: made from other inputs (particle file, [sim], [material] or [post] settings); run `shatter sim` \
+             and `shatter post` again",
+            path.display()
+        )));
+    }
+    if fragments.meta.frame != frame {
+        let what = format!("holds frame {}, not {frame} (renamed from another frame's name?)", fragments.meta.frame);
+        return Err(StageFileError::Malformed { path, what }.into());
+    }
+    Ok(Some(fragments))
+}
+
 /// Renders the frames `frames` (all of `sim.frames` when None) of `config` on `backend` (the
 /// config's `render.backend` when None), calling `after_frame` when each frame is written.
 pub fn run_render(
@@ -242,54 +284,36 @@ pub fn run_render(
     let [width, height] = render_config.resolution;
     let samples = render_config.samples_per_pixel;
     progress.start("render", frames.len() as u64);
+    // Each frame needs its neighbours' motions too; frames already read are kept while needed.
+    let mut loaded: BTreeMap<u32, Option<FragmentFrame>> = BTreeMap::new();
     for &frame in &frames {
-        let path = layout.fragments(frame);
-        let fragments = if path.is_file() {
-            Some(FragmentFrame::read(&path)?)
-        } else if frame == 1 {
-            None // the rest state
-        } else {
-            return Err(RenderError::Input(format!("{}: missing; run `shatter post` first", path.display())));
-        };
-        if let Some(fragments) = &fragments
-            && fragments.fragment_of.len() != particles.len()
-        {
-            return Err(RenderError::Input(format!(
-                "{}: {} elements, but the particle file has {}; run `shatter sim` and `shatter post` again",
-                path.display(),
-                fragments.fragment_of.len(),
-                particles.len()
-            )));
+        let neighbours = frame.saturating_sub(1).max(1)..=(frame + 1).min(config.sim.frames);
+        loaded.retain(|f, _| neighbours.contains(f));
+        for f in neighbours {
+            if let std::collections::btree_map::Entry::Vacant(slot) = loaded.entry(f) {
+                slot.insert(read_fragments(&layout, f, particles.len(), post_inputs)?);
+            }
         }
-        if let Some(fragments) = &fragments
-            && fragments.meta.inputs != Some(post_inputs)
-        {
-            return Err(RenderError::Input(format!(
-                "{}: made from other inputs (particle file, [sim], [material] or [post] settings); run `shatter sim` \
-                 and `shatter post` again",
-                path.display()
-            )));
-        }
-        if let Some(fragments) = &fragments
-            && fragments.meta.frame != frame
-        {
-            let what =
-                format!("holds frame {}, not {frame} (renamed from another frame's name?)", fragments.meta.frame);
-            return Err(StageFileError::Malformed { path, what }.into());
-        }
-        let scene = SceneGeometry::build(&particles, fragments.as_ref());
-        let pixels = tracer.render(&scene, &look, &camera, samples)?;
+        let fragments = loaded[&frame].as_ref();
+        let previous = (frame > 1).then(|| loaded[&(frame - 1)].as_ref());
+        let next = (frame < config.sim.frames).then(|| loaded[&(frame + 1)].as_ref());
+        let scene = SceneGeometry::build(&particles, fragments);
+        let rendered = tracer.render(&scene, &look, &camera, samples)?;
+        let motion = motion_vectors(&camera, &rendered.pixels, fragments, previous, next);
+        let ids: Vec<u32> = (0..fragments.map_or(1, |f| f.fragment_count() as u32)).collect();
+        let mattes = [fragment_matte(&rendered.mattes, &ids), material_matte(&rendered.mattes)];
+        let layers = FrameLayers { pixels: &rendered.pixels, motion: &motion, mattes: &mattes };
         let header = FrameHeader {
             comment: format!("shatter render: scene {}, frame {frame}", config.scene.name),
             world_to_camera: camera.world_to_camera(),
             world_to_ndc: camera.world_to_ndc(),
             frames_per_second: config.scene.frames_per_second,
-            simulation_time_s: fragments.as_ref().map_or(0.0, |f| f.meta.time_s),
+            simulation_time_s: fragments.map_or(0.0, |f| f.meta.time_s),
         };
-        write_exr(&layout.render_frame(frame, "exr"), width as usize, height as usize, &pixels, &header)?;
+        write_exr(&layout.render_frame(frame, "exr"), width as usize, height as usize, &layers, &header)?;
         if render_config.previews {
             let exposure = render_config.preview_exposure_stops as f32;
-            write_png(&layout.render_frame(frame, "png"), width as usize, height as usize, &pixels, exposure)?;
+            write_png(&layout.render_frame(frame, "png"), width as usize, height as usize, &rendered.pixels, exposure)?;
         }
         after_frame(frame).map_err(|source| RenderError::AfterFrame { frame, source })?;
         progress.advance(1);

@@ -34,6 +34,10 @@ pub struct SceneGeometry {
     pub sites: Vec<[f32; 3]>,
     /// The fragment of each element.
     pub fragment: Vec<u32>,
+    /// Per element, bit k set when its plane k rests against an adjacent element: where such a
+    /// face is seen, it is a fracture face (cubes and tetrahedra; trimtopes show fracture faces on
+    /// all their planes and the outer surface on their triangles, and keep 0 here).
+    pub interior_faces: Vec<u32>,
     /// The k-d tree over the elements' bounds.
     pub tree: KdTree,
     /// How far elements are widened in ray tests (so touching elements leave no cracks), metres.
@@ -54,6 +58,11 @@ impl SceneGeometry {
     /// Element `e`'s planes.
     pub fn planes_of(&self, e: usize) -> &[Plane] {
         &self.planes[self.plane_offsets[e] as usize..self.plane_offsets[e + 1] as usize]
+    }
+
+    /// True when plane `plane` of element `e` is a fracture face where it is seen.
+    pub fn is_fracture_face(&self, e: usize, plane: u32) -> bool {
+        self.element_type == ElementType::Trimtope || (self.interior_faces[e] >> plane) & 1 == 1
     }
 
     /// Element `e`'s surface triangles.
@@ -140,6 +149,7 @@ impl SceneGeometry {
             triangle_groups: Vec::new(),
             sites: Vec::with_capacity(n),
             fragment,
+            interior_faces: interior_faces(particles),
             tree: KdTree::build(&[]),
             slack: WIDEN * particles.meta.lambda_m as f32,
         };
@@ -161,6 +171,19 @@ impl SceneGeometry {
         scene.tree = KdTree::build(&bounds);
         scene
     }
+}
+
+/// [`SceneGeometry::interior_faces`] of `particles`, from their rest adjacency.
+fn interior_faces(particles: &ParticleSet) -> Vec<u32> {
+    let mut masks = vec![0u32; particles.len()];
+    for &[a, b] in &particles.adjacency {
+        for (from, to) in [(a as usize, b as usize), (b as usize, a as usize)] {
+            if let Some(face) = particles.shared_face(from, to) {
+                masks[from] |= 1 << face;
+            }
+        }
+    }
+    masks
 }
 
 /// Bounds of a convex polytope around a point inside it: every vertex (three planes meeting,
@@ -274,6 +297,21 @@ impl Camera {
             }
         }
         m
+    }
+
+    /// Where world point `p` lands on the image, in pixels (x right, y down, as
+    /// [`Camera::direction`] takes them); None behind the eye.
+    pub fn pixel_of(&self, p: DVec3) -> Option<[f64; 2]> {
+        let v = |a: [f32; 3]| DVec3::from_array(a.map(f64::from));
+        let (forward, right, up) = (v(self.forward), v(self.right), v(self.up));
+        let d = p - v(self.origin);
+        let z = d.dot(forward);
+        if z <= 0.0 {
+            return None;
+        }
+        let sx = d.dot(right) / (z * right.length_squared());
+        let sy = d.dot(up) / (z * up.length_squared());
+        Some([(sx + 1.0) * 0.5 * f64::from(self.width), (1.0 - sy) * 0.5 * f64::from(self.height)])
     }
 
     /// The unit direction through image point (px, py) in pixels (y down).

@@ -14,6 +14,7 @@ use rayon::prelude::*;
 use shatter_core::particles::ElementType;
 
 use crate::lighting::{EnvironmentMap, KeyLight, sh_irradiance};
+use crate::mattes::{MatteCounts, SURFACE_FLOOR, SURFACE_FRACTURE, SURFACE_NONE, SURFACE_OUTER};
 use crate::primitives::{TrimtopeHit, along, dot, polytope_contains, polytope_span, trimtope_hit};
 use crate::scene::{Camera, SceneGeometry};
 
@@ -29,10 +30,12 @@ pub struct Hit {
     pub element: u32,
     /// Unit outward normal there.
     pub normal: [f32; 3],
+    /// True on a fracture face (see [`SceneGeometry::is_fracture_face`]).
+    pub fracture: bool,
 }
 
 impl Hit {
-    const MISS: Hit = Hit { t: f32::INFINITY, element: NONE, normal: [0.0; 3] };
+    const MISS: Hit = Hit { t: f32::INFINITY, element: NONE, normal: [0.0; 3], fracture: false };
 }
 
 /// Element `e`'s nearest surface along the ray from `t_min` on: a polytope's entry (or, for a
@@ -46,7 +49,7 @@ pub fn element_hit(scene: &SceneGeometry, e: usize, origin: [f32; 3], direction:
             TrimtopeHit::Miss => Hit::MISS,
             TrimtopeHit::Face { t, plane } => {
                 let p = planes[plane as usize];
-                Hit { t, element: e as u32, normal: [p[0], p[1], p[2]] }
+                Hit { t, element: e as u32, normal: [p[0], p[1], p[2]], fracture: true }
             }
             TrimtopeHit::Surface { t, triangle } => {
                 let tri = scene.triangles_of(e)[triangle as usize];
@@ -55,14 +58,15 @@ pub fn element_hit(scene: &SceneGeometry, e: usize, origin: [f32; 3], direction:
                     crate::primitives::sub(tri[2], tri[0]),
                 );
                 let length = dot(n, n).sqrt();
-                Hit { t, element: e as u32, normal: n.map(|v| v / length) }
+                Hit { t, element: e as u32, normal: n.map(|v| v / length), fracture: false }
             }
         };
     }
     match polytope_span(planes, scene.slack, origin, direction) {
         Some(span) if span.t_in >= t_min && span.plane_in != NONE => {
             let p = planes[span.plane_in as usize];
-            Hit { t: span.t_in, element: e as u32, normal: [p[0], p[1], p[2]] }
+            let fracture = scene.is_fracture_face(e, span.plane_in);
+            Hit { t: span.t_in, element: e as u32, normal: [p[0], p[1], p[2]], fracture }
         }
         _ => Hit::MISS,
     }
@@ -135,14 +139,20 @@ pub struct Look {
     pub absorption: [f32; 3],
     /// Opaque albedo.
     pub albedo: [f32; 3],
+    /// Opaque albedo of fracture faces.
+    pub fracture_albedo: [f32; 3],
     /// Highlight strength.
     pub specular: f32,
     /// Highlight exponent.
     pub shininess: f32,
     /// The floor, if any.
     pub floor: Option<FloorLook>,
-    /// Longest glass path.
+    /// Longest glass path: a path still going after this many events takes the environment's
+    /// radiance along its last direction.
     pub max_bounces: u32,
+    /// Glass interface events (counted along a path from the camera) at which both the reflected
+    /// and the refracted branch are followed, weighted by Fresnel; later events pick one at random.
+    pub glass_split_events: u32,
 }
 
 /// A floor plane with a tiled albedo texture.
@@ -183,6 +193,47 @@ pub struct Pixel {
     pub fragment: u32,
     /// The first element seen ([`NONE`] for none).
     pub element: u32,
+    /// What kind of surface was seen first ([`crate::mattes::SURFACE_NONE`] and so on).
+    pub surface: u32,
+}
+
+impl Pixel {
+    /// A pixel that saw nothing.
+    pub const EMPTY: Pixel = Pixel {
+        color: [0.0; 3],
+        alpha: 0.0,
+        depth: f32::INFINITY,
+        normal: [0.0; 3],
+        fragment: 0,
+        element: NONE,
+        surface: SURFACE_NONE,
+    };
+}
+
+/// A rendered image: its pixels (row-major, top row first) and their matte counts.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rendered {
+    /// The pixels.
+    pub pixels: Vec<Pixel>,
+    /// Each pixel's matte counts over its samples.
+    pub mattes: Vec<MatteCounts>,
+}
+
+/// Pending glass branches per sample (the shader's `SPLIT_STACK`).
+pub const SPLIT_STACK: usize = 4;
+/// Random event numbers of a sample's branches are `event + branch * BRANCH_EVENTS`.
+const BRANCH_EVENTS: u32 = 128;
+
+/// A path (or branch of one) still to follow.
+#[derive(Debug, Clone, Copy)]
+struct Branch {
+    origin: [f32; 3],
+    direction: [f32; 3],
+    throughput: [f32; 3],
+    /// The glass element it is inside, or [`NONE`].
+    inside: u32,
+    /// Interface and surface events so far.
+    event: u32,
 }
 
 /// A 32-bit integer hash (the PCG output permutation): WGSL has no 64-bit integers, so the
@@ -230,6 +281,12 @@ fn floor_t(look: &Look, origin: [f32; 3], direction: [f32; 3]) -> f32 {
     }
 }
 
+/// Radiance of the floor at `p` seen along `d`.
+fn floor_radiance(look: &Look, p: [f32; 3], d: [f32; 3]) -> [f32; 3] {
+    let floor = look.floor.as_ref().map_or([0.5; 3], |f| f.albedo(p));
+    shade_opaque(look, floor, [0.0, 1.0, 0.0], d, 0.0)
+}
+
 /// Diffuse irradiance from the SH plus a normalized Blinn-Phong highlight of the key light.
 fn shade_opaque(look: &Look, albedo: [f32; 3], normal: [f32; 3], view: [f32; 3], specular: f32) -> [f32; 3] {
     let irradiance = sh_irradiance(&look.sh, normal);
@@ -247,6 +304,26 @@ fn shade_opaque(look: &Look, albedo: [f32; 3], normal: [f32; 3], view: [f32; 3],
     [0, 1, 2].map(|c| albedo[c] / std::f32::consts::PI * irradiance[c] + highlight * look.key.irradiance[c])
 }
 
+/// Splits a glass interface event into the branch `path` goes on with (weight 1 - `reflectance`)
+/// and `reflected`, pushed on `stack` with weight `reflectance`, when `path` is early enough and
+/// the stack has room (true); else leaves both alone (false).
+fn split(
+    look: &Look,
+    path: &mut Branch,
+    reflected: Branch,
+    reflectance: f32,
+    stack: &mut [Branch; SPLIT_STACK],
+    pending: &mut usize,
+) -> bool {
+    if path.event > look.glass_split_events || *pending == SPLIT_STACK {
+        return false;
+    }
+    stack[*pending] = Branch { throughput: reflected.throughput.map(|v| v * reflectance), ..reflected };
+    *pending += 1;
+    path.throughput = path.throughput.map(|v| v * (1.0 - reflectance));
+    true
+}
+
 /// Radiance along one camera ray, and its first-surface layers.
 pub fn trace_ray(
     scene: &SceneGeometry,
@@ -256,118 +333,171 @@ pub fn trace_ray(
     pixel: u32,
     sample: u32,
 ) -> Pixel {
-    let mut result =
-        Pixel { color: [0.0; 3], alpha: 0.0, depth: f32::INFINITY, normal: [0.0; 3], fragment: 0, element: NONE };
-    let mut throughput = [1.0f32; 3];
-    let (mut o, mut d) = (origin, direction);
-    let mut inside = NONE;
-    let mut first = true;
+    let mut result = Pixel::EMPTY;
     let eps = 4.0 * scene.slack;
     let glass = scene.element_type == ElementType::Cube;
-    for event in 0..look.max_bounces {
-        if inside != NONE {
-            // Through the glass to where the union ends; reflect inside or refract out.
-            let (t, m, last) = union_exit(scene, inside, o, d);
-            let exit = along(o, d, t);
-            for c in 0..3 {
-                throughput[c] *= (-look.absorption[c] * t).exp();
-            }
-            let cos_i = dot(d, m);
-            let out = refract(d, m.map(|v| -v), look.ior);
-            let reflectance = if out.is_some() { fresnel(cos_i, look.ior) } else { 1.0 };
-            match out {
-                Some(refracted) if random(pixel, sample, event) >= reflectance => {
-                    o = along(exit, m, eps);
-                    d = refracted;
-                    inside = NONE;
+    let mut stack = [Branch { origin, direction, throughput: [0.0; 3], inside: NONE, event: 0 }; SPLIT_STACK];
+    let mut pending = 0usize;
+    let mut path = Branch { origin, direction, throughput: [1.0; 3], inside: NONE, event: 0 };
+    let mut branch = 0u32;
+    loop {
+        let mut ended = false;
+        while path.event < look.max_bounces {
+            let event = path.event;
+            let first = branch == 0 && event == 0;
+            let chance = random(pixel, sample, event + branch * BRANCH_EVENTS);
+            path.event += 1;
+            let (o, d) = (path.origin, path.direction);
+            if path.inside != NONE {
+                // Through the glass to where the union ends; reflect inside or refract out.
+                let (t, m, last) = union_exit(scene, path.inside, o, d);
+                let exit = along(o, d, t);
+                for c in 0..3 {
+                    path.throughput[c] *= (-look.absorption[c] * t).exp();
                 }
-                _ => {
-                    d = reflect(d, m);
-                    o = along(exit, m, -eps);
-                    inside = last;
+                let reflected = Branch { origin: along(exit, m, -eps), direction: reflect(d, m), inside: last, ..path };
+                match refract(d, m.map(|v| -v), look.ior) {
+                    Some(refracted) => {
+                        let reflectance = fresnel(dot(d, m), look.ior);
+                        if split(look, &mut path, reflected, reflectance, &mut stack, &mut pending)
+                            || chance >= reflectance
+                        {
+                            path = Branch { origin: along(exit, m, eps), direction: refracted, inside: NONE, ..path };
+                        } else {
+                            path = reflected;
+                        }
+                    }
+                    None => path = reflected,
                 }
+                continue;
             }
-            continue;
-        }
-        let hit = closest_hit(scene, o, d, 0.0);
-        let t_floor = floor_t(look, o, d);
-        if t_floor < hit.t {
-            let p = along(o, d, t_floor);
+            let hit = closest_hit(scene, o, d, 0.0);
+            let t_floor = floor_t(look, o, d);
+            if t_floor < hit.t {
+                let p = along(o, d, t_floor);
+                if first {
+                    result =
+                        Pixel { alpha: 1.0, depth: t_floor, normal: [0.0, 1.0, 0.0], surface: SURFACE_FLOOR, ..result };
+                }
+                let shade = floor_radiance(look, p, d);
+                for c in 0..3 {
+                    result.color[c] += path.throughput[c] * shade[c];
+                }
+                ended = true;
+                break;
+            }
+            if hit.element == NONE {
+                if !first || look.show_environment {
+                    let sky = look.environment.radiance(d);
+                    for c in 0..3 {
+                        result.color[c] += path.throughput[c] * sky[c];
+                    }
+                }
+                ended = true;
+                break;
+            }
             if first {
-                result = Pixel { alpha: 1.0, depth: t_floor, normal: [0.0, 1.0, 0.0], ..result };
+                result.alpha = 1.0;
+                result.depth = hit.t;
+                result.normal = hit.normal;
+                result.element = hit.element;
+                result.fragment = scene.fragment[hit.element as usize] + 1;
+                result.surface = if hit.fracture { SURFACE_FRACTURE } else { SURFACE_OUTER };
             }
-            let floor = look.floor.as_ref().map_or([0.5; 3], |f| f.albedo(p));
-            let shade = shade_opaque(look, floor, [0.0, 1.0, 0.0], d, 0.0);
+            let p = along(o, d, hit.t);
+            if !glass {
+                let albedo = if hit.fracture { look.fracture_albedo } else { look.albedo };
+                let shade = shade_opaque(look, albedo, hit.normal, d, look.specular);
+                for c in 0..3 {
+                    result.color[c] += path.throughput[c] * shade[c];
+                }
+                ended = true;
+                break;
+            }
+            // Glass: reflect, or refract into the union.
+            let reflectance = fresnel(-dot(d, hit.normal), 1.0 / look.ior);
+            let reflected =
+                Branch { origin: along(p, hit.normal, eps), direction: reflect(d, hit.normal), inside: NONE, ..path };
+            if let Some(refracted) = refract(d, hit.normal, 1.0 / look.ior) {
+                if split(look, &mut path, reflected, reflectance, &mut stack, &mut pending) || chance >= reflectance {
+                    path = Branch {
+                        origin: along(p, hit.normal, -eps),
+                        direction: refracted,
+                        inside: hit.element,
+                        ..path
+                    };
+                } else {
+                    path = reflected;
+                }
+            } else if chance < reflectance {
+                path = reflected;
+            }
+        }
+        if !ended {
+            // Out of bounces: the path escapes the glass along its last direction, to the floor
+            // or the environment, rather than going black.
+            let t_floor = floor_t(look, path.origin, path.direction);
+            let escape = if t_floor.is_finite() {
+                floor_radiance(look, along(path.origin, path.direction, t_floor), path.direction)
+            } else {
+                look.environment.radiance(path.direction)
+            };
             for c in 0..3 {
-                result.color[c] += throughput[c] * shade[c];
+                result.color[c] += path.throughput[c] * escape[c];
             }
+        }
+        if pending == 0 {
             return result;
         }
-        if hit.element == NONE {
-            if first && !look.show_environment {
-                return result;
-            }
-            let sky = look.environment.radiance(d);
-            for c in 0..3 {
-                result.color[c] += throughput[c] * sky[c];
-            }
-            if first {
-                result.alpha = 0.0;
-            }
-            return result;
-        }
-        if first {
-            result.alpha = 1.0;
-            result.depth = hit.t;
-            result.normal = hit.normal;
-            result.element = hit.element;
-            result.fragment = scene.fragment[hit.element as usize] + 1;
-            first = false;
-        }
-        let p = along(o, d, hit.t);
-        if !glass {
-            let shade = shade_opaque(look, look.albedo, hit.normal, d, look.specular);
-            for c in 0..3 {
-                result.color[c] += throughput[c] * shade[c];
-            }
-            return result;
-        }
-        // Glass: reflect, or refract into the union.
-        let cos_i = -dot(d, hit.normal);
-        if random(pixel, sample, event) < fresnel(cos_i, 1.0 / look.ior) {
-            d = reflect(d, hit.normal);
-            o = along(p, hit.normal, eps);
-        } else if let Some(refracted) = refract(d, hit.normal, 1.0 / look.ior) {
-            d = refracted;
-            o = along(p, hit.normal, -eps);
-            inside = hit.element;
-        }
+        pending -= 1;
+        path = stack[pending];
+        branch += 1;
     }
-    result
+}
+
+/// Where sample `sample` of `samples` goes in pixel `pixel`, as an offset from its corner in
+/// [0, 1)^2: sample 0 through the centre; the others stratified, one in each cell of the largest
+/// square grid they fill (jittered in it), any left over anywhere at random.
+pub fn sample_offset(pixel: u32, sample: u32, samples: u32) -> (f32, f32) {
+    if sample == 0 {
+        return (0.5, 0.5);
+    }
+    let (jx, jy) = (random(pixel, sample, 1000), random(pixel, sample, 1001));
+    let others = samples - 1;
+    let mut n = (others as f32).sqrt() as u32;
+    while (n + 1) * (n + 1) <= others {
+        n += 1;
+    }
+    while n * n > others {
+        n -= 1;
+    }
+    let k = sample - 1;
+    if k >= n * n {
+        return (jx, jy);
+    }
+    (((k % n) as f32 + jx) / n as f32, ((k / n) as f32 + jy) / n as f32)
 }
 
 /// Traces every pixel of `camera`'s image with `samples` samples each (the first through the
-/// pixel centre gives the depth, normal and fragment layers). Rows in parallel; deterministic.
-pub fn render(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32) -> Vec<Pixel> {
+/// pixel centre gives the depth, normal and fragment layers), counting each sample's first
+/// surface in the pixel's mattes. Rows in parallel; deterministic.
+pub fn render(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32) -> Rendered {
     let (width, height) = (camera.width as usize, camera.height as usize);
-    let mut image =
-        vec![
-            Pixel { color: [0.0; 3], alpha: 0.0, depth: f32::INFINITY, normal: [0.0; 3], fragment: 0, element: NONE };
-            width * height
-        ];
-    image.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
-        for (x, out) in row.iter_mut().enumerate() {
+    let mut pixels = vec![Pixel::EMPTY; width * height];
+    let mut mattes = vec![MatteCounts::default(); width * height];
+    pixels.par_chunks_mut(width).zip(mattes.par_chunks_mut(width)).enumerate().for_each(|(y, (row, matte_row))| {
+        for (x, (out, matte)) in row.iter_mut().zip(matte_row.iter_mut()).enumerate() {
             let pixel = (y * width + x) as u32;
             let mut sum = [0.0f32; 3];
             let mut alpha = 0.0;
             for sample in 0..samples {
-                let (jx, jy) =
-                    if sample == 0 { (0.5, 0.5) } else { (random(pixel, sample, 1000), random(pixel, sample, 1001)) };
+                let (jx, jy) = sample_offset(pixel, sample, samples);
                 let d = camera.direction(x as f32 + jx, y as f32 + jy);
                 let traced = trace_ray(scene, look, camera.origin, d, pixel, sample);
                 if sample == 0 {
                     *out = traced;
                 }
+                matte.add(traced.fragment, traced.surface);
                 for c in 0..3 {
                     sum[c] += traced.color[c];
                 }
@@ -377,7 +507,7 @@ pub fn render(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32)
             out.alpha = alpha / samples as f32;
         }
     });
-    image
+    Rendered { pixels, mattes }
 }
 
 #[cfg(test)]
@@ -429,10 +559,12 @@ mod tests {
             ior: 1.5,
             absorption: [0.0; 3],
             albedo: [0.8; 3],
+            fracture_albedo: [0.8; 3],
             specular: 0.0,
             shininess: 32.0,
             floor: None,
             max_bounces: 8,
+            glass_split_events: 2,
         }
     }
 
@@ -465,7 +597,7 @@ mod tests {
     fn a_single_cube_has_analytic_depth_and_normals() {
         let scene = cubes(vec![[0.0; 3]]);
         let camera = Camera::look_at(DVec3::new(1.3, 1.7, 4.0), DVec3::ZERO, DVec3::Y, 30.0, 64, 48);
-        let image = render(&scene, &look(), &camera, 1);
+        let image = render(&scene, &look(), &camera, 1).pixels;
         let mut checked = 0;
         for y in 0..48 {
             for x in 0..64 {
@@ -495,7 +627,7 @@ mod tests {
         let set = set(vec![[0.25; 3]], Elements::Tets { vertices_m: vec![vertices] });
         let scene = SceneGeometry::build(&set, None);
         let camera = Camera::look_at(DVec3::new(2.0, 1.5, 3.0), DVec3::splat(0.25), DVec3::Y, 30.0, 64, 48);
-        let image = render(&scene, &look(), &camera, 1);
+        let image = render(&scene, &look(), &camera, 1).pixels;
         let v = vertices.map(|p| DVec3::from_array(p.map(f64::from)));
         let faces = [[v[1], v[2], v[3]], [v[0], v[2], v[3]], [v[0], v[1], v[3]], [v[0], v[1], v[2]]];
         let mut checked = 0;
@@ -544,7 +676,7 @@ mod tests {
         let scene = cubes(vec![[0.0; 3], [1.0, 0.0, 0.0]]);
         // Looking straight at the shared face's edge: every pixel inside the union must hit it.
         let camera = Camera::look_at(DVec3::new(0.5, 0.0, 4.0), DVec3::new(0.5, 0.0, 0.0), DVec3::Y, 40.0, 81, 61);
-        let image = render(&scene, &look(), &camera, 1);
+        let image = render(&scene, &look(), &camera, 1).pixels;
         let o = DVec3::from_array(camera.origin.map(f64::from));
         for y in 0..61 {
             for x in 0..81 {

@@ -1,5 +1,6 @@
 //! The GPU tracer against its CPU twin on random scenes (on Mesa's lavapipe in CI): the same
-//! element seen first in every pixel, depth within 1e-5 relative, the same normals and fragments.
+//! element seen first in every pixel, depth within 1e-5 relative, the same normals, fragments,
+//! surface kinds (outer or fracture face) and matte counts.
 
 use glam::{DQuat, DVec3};
 use shatter_core::particles::{Bonds, Elements, ParticleMeta, ParticleSet};
@@ -7,6 +8,7 @@ use shatter_core::random::SplitMix64;
 use shatter_gpu::GpuContext;
 use shatter_render::gpu_trace::GpuTracer;
 use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
+use shatter_render::mattes::SURFACE_FRACTURE;
 use shatter_render::scene::{Camera, SceneGeometry};
 use shatter_render::trace::{FloorLook, Look, NONE, render};
 
@@ -26,13 +28,27 @@ fn set(positions: Vec<[f32; 3]>, elements: Elements) -> ParticleSet {
             threshold_jitter: 0.0,
             seed: 0,
         },
+        adjacency: if matches!(elements, Elements::Cubes { .. }) { lattice_neighbours(&positions) } else { Vec::new() },
         rest_position_m: positions,
         volume_m3: vec![1.0; n],
         mass_kg: vec![1.0; n],
         elements,
         bonds: Bonds { offsets: vec![0; n + 1], ..Bonds::default() },
-        adjacency: Vec::new(),
     }
+}
+
+/// Pairs of points 0.1 apart along one axis (neighbours on the test lattice).
+fn lattice_neighbours(positions: &[[f32; 3]]) -> Vec<[u32; 2]> {
+    let mut pairs = Vec::new();
+    for (i, a) in positions.iter().enumerate() {
+        for (j, b) in positions.iter().enumerate().skip(i + 1) {
+            let d: f32 = (0..3).map(|k| (a[k] - b[k]).abs()).sum();
+            if (d - 0.1).abs() < 1e-4 {
+                pairs.push([i as u32, j as u32]);
+            }
+        }
+    }
+    pairs
 }
 
 fn look(floor: bool) -> Look {
@@ -50,6 +66,7 @@ fn look(floor: bool) -> Look {
         ior: 1.5,
         absorption: [0.5, 0.2, 0.1],
         albedo: [0.7, 0.6, 0.5],
+        fracture_albedo: [0.3, 0.5, 0.9],
         specular: 0.3,
         shininess: 32.0,
         floor: floor.then(|| FloorLook {
@@ -59,6 +76,7 @@ fn look(floor: bool) -> Look {
             texels: vec![[0.9; 3], [0.1; 3], [0.1; 3], [0.9; 3]],
         }),
         max_bounces: 6,
+        glass_split_events: 2,
     }
 }
 
@@ -94,18 +112,25 @@ fn random_scene(seed: u64, tets: bool) -> SceneGeometry {
         let q = DQuat::from_axis_angle(DVec3::new(0.3, 1.0, 0.2).normalize(), 0.4).as_quat();
         Elements::Cubes { half_size_m: vec![0.05; n], orientation: q.to_array() }
     };
-    SceneGeometry::build(&set(positions, elements), None)
+    let mut scene = SceneGeometry::build(&set(positions, elements), None);
+    // three fragments, so the mattes count several ids
+    scene.fragment = (0..scene.len() as u32).map(|e| e % 3).collect();
+    scene
 }
 
-fn compare(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32) {
+/// Compares the tracers; returns how many pixels see a fracture face first.
+fn compare(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32) -> usize {
     let ctx = GpuContext::shared_for_tests().expect("a GPU adapter (lavapipe in CI)");
     let tracer = GpuTracer::new(ctx).expect("tracer compiles");
     let gpu = tracer.render(ctx, scene, look, camera, samples).expect("GPU render");
     let cpu = render(scene, look, camera, samples);
     let mut hits = 0;
-    for (index, (g, c)) in gpu.iter().zip(&cpu).enumerate() {
+    let mut fractures = 0;
+    for (index, (g, c)) in gpu.pixels.iter().zip(&cpu.pixels).enumerate() {
         assert_eq!(g.element, c.element, "pixel {index}: element");
         assert_eq!(g.fragment, c.fragment, "pixel {index}: fragment");
+        assert_eq!(g.surface, c.surface, "pixel {index}: surface kind");
+        fractures += usize::from(c.surface == SURFACE_FRACTURE);
         if c.element != NONE {
             hits += 1;
             assert!((g.depth - c.depth).abs() <= 1e-5 * c.depth, "pixel {index}: depth {} vs {}", g.depth, c.depth);
@@ -121,17 +146,27 @@ fn compare(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32) {
             }
         }
     }
-    assert!(hits > cpu.len() / 10, "the scene covers the image ({hits} of {})", cpu.len());
+    let pixels = cpu.pixels.len();
+    assert!(hits > pixels / 10, "the scene covers the image ({hits} of {pixels})");
+    // Jittered samples see the same first surfaces but for rounding right at an edge.
+    let differing = gpu.mattes.iter().zip(&cpu.mattes).filter(|(g, c)| g != c).count();
+    assert!(differing * 100 <= pixels, "{differing} of {pixels} pixels' matte counts differ");
+    if samples == 1 {
+        assert_eq!(differing, 0);
+    }
+    fractures
 }
 
 #[test]
 fn gpu_and_cpu_agree_on_random_glass_cube_scenes() {
+    let mut fractures = 0;
     for seed in 0..3 {
         let scene = random_scene(seed, false);
         let camera =
             Camera::look_at(DVec3::new(0.4, 0.5, 1.2 + seed as f64 * 0.1), DVec3::ZERO, DVec3::Y, 45.0, 48, 36);
-        compare(&scene, &look(seed % 2 == 0), &camera, 1);
+        fractures += compare(&scene, &look(seed % 2 == 0), &camera, 1);
     }
+    assert!(fractures > 0, "faces resting on neighbours show as fracture faces");
 }
 
 #[test]
@@ -231,6 +266,6 @@ fn gpu_and_cpu_agree_on_trimtopes_with_an_embedded_surface() {
     let scene = SceneGeometry::build(&set(sites, elements), None);
     for (eye, samples) in [(DVec3::new(0.2, 0.6, 0.8), 1), (DVec3::new(-0.9, -0.2, -0.3), 2)] {
         let camera = Camera::look_at(eye, DVec3::new(0.0, 0.0, -0.1), DVec3::Y, 50.0, 48, 36);
-        compare(&scene, &look(false), &camera, samples);
+        assert!(compare(&scene, &look(false), &camera, samples) > 0, "trimtope cell faces are fracture faces");
     }
 }

@@ -22,8 +22,13 @@ pub struct RenderConfig {
     /// Samples per pixel (antialiasing, glass paths); the first goes through the pixel centre and
     /// gives the depth, normal and fragment layers.
     pub samples_per_pixel: u32,
-    /// Longest path through glass, in surface events (reflections and refractions).
+    /// Longest path through glass, in surface events (reflections and refractions); a path
+    /// still going then takes the environment's radiance along its last direction.
     pub max_bounces: u32,
+    /// Glass surface events, counted from the camera, at which a path follows both the reflected
+    /// and the refracted branch weighted by Fresnel (later events pick one at random): 0 is plain
+    /// random choice; each split costs a branch, at most 4 pending per sample.
+    pub glass_split_events: u32,
     /// Equirectangular HDR environment (.hdr or .exr), relative to the config file's folder;
     /// absent, a uniform sky of radiance 1.
     pub environment: Option<PathBuf>,
@@ -50,6 +55,7 @@ impl Default for RenderConfig {
             resolution: [960, 540],
             samples_per_pixel: 4,
             max_bounces: 8,
+            glass_split_events: 0,
             environment: None,
             environment_intensity: 1.0,
             show_environment: true,
@@ -93,6 +99,9 @@ pub struct LookConfig {
     pub glass_absorption_per_m: [f64; 3],
     /// Diffuse albedo of opaque elements, RGB in [0, 1].
     pub albedo: [f64; 3],
+    /// Diffuse albedo of opaque elements' fracture faces (faces that rested against another
+    /// element), RGB in [0, 1]; absent, `albedo`.
+    pub fracture_albedo: Option<[f64; 3]>,
     /// Strength of the normalized Blinn-Phong highlight of opaque elements.
     pub specular: f64,
     /// Blinn-Phong exponent.
@@ -105,6 +114,7 @@ impl Default for LookConfig {
             glass_ior: 1.5,
             glass_absorption_per_m: [1.0, 0.3, 0.6],
             albedo: [0.8, 0.75, 0.7],
+            fracture_albedo: None,
             specular: 0.2,
             shininess: 64.0,
         }
@@ -161,6 +171,12 @@ impl RenderConfig {
             "render.max_bounces",
             &self.max_bounces.to_string(),
             || "must be between 1 and 64".into(),
+        )?;
+        check.that(
+            self.glass_split_events <= 8,
+            "render.glass_split_events",
+            &self.glass_split_events.to_string(),
+            || "must be between 0 and 8".into(),
         )?;
         for (key, path) in [
             ("render.environment", &self.environment),
@@ -220,6 +236,9 @@ impl RenderConfig {
             || "every entry must be finite and 0 or more".into(),
         )?;
         check.unit_colour("render.material.albedo", &look.albedo)?;
+        if let Some(albedo) = &look.fracture_albedo {
+            check.unit_colour("render.material.fracture_albedo", albedo)?;
+        }
         check.non_negative("render.material.specular", look.specular, "a multiplier")?;
         check.positive("render.material.shininess", look.shininess, "a Blinn-Phong exponent")?;
         if let Some(floor) = &self.floor {
