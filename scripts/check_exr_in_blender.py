@@ -34,7 +34,13 @@ def main(path):
     if image.type != "MULTILAYER":
         problems.append(f"image type {image.type}, not MULTILAYER")
 
-    tree = bpy.data.node_groups.new("check", "CompositorNodeTree")
+    scene = bpy.context.scene
+    if hasattr(scene, "node_tree"):  # Blender 3.x and 4.x: the scene's compositing tree
+        scene.use_nodes = True
+        tree = scene.node_tree
+    else:  # Blender 5: compositing trees are node groups
+        tree = bpy.data.node_groups.new("check", "CompositorNodeTree")
+        scene.compositing_node_group = tree
     node = tree.nodes.new("CompositorNodeImage")
     node.image = image
     main_passes = listed(node)
