@@ -7,6 +7,10 @@
 //! admits a few pixels' rounding elsewhere, not another crack pattern (a test checks that two key
 //! frames of one shot differ by more than the thresholds).
 //!
+//! On the way, the pieces post exports at the last key frame must be closed, consistently
+//! oriented surfaces (outer faces plus fracture faces) whose enclosed volumes add up to the
+//! particle file's volume within 0.1%.
+//!
 //! `SHATTER_BLESS=1 cargo test --test regression` rewrites the goldens. A failing comparison
 //! writes the rendered image and a FLIP difference image (magma: black is no difference) to
 //! `target/regression/` and names them.
@@ -24,15 +28,19 @@ const MAX_P99: f32 = 0.2;
 /// Size of the test renders.
 const RESOLUTION: [u32; 2] = [192, 108];
 
-/// A shot: its scene file and key frames (the last key frame is as far as it is simulated).
+/// A shot: its scene file and key frames (the last key frame is as far as it is simulated), and
+/// the share of its pieces' edges that may be unmatched.
 struct Shot {
     scene: &'static str,
     key_frames: &'static [u32],
+    open_edges: f64,
 }
 
-const GLASS_PLATE: Shot = Shot { scene: "glass_plate_small", key_frames: &[1, 12, 24] };
-const VASE: Shot = Shot { scene: "vase_small", key_frames: &[1, 6, 12] };
-const DRAGON: Shot = Shot { scene: "dragon_small", key_frames: &[1, 16, 32] };
+const GLASS_PLATE: Shot = Shot { scene: "glass_plate_small", key_frames: &[1, 12, 24], open_edges: 0.0 };
+const VASE: Shot = Shot { scene: "vase_small", key_frames: &[1, 6, 12], open_edges: 0.0 };
+/// Voronoi pieces: 75 of 2 million edges (in 11 of 466 pieces) are still unmatched, in a few
+/// cells' faces (docs/DECISIONS.md); the bound keeps it there.
+const DRAGON: Shot = Shot { scene: "dragon_small", key_frames: &[1, 16, 32], open_edges: 5e-5 };
 
 fn repository() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -68,6 +76,8 @@ fn render_key_frames(shot: &Shot, output: &Path) -> Vec<(u32, image::RgbImage)> 
     let options = RunOptions { backend: Some(BackendChoice::Cpu), ..RunOptions::default() };
     shatter_sim::sim_driver::run_sim(&config, options, &NoProgress).expect("sim");
     shatter_post::run_post(&config, &NoProgress).expect("post");
+    let fragments = shatter_core::fragments::FragmentFrame::read(&layout.fragments(last)).expect("fragments");
+    check_closed_pieces(shot.scene, shot.open_edges, &particles, &fragments);
     shatter_render::render_driver::run_render(
         &config,
         Some(shot.key_frames),
@@ -83,6 +93,98 @@ fn render_key_frames(shot: &Shot, output: &Path) -> Vec<(u32, image::RgbImage)> 
             (frame, image::open(&path).expect("preview").to_rgb8())
         })
         .collect()
+}
+
+/// Every piece's surface is closed and consistently oriented: after welding corners closer than
+/// 1e-4 of the particle spacing (a cube's corners are computed per cube, in single precision),
+/// each directed edge is matched
+/// by its reverse, but for at most `open_edges` (a fraction of all edges); and the pieces'
+/// enclosed volumes add up to the particles' volume within 0.1%.
+fn check_closed_pieces(
+    scene: &str,
+    open_edges: f64,
+    particles: &shatter_core::particles::ParticleSet,
+    fragments: &shatter_core::fragments::FragmentFrame,
+) {
+    use std::collections::HashMap;
+    let pieces = fragments.fragment_count();
+    let meshes = shatter_post::surfaces::piece_surfaces(particles, &fragments.fragment_of, pieces);
+    let tolerance = 1e-4 * particles.meta.lambda_m;
+    let mut volume = 0.0;
+    let mut fracture_faces = 0;
+    let mut open_pieces = Vec::new();
+    let (mut all_edges, mut unmatched) = (0, 0);
+    for (piece, mesh) in meshes.iter().enumerate() {
+        // weld: a grid of cells `tolerance` wide, each point joining a point within tolerance in
+        // its own or a neighbouring cell
+        let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+        let mut welded: Vec<[f64; 3]> = Vec::new();
+        let mut index_of = Vec::with_capacity(mesh.points.len());
+        for p in &mesh.points {
+            let p = p.map(f64::from);
+            let cell = p.map(|c| (c / tolerance).floor() as i64);
+            let mut found = None;
+            'search: for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for dz in -1..=1 {
+                        for &k in grid.get(&[cell[0] + dx, cell[1] + dy, cell[2] + dz]).into_iter().flatten() {
+                            let q: [f64; 3] = welded[k];
+                            if (0..3).all(|a| (q[a] - p[a]).abs() <= tolerance) {
+                                found = Some(k);
+                                break 'search;
+                            }
+                        }
+                    }
+                }
+            }
+            let k = found.unwrap_or_else(|| {
+                welded.push(p);
+                grid.entry(cell).or_default().push(welded.len() - 1);
+                welded.len() - 1
+            });
+            index_of.push(k);
+        }
+        let mut edges: HashMap<(usize, usize), i64> = HashMap::new();
+        let mut start = 0;
+        let centre = welded.first().copied().unwrap_or([0.0; 3]);
+        for (face, &size) in mesh.face_sizes.iter().enumerate() {
+            let corners: Vec<usize> = (0..size as usize).map(|k| index_of[mesh.indices[start + k] as usize]).collect();
+            for k in 0..corners.len() {
+                let (a, b) = (corners[k], corners[(k + 1) % corners.len()]);
+                if a != b {
+                    *edges.entry((a, b)).or_default() += 1;
+                }
+            }
+            let at = |k: usize| {
+                let p = welded[corners[k]];
+                [p[0] - centre[0], p[1] - centre[1], p[2] - centre[2]]
+            };
+            for k in 1..corners.len().saturating_sub(1) {
+                let (a, b, c) = (at(0), at(k), at(k + 1));
+                volume += (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                    + a[2] * (b[0] * c[1] - b[1] * c[0]))
+                    / 6.0;
+            }
+            fracture_faces += usize::from(mesh.fracture[face]);
+            start += size as usize;
+        }
+        let open = edges.iter().filter(|&(&(a, b), &count)| edges.get(&(b, a)).copied().unwrap_or(0) != count).count();
+        if open > 0 {
+            open_pieces.push(format!("piece {piece}: {open} unmatched edges of {}", edges.len()));
+        }
+        (all_edges, unmatched) = (all_edges + edges.len(), unmatched + open);
+    }
+    let total: f64 = particles.volume_m3.iter().map(|v| f64::from(*v)).sum();
+    eprintln!(
+        "{scene}: {pieces} pieces enclose {volume:e} m^3 (particles {total:e}); {unmatched} of {all_edges} edges unmatched"
+    );
+    assert!((volume / total - 1.0).abs() < 1e-3, "{scene}: pieces enclose {volume:e} m^3, particles hold {total:e}");
+    assert!(
+        unmatched as f64 <= open_edges * all_edges as f64,
+        "{scene}: {} of {pieces} pieces are open: {open_pieces:?}",
+        open_pieces.len()
+    );
+    assert!(pieces > 1 && fracture_faces > 0, "{scene}: {pieces} pieces, {fracture_faces} fracture faces");
 }
 
 /// FLIP of `test` against `reference`: the error map, its mean and 99th percentile.

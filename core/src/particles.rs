@@ -65,6 +65,13 @@ pub enum Elements {
         triangle_offsets: Vec<u64>,
         /// The mesh triangles clipped to each cell, metres, outward winding.
         triangles_m: Vec<[[f32; 3]; 3]>,
+        /// CSR offsets into `face_triangles_m`, one more than there are particles.
+        face_offsets: Vec<u64>,
+        /// The parts of each cell's faces inside the mesh, triangulated, metres, outward winding:
+        /// where a crack separates two cells, their fracture faces.
+        face_triangles_m: Vec<[[f32; 3]; 3]>,
+        /// The plane (index among the cell's own planes) each of `face_triangles_m` lies on.
+        face_planes: Vec<u32>,
     },
 }
 
@@ -259,11 +266,22 @@ impl ParticleSet {
                 out.write_rows("cube_orientation", std::slice::from_ref(orientation))?;
             }
             Elements::Tets { vertices_m } => out.write_rows("tet_vertices", vertices_m)?,
-            Elements::Trimtopes { plane_offsets, planes, triangle_offsets, triangles_m } => {
+            Elements::Trimtopes {
+                plane_offsets,
+                planes,
+                triangle_offsets,
+                triangles_m,
+                face_offsets,
+                face_triangles_m,
+                face_planes,
+            } => {
                 out.write_rows("plane_offsets", plane_offsets)?;
                 out.write_rows("planes", planes)?;
                 out.write_rows("triangle_offsets", triangle_offsets)?;
                 out.write_rows("triangles", triangles_m)?;
+                out.write_rows("face_offsets", face_offsets)?;
+                out.write_rows("face_triangles", face_triangles_m)?;
+                out.write_rows("face_planes", face_planes)?;
             }
         }
         out.write_rows("bond_offsets", &self.bonds.offsets)?;
@@ -304,6 +322,9 @@ impl ParticleSet {
                 planes: input.read_rows("planes")?,
                 triangle_offsets: input.read_rows("triangle_offsets")?,
                 triangles_m: input.read_rows("triangles")?,
+                face_offsets: input.read_rows("face_offsets")?,
+                face_triangles_m: input.read_rows("face_triangles")?,
+                face_planes: input.read_rows("face_planes")?,
             },
         };
         let bonds = Bonds {
@@ -377,14 +398,37 @@ impl ParticleSet {
                     return Err("a tetrahedron vertex is not finite".into());
                 }
             }
-            Elements::Trimtopes { plane_offsets, planes, triangle_offsets, triangles_m } => {
+            Elements::Trimtopes {
+                plane_offsets,
+                planes,
+                triangle_offsets,
+                triangles_m,
+                face_offsets,
+                face_triangles_m,
+                face_planes,
+            } => {
                 validate_offsets("plane_offsets", plane_offsets, n, planes.len())?;
                 validate_offsets("triangle_offsets", triangle_offsets, n, triangles_m.len())?;
+                validate_offsets("face_offsets", face_offsets, n, face_triangles_m.len())?;
                 if planes.iter().flatten().any(|c| !c.is_finite()) {
                     return Err("a trimtope plane is not finite".into());
                 }
-                if triangles_m.iter().flatten().flatten().any(|c| !c.is_finite()) {
+                if triangles_m.iter().chain(face_triangles_m).flatten().flatten().any(|c| !c.is_finite()) {
                     return Err("a trimtope triangle vertex is not finite".into());
+                }
+                if face_planes.len() != face_triangles_m.len() {
+                    return Err(format!(
+                        "{} face triangles but {} face planes",
+                        face_triangles_m.len(),
+                        face_planes.len()
+                    ));
+                }
+                for i in 0..n {
+                    let cell_planes = plane_offsets[i + 1] - plane_offsets[i];
+                    let range = face_offsets[i] as usize..face_offsets[i + 1] as usize;
+                    if let Some(plane) = face_planes[range].iter().find(|&&k| u64::from(k) >= cell_planes) {
+                        return Err(format!("a face triangle of cell {i} lies on plane {plane} of {cell_planes}"));
+                    }
                 }
             }
         }
@@ -553,6 +597,9 @@ mod tests {
                 planes: vec![[1.0, 0.0, 0.0, 0.5], [0.0, 1.0, 0.0, 0.5]],
                 triangle_offsets: vec![0, 0, 1, 1],
                 triangles_m: vec![[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]],
+                face_offsets: vec![0, 1, 1, 1],
+                face_triangles_m: vec![[[0.5, 0.0, 0.0], [0.5, 1.0, 0.0], [0.5, 0.0, 1.0]]],
+                face_planes: vec![0],
             },
         ]
     }

@@ -63,7 +63,9 @@ impl StageKind {
     /// The format version this build writes and reads.
     pub fn version(self) -> u32 {
         match self {
-            StageKind::Particles | StageKind::Checkpoint | StageKind::Fragments => 1,
+            // particles 2: trimtopes carry the parts of their faces inside the mesh
+            StageKind::Particles => 2,
+            StageKind::Checkpoint | StageKind::Fragments => 1,
         }
     }
 

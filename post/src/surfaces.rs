@@ -59,6 +59,7 @@ pub fn piece_surfaces(particles: &ParticleSet, piece_of: &[u32], pieces: usize) 
             }
         }
     }
+    let across = plane_neighbours(particles);
     let position = |i: usize| Vec3::from_array(particles.rest_position_m[i]);
     let mut meshes = vec![SurfaceMesh::default(); pieces];
     for element in 0..n {
@@ -107,13 +108,52 @@ pub fn piece_surfaces(particles: &ParticleSet, piece_of: &[u32], pieces: usize) 
                     mesh.push_face(&face, shared[element] & (1 << k) != 0);
                 }
             }
-            Elements::Trimtopes { triangle_offsets, triangles_m, .. } => {
+            Elements::Trimtopes {
+                plane_offsets,
+                triangle_offsets,
+                triangles_m,
+                face_offsets,
+                face_triangles_m,
+                face_planes,
+                ..
+            } => {
                 let range = triangle_offsets[element] as usize..triangle_offsets[element + 1] as usize;
                 for triangle in &triangles_m[range] {
                     mesh.push_face(&triangle.map(Vec3::from_array), false);
+                }
+                let faces = face_offsets[element] as usize..face_offsets[element + 1] as usize;
+                for (triangle, &plane) in face_triangles_m[faces.clone()].iter().zip(&face_planes[faces]) {
+                    let other = across[plane_offsets[element] as usize + plane as usize];
+                    if other == NONE || piece_of[other as usize] != piece_of[element] {
+                        mesh.push_face(&triangle.map(Vec3::from_array), true);
+                    }
                 }
             }
         }
     }
     meshes
+}
+
+/// No element.
+const NONE: u32 = u32::MAX;
+
+/// For each trimtope plane (index into the particle file's planes), the adjacent cell on its
+/// other side, or [`NONE`]: a shared face is one bisector, stored exactly negated in the two
+/// cells. Empty for other elements.
+fn plane_neighbours(particles: &ParticleSet) -> Vec<u32> {
+    let Elements::Trimtopes { plane_offsets, planes, .. } = &particles.elements else {
+        return Vec::new();
+    };
+    let mut across = vec![NONE; planes.len()];
+    let range = |e: u32| plane_offsets[e as usize] as usize..plane_offsets[e as usize + 1] as usize;
+    for &[a, b] in &particles.adjacency {
+        for k in range(a) {
+            let opposite = planes[k].map(|c| -c);
+            if let Some(j) = range(b).find(|&j| planes[j] == opposite) {
+                across[k] = b;
+                across[j] = a;
+            }
+        }
+    }
+    across
 }

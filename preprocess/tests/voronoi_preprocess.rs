@@ -37,7 +37,7 @@ fn plane_normal(plane: &[f32; 4]) -> DVec3 {
 /// Everything the stored set promises; returns (volume error, area error, stored triangles).
 fn check_cells(name: &str, set: &ParticleSet, mesh: &TriangleMesh, polytopes: usize) -> (f64, f64, usize) {
     set.validate().expect("the particle set follows the format's rules");
-    let Elements::Trimtopes { plane_offsets, planes, triangle_offsets, triangles_m } = &set.elements else {
+    let Elements::Trimtopes { plane_offsets, planes, triangle_offsets, triangles_m, .. } = &set.elements else {
         panic!("{name}: not trimtopes")
     };
     let n = set.len();

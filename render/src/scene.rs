@@ -117,7 +117,7 @@ impl SceneGeometry {
                         let bounds = vertices.iter().fold(Aabb::EMPTY, |b, v| b.union(&Aabb { min: *v, max: *v }));
                         (tet_planes(vertices).to_vec(), Vec::new(), site, bounds)
                     }
-                    Elements::Trimtopes { plane_offsets, planes, triangle_offsets, triangles_m } => {
+                    Elements::Trimtopes { plane_offsets, planes, triangle_offsets, triangles_m, .. } => {
                         let range = plane_offsets[e] as usize..plane_offsets[e + 1] as usize;
                         let moved_planes: Vec<Plane> = planes[range.clone()]
                             .iter()

@@ -262,7 +262,16 @@ fn gpu_and_cpu_agree_on_trimtopes_with_an_embedded_surface() {
             }
         }
     }
-    let elements = Elements::Trimtopes { plane_offsets, planes, triangle_offsets, triangles_m: triangles };
+    let face_offsets = vec![0; sites.len() + 1];
+    let elements = Elements::Trimtopes {
+        plane_offsets,
+        planes,
+        triangle_offsets,
+        triangles_m: triangles,
+        face_offsets,
+        face_triangles_m: Vec::new(),
+        face_planes: Vec::new(),
+    };
     let scene = SceneGeometry::build(&set(sites, elements), None);
     for (eye, samples) in [(DVec3::new(0.2, 0.6, 0.8), 1), (DVec3::new(-0.9, -0.2, -0.3), 2)] {
         let camera = Camera::look_at(eye, DVec3::new(0.0, 0.0, -0.1), DVec3::Y, 50.0, 48, 36);

@@ -6,6 +6,7 @@ use glam::DVec3;
 
 use super::cell_volume::{cone_volume, curve_ends, fan, green, place_crossings, polygon_area, stretch_levels};
 use super::clipping::{Corner, clip_triangle, plane_parts};
+use super::face_inside::region_triangles;
 use super::polytope::Polytope;
 use super::{BOX_PLANES, ClippedCell, Frame, MESH_EDGE, NONE, SHARED_AREA, bisector};
 use crate::mesh_query::MeshQuery;
@@ -51,14 +52,20 @@ impl CellInput<'_> {
 
         let mut volume: f64 = pieces.iter().map(|piece| cone_volume(site, piece)).sum();
         let mut shared = Vec::new();
-        for (face, cut_curve) in polytope.faces.iter().zip(&cut_curves) {
+        let (mut face_triangles, mut face_of_triangle) = (Vec::new(), Vec::new());
+        for (f, (face, cut_curve)) in polytope.faces.iter().zip(&cut_curves).enumerate() {
             let (normal, offset) = plane_parts(&planes[face.plane as usize]);
             let face_loop = polytope.face_loop(face);
-            let inside_area = match whole_cell_winding {
-                Some(winding) => f64::from(winding) * polygon_area(normal, &face_loop),
-                None if face.plane < BOX_PLANES => 0.0, // the box lies outside the mesh
-                None => self.area_inside(normal, &face_loop, cut_curve),
+            let (inside_area, triangles) = match whole_cell_winding {
+                Some(winding) => {
+                    let whole = if winding >= 1 { face_fan(&face_loop) } else { Vec::new() };
+                    (f64::from(winding) * polygon_area(normal, &face_loop), whole)
+                }
+                None if face.plane < BOX_PLANES => (0.0, Vec::new()), // the box lies outside the mesh
+                None => self.inside_part(normal, &face_loop, cut_curve),
             };
+            face_of_triangle.extend(std::iter::repeat_n(f as u32, triangles.len()));
+            face_triangles.extend(triangles);
             volume += (offset - normal.dot(site)) * inside_area / 3.0;
             let neighbour = across[face.plane as usize];
             if neighbour != NONE
@@ -72,6 +79,8 @@ impl CellInput<'_> {
         let cell = ClippedCell {
             planes: polytope.faces.iter().map(|face| planes[face.plane as usize]).collect(),
             triangles: pieces.iter().flat_map(fan).collect(),
+            face_triangles,
+            face_of_triangle,
             volume,
         };
         Some((cell, shared))
@@ -117,17 +126,23 @@ impl CellInput<'_> {
         pieces
     }
 
-    /// Area of a face's part inside the mesh (counted with its winding number), by Green's
+    /// A face's part inside the mesh: its area (counted with its winding number), by Green's
     /// theorem on its boundary: the cut curve (segments as the boundary runs) and the stretches
-    /// of the face's edges, each as many times as its winding number.
-    fn area_inside(&self, normal: DVec3, face_loop: &[DVec3], cut_curve: &[(DVec3, DVec3)]) -> f64 {
+    /// of the face's edges, each as many times as its winding number; and the part triangulated
+    /// from that boundary (each triangle as many times as its winding number).
+    fn inside_part(&self, normal: DVec3, face_loop: &[DVec3], cut_curve: &[(DVec3, DVec3)]) -> (f64, Vec<[DVec3; 3]>) {
         let origin = face_loop[0];
         let mut twice_area: f64 = cut_curve.iter().map(|&(a, b)| green(normal, origin, a, b)).sum();
         let stretches = stretch_levels(&place_crossings(face_loop, &curve_ends(cut_curve)));
         let base = self.base_level(&stretches);
         twice_area +=
             stretches.iter().map(|&(a, b, level)| f64::from(level + base) * green(normal, origin, a, b)).sum::<f64>();
-        0.5 * twice_area
+        let mut boundary = cut_curve.to_vec();
+        for &(a, b, level) in stretches.iter().filter(|s| s.0 != s.1) {
+            let times = (level + base).unsigned_abs() as usize;
+            boundary.extend(std::iter::repeat_n(if level + base > 0 { (a, b) } else { (b, a) }, times));
+        }
+        (0.5 * twice_area, region_triangles(normal, &boundary))
     }
 
     /// The winding number of the stretches at level 0, from the exact winding number at the
@@ -164,4 +179,10 @@ fn cut_curves(pieces: &Pieces, polytope: &Polytope, plane_count: usize) -> Vec<V
         }
     }
     curves
+}
+
+/// A convex face's fan triangles from its first corner (its loop runs counter-clockwise about
+/// its outward normal, and so do they).
+fn face_fan(face_loop: &[DVec3]) -> Vec<[DVec3; 3]> {
+    (1..face_loop.len().saturating_sub(1)).map(|k| [face_loop[0], face_loop[k], face_loop[k + 1]]).collect()
 }

@@ -1,5 +1,7 @@
 //! Clipped Voronoi cells: the Voronoi diagram of a set of sites, cut to the inside of a closed
-//! triangle mesh (the paper's "trimtopes": a convex polytope and the surface triangles inside it).
+//! triangle mesh (the paper's "trimtopes": a convex polytope and the surface triangles inside it),
+//! with the parts of their faces inside the mesh triangulated (where a crack opens, the faces of
+//! the pieces on either side).
 //!
 //! # Cells
 //!
@@ -52,11 +54,14 @@
 //!
 //! The diagram, its Voronoi neighbours and the starting box are here; one cell's construction in
 //! `clipped_cell.rs`; its polytope in `polytope.rs`; Sutherland-Hodgman clipping of faces and
-//! triangles in `clipping.rs`; the volume terms in `cell_volume.rs`; the tests in `tests.rs`.
+//! triangles in `clipping.rs`; the volume terms in `cell_volume.rs`; the faces' parts inside the
+//! mesh as triangles (the boundary the area comes from, triangulated by spade's constrained
+//! Delaunay triangulation) in `face_inside.rs`; the tests in `tests.rs`.
 
 mod cell_volume;
 mod clipped_cell;
 mod clipping;
+mod face_inside;
 mod polytope;
 #[cfg(test)]
 mod tests;
@@ -95,6 +100,11 @@ pub struct ClippedCell {
     pub planes: Vec<[f64; 4]>,
     /// The mesh triangles clipped to the cell (polygons fan-triangulated), outward winding.
     pub triangles: Vec<[DVec3; 3]>,
+    /// The parts of the cell's faces inside the mesh, triangulated, outward winding: where a
+    /// crack separates the cell from its neighbour, these are the fracture faces.
+    pub face_triangles: Vec<[DVec3; 3]>,
+    /// The face (index into `planes`) of each of `face_triangles`.
+    pub face_of_triangle: Vec<u32>,
     /// Volume of cell ∩ mesh interior.
     /// (Counted with the winding number where the surface overlaps itself; see the module docs.)
     pub volume: f64,

@@ -165,12 +165,9 @@ pub(super) fn voronoi_particles(
             sites.len()
         ));
     }
-    let mut plane_offsets = Vec::with_capacity(sites.len() + 1);
-    let mut triangle_offsets = Vec::with_capacity(sites.len() + 1);
-    plane_offsets.push(0u64);
-    triangle_offsets.push(0u64);
-    let mut planes = Vec::new();
-    let mut triangles_m = Vec::new();
+    let (mut plane_offsets, mut triangle_offsets, mut face_offsets) = (vec![0u64], vec![0u64], vec![0u64]);
+    let (mut planes, mut triangles_m, mut face_triangles_m, mut face_planes) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for cell in &diagram.cells {
         for &[nx, ny, nz, d] in &cell.planes {
             let normal = placement.rotation * DVec3::new(nx, ny, nz);
@@ -178,11 +175,22 @@ pub(super) fn voronoi_particles(
             planes.push([normal.x as f32, normal.y as f32, normal.z as f32, offset as f32]);
         }
         triangles_m.extend(cell.triangles.iter().map(|triangle| triangle.map(|p| placement.world(p))));
+        face_triangles_m.extend(cell.face_triangles.iter().map(|triangle| triangle.map(|p| placement.world(p))));
+        face_planes.extend_from_slice(&cell.face_of_triangle);
         plane_offsets.push(planes.len() as u64);
         triangle_offsets.push(triangles_m.len() as u64);
+        face_offsets.push(face_triangles_m.len() as u64);
     }
     let volumes: Vec<f64> = diagram.cells.iter().map(|cell| cell.volume).collect();
-    let elements = Elements::Trimtopes { plane_offsets, planes, triangle_offsets, triangles_m };
+    let elements = Elements::Trimtopes {
+        plane_offsets,
+        planes,
+        triangle_offsets,
+        triangles_m,
+        face_offsets,
+        face_triangles_m,
+        face_planes,
+    };
     Ok(assemble(config, lambda, &sites, &volumes, elements, diagram.adjacency, progress, notes))
 }
 
