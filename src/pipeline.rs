@@ -34,6 +34,8 @@ pub fn run(config: &PipelineConfig, options: &SimArgs, until: Stage) -> Result<(
     // preprocess: the geometry and material settings, and the mesh's contents
     let mut hash = Hasher::default()
         .bytes(env!("CARGO_PKG_VERSION").as_bytes())
+        // a new particle format makes the file again (an old one would not read)
+        .json(&shatter_core::stage_file::StageKind::Particles.version())
         .json(&(&config.scene.name, config.scene.seed))
         .json(&config.geometry)
         .json(&config.material);
