@@ -4,11 +4,13 @@
 //! sums to alpha, the fragment matte's never exceeds it, each fragment's matte is 1 inside its
 //! pixels and, at edges, matches the pixel area it covers (a dense grid of primary rays).
 
+mod support;
+
 use std::collections::HashMap;
 
 use exr::prelude::{AttributeValue, FlatSamples, read_all_flat_layers_from_file};
 use glam::DVec3;
-use shatter_core::particles::{Bonds, Elements, ParticleMeta, ParticleSet};
+use shatter_core::particles::Elements;
 use shatter_render::cryptomatte::{fragment_matte, material_matte};
 use shatter_render::image_out::{FrameHeader, FrameLayers, write_exr};
 use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
@@ -20,27 +22,8 @@ const FLOOR_Y: f32 = -0.5;
 fn scene() -> SceneGeometry {
     // two unit cubes side by side with a gap, each its own fragment, standing on the floor
     let positions = vec![[-0.7f32, 0.0, 0.0], [0.7, 0.0, 0.3]];
-    let particles = ParticleSet {
-        meta: ParticleMeta {
-            scene_name: "t".into(),
-            source: "box".into(),
-            sampler: "grid".into(),
-            lambda_m: 1.0,
-            horizon_factor: 1.0,
-            delta_m: 1.0,
-            density_kg_m3: 1.0,
-            bulk_modulus_pa: 1.0,
-            mean_critical_stretch: 0.01,
-            threshold_jitter: 0.0,
-            seed: 0,
-        },
-        rest_position_m: positions,
-        volume_m3: vec![1.0; 2],
-        mass_kg: vec![1.0; 2],
-        elements: Elements::Cubes { half_size_m: vec![0.5; 2], orientation: [0.0, 0.0, 0.0, 1.0] },
-        bonds: Bonds { offsets: vec![0; 3], ..Bonds::default() },
-        adjacency: Vec::new(),
-    };
+    let elements = Elements::Cubes { half_size_m: vec![0.5; 2], orientation: [0.0, 0.0, 0.0, 1.0] };
+    let particles = support::particle_set(positions, elements, 1.0, Vec::new());
     let mut scene = SceneGeometry::build(&particles, None);
     scene.fragment = vec![4, 9];
     scene

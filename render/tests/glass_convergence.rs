@@ -4,8 +4,10 @@
 //! floor or the environment) and the first glass event split at Fresnel's weights; picking each
 //! branch at random (the default, cheaper) is further from it but within 0.025.
 
+mod support;
+
 use glam::DVec3;
-use shatter_core::particles::{Bonds, Elements, ParticleMeta, ParticleSet};
+use shatter_core::particles::Elements;
 use shatter_render::image_out::write_png;
 use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
 use shatter_render::scene::{Camera, SceneGeometry};
@@ -22,27 +24,8 @@ fn slab() -> SceneGeometry {
         }
     }
     let n = positions.len();
-    let particles = ParticleSet {
-        meta: ParticleMeta {
-            scene_name: "slab".into(),
-            source: "box".into(),
-            sampler: "grid".into(),
-            lambda_m: f64::from(spacing),
-            horizon_factor: 1.0,
-            delta_m: f64::from(spacing),
-            density_kg_m3: 1.0,
-            bulk_modulus_pa: 1.0,
-            mean_critical_stretch: 0.01,
-            threshold_jitter: 0.0,
-            seed: 0,
-        },
-        rest_position_m: positions,
-        volume_m3: vec![1.0; n],
-        mass_kg: vec![1.0; n],
-        elements: Elements::Cubes { half_size_m: vec![spacing / 2.0; n], orientation: [0.0, 0.0, 0.0, 1.0] },
-        bonds: Bonds { offsets: vec![0; n + 1], ..Bonds::default() },
-        adjacency: Vec::new(),
-    };
+    let elements = Elements::Cubes { half_size_m: vec![spacing / 2.0; n], orientation: [0.0, 0.0, 0.0, 1.0] };
+    let particles = support::particle_set(positions, elements, f64::from(spacing), Vec::new());
     SceneGeometry::build(&particles, None)
 }
 

@@ -2,8 +2,10 @@
 //! element seen first in every pixel, depth within 1e-5 relative, the same normals, fragments,
 //! surface kinds (outer or fracture face) and matte counts.
 
+mod support;
+
 use glam::{DQuat, DVec3};
-use shatter_core::particles::{Bonds, Elements, ParticleMeta, ParticleSet};
+use shatter_core::particles::{Elements, ParticleSet};
 use shatter_core::random::SplitMix64;
 use shatter_gpu::GpuContext;
 use shatter_render::gpu_trace::GpuTracer;
@@ -13,28 +15,9 @@ use shatter_render::scene::{Camera, SceneGeometry};
 use shatter_render::trace::{FloorLook, Look, NONE, render};
 
 fn set(positions: Vec<[f32; 3]>, elements: Elements) -> ParticleSet {
-    let n = positions.len();
-    ParticleSet {
-        meta: ParticleMeta {
-            scene_name: "t".into(),
-            source: "box".into(),
-            sampler: "grid".into(),
-            lambda_m: 0.1,
-            horizon_factor: 1.0,
-            delta_m: 0.1,
-            density_kg_m3: 1.0,
-            bulk_modulus_pa: 1.0,
-            mean_critical_stretch: 0.01,
-            threshold_jitter: 0.0,
-            seed: 0,
-        },
-        adjacency: if matches!(elements, Elements::Cubes { .. }) { lattice_neighbours(&positions) } else { Vec::new() },
-        rest_position_m: positions,
-        volume_m3: vec![1.0; n],
-        mass_kg: vec![1.0; n],
-        elements,
-        bonds: Bonds { offsets: vec![0; n + 1], ..Bonds::default() },
-    }
+    let adjacency =
+        if matches!(elements, Elements::Cubes { .. }) { lattice_neighbours(&positions) } else { Vec::new() };
+    support::particle_set(positions, elements, 0.1, adjacency)
 }
 
 /// Pairs of points 0.1 apart along one axis (neighbours on the test lattice).
