@@ -30,6 +30,16 @@ pub fn post_inputs(sim_inputs: u32, config: &PipelineConfig) -> u32 {
     hasher.finalize()
 }
 
+/// What the follow-through's frames are made from: the fragments (by their [`post_inputs`]),
+/// the `[rigid]` settings and the frame rate.
+pub fn rigid_inputs(post_inputs: u32, config: &PipelineConfig) -> u32 {
+    let mut hasher = crc32fast::Hasher::new();
+    hasher.update(&post_inputs.to_le_bytes());
+    let settings = serde_json::json!({ "rigid": config.rigid, "fps": config.scene.frames_per_second });
+    hasher.update(settings.to_string().as_bytes());
+    hasher.finalize()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

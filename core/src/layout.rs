@@ -12,6 +12,8 @@
 //!   fragments/fragments.####.shp   post: fragment ids and rigid motions
 //!   fragments/points.####.ply  post: positions with fragment ids
 //!   fragments/fragments.usda   post: the USD shot
+//!   rigid/fragments.####.shp   rigid: the follow-through's frames (after the handoff)
+//!   rigid/rigid.checkpoint.shp rigid: the rapier world (resume) and the shot's frame range
 //!   render/<scene>.####.exr    render (and .png previews)
 //!   stamps.json                `shatter run`: what each stage last finished with
 //!   shatter.lock               held by the command writing into the folder (pid inside)
@@ -106,6 +108,21 @@ impl OutputLayout {
         self.fragments_dir().join("fragments.usda")
     }
 
+    /// The folder `shatter rigid` writes into.
+    pub fn rigid_dir(&self) -> PathBuf {
+        self.root.join("rigid")
+    }
+
+    /// The fragments file of the follow-through's `frame`.
+    pub fn rigid_fragments(&self, frame: u32) -> PathBuf {
+        self.rigid_dir().join(format!("fragments.{frame:04}.shp"))
+    }
+
+    /// The follow-through's checkpoint.
+    pub fn rigid_checkpoint(&self) -> PathBuf {
+        self.rigid_dir().join("rigid.checkpoint.shp")
+    }
+
     /// The folder of rendered frames.
     pub fn render_dir(&self) -> PathBuf {
         self.root.join("render")
@@ -152,6 +169,8 @@ mod tests {
         assert_eq!(layout.fragments(12), Path::new("out/plate/fragments/fragments.0012.shp"));
         assert_eq!(layout.fragment_points(3), Path::new("out/plate/fragments/points.0003.ply"));
         assert_eq!(layout.usd(), Path::new("out/plate/fragments/fragments.usda"));
+        assert_eq!(layout.rigid_fragments(60), Path::new("out/plate/rigid/fragments.0060.shp"));
+        assert_eq!(layout.rigid_checkpoint(), Path::new("out/plate/rigid/rigid.checkpoint.shp"));
         assert_eq!(layout.render_frame(240, "exr"), Path::new("out/plate/render/plate.0240.exr"));
         assert_eq!(layout.stamps(), Path::new("out/plate/stamps.json"));
         assert_eq!(layout.lock(), Path::new("out/plate/shatter.lock"));

@@ -11,6 +11,8 @@
 //! - [`fragments`]: the per-frame fragments file written by `shatter post`.
 //! - [`particles`]: the particle file written by `shatter preprocess` (rest state, element
 //!   geometry, bonds, element adjacency).
+//! - [`rigid_checkpoint`]: the follow-through's rapier world (resume) and frame range;
+//!   [`shot`]: which file holds each frame of a shot.
 //! - [`ply`]: checksummed binary PLY point caches, the public per-frame format.
 //! - [`memory`]: each stage's peak memory, estimated and refused up front when it cannot fit.
 //! - [`progress`]: how library code reports progress to the CLI.
@@ -29,6 +31,8 @@ pub mod particles;
 pub mod ply;
 pub mod progress;
 pub mod random;
+pub mod rigid_checkpoint;
+pub mod shot;
 pub mod stage_file;
 
 pub use config::{ConfigError, PipelineConfig};

@@ -45,11 +45,15 @@ pub enum StageKind {
     Checkpoint,
     /// `fragments/fragments.####.shp`: one frame's fragments, written by `shatter post`.
     Fragments,
+    /// `rigid/rigid.checkpoint.shp`: the follow-through's rigid-body world, written by
+    /// `shatter rigid` for resume, and the shot's frame range.
+    RigidCheckpoint,
 }
 
 impl StageKind {
     /// Every kind this build knows.
-    pub const ALL: [StageKind; 3] = [StageKind::Particles, StageKind::Checkpoint, StageKind::Fragments];
+    pub const ALL: [StageKind; 4] =
+        [StageKind::Particles, StageKind::Checkpoint, StageKind::Fragments, StageKind::RigidCheckpoint];
 
     /// The four-byte tag in the header.
     pub fn tag(self) -> [u8; 4] {
@@ -57,6 +61,7 @@ impl StageKind {
             StageKind::Particles => *b"PART",
             StageKind::Checkpoint => *b"CHKP",
             StageKind::Fragments => *b"FRAG",
+            StageKind::RigidCheckpoint => *b"RIGD",
         }
     }
 
@@ -65,7 +70,7 @@ impl StageKind {
         match self {
             // particles 2: trimtopes carry the parts of their faces inside the mesh
             StageKind::Particles => 2,
-            StageKind::Checkpoint | StageKind::Fragments => 1,
+            StageKind::Checkpoint | StageKind::Fragments | StageKind::RigidCheckpoint => 1,
         }
     }
 
@@ -75,6 +80,7 @@ impl StageKind {
             StageKind::Particles => "particles",
             StageKind::Checkpoint => "checkpoint",
             StageKind::Fragments => "fragments",
+            StageKind::RigidCheckpoint => "rigid checkpoint",
         }
     }
 

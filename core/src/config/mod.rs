@@ -15,10 +15,12 @@ pub mod derived;
 mod lammps_terms;
 pub mod post;
 pub mod render;
+pub mod rigid;
 pub mod sim;
 
 pub use post::PostConfig;
 pub use render::RenderConfig;
+pub use rigid::RigidConfig;
 pub use sim::SimConfig;
 
 /// The largest horizon factor N accepted: bonds per particle grow as N^3 (about 2,100 at N = 8).
@@ -83,6 +85,9 @@ pub struct PipelineConfig {
     /// `[post]`: fragments and exports (every key has a default).
     #[serde(default)]
     pub post: PostConfig,
+    /// `[rigid]`: the follow-through on rigid bodies; absent, the shot ends with the simulation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rigid: Option<RigidConfig>,
     /// `[render]`: camera, image, lighting (every key has a default).
     #[serde(default)]
     pub render: RenderConfig,
@@ -560,6 +565,9 @@ impl PipelineConfig {
         derived::validate(self, &check)?;
         self.sim.validate(&check)?;
         self.post.validate(&check)?;
+        if let Some(rigid) = &self.rigid {
+            rigid.validate(&check)?;
+        }
         self.render.validate(&check)
     }
 }

@@ -1,0 +1,121 @@
+//! `[rigid]`: the follow-through, in which every fragment becomes a rigid body (rapier3d) once
+//! the fracture has quieted, and flies, collides and comes to rest at real speed.
+
+use serde::{Deserialize, Serialize};
+
+use super::{Checker, ConfigError};
+
+/// `[rigid]`. Present, `shatter rigid` hands the fragments over to rigid bodies at the first
+/// frame that the handoff rule picks and simulates `follow_through_s` more seconds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RigidConfig {
+    /// Physical seconds simulated after the handoff; the shot gains `follow_through_s * fps`
+    /// frames at real speed.
+    pub follow_through_s: f64,
+    /// Handoff rule, part 1: no bond broke in this many frames before the handoff frame.
+    pub handoff_quiet_frames: u32,
+    /// Handoff rule, part 2: in every fragment of at least two particles, the kinetic energy of
+    /// the motion that is not rigid is at most this fraction of the rigid motion's (or below
+    /// `handoff_rest_speed_m_s` per unit mass).
+    pub handoff_internal_energy_ratio: f64,
+    /// A fragment whose internal motion is slower than this (rms, m/s) counts as quiet whatever
+    /// its rigid motion (a piece at rest still rings).
+    pub handoff_rest_speed_m_s: f64,
+    /// Handoff rule, part 3: at the latest this long (simulated time) after the first frame;
+    /// the last simulated frame is the handoff in any case.
+    pub max_fracture_duration_s: f64,
+    /// The longest rigid time step, seconds; each frame takes as many equal steps as it needs.
+    pub max_step_s: f64,
+    /// Velocity iterations of rapier's solver per step.
+    pub solver_iterations: u32,
+    /// Coulomb friction coefficient between a piece and the floor.
+    pub floor_friction: f64,
+    /// Restitution (fraction of the normal speed kept) of a bounce on the floor.
+    pub floor_restitution: f64,
+    /// Coulomb friction coefficient between two pieces.
+    pub piece_friction: f64,
+    /// Restitution of a collision between two pieces.
+    pub piece_restitution: f64,
+    /// A piece is drawn as its convex hull when the hull's volume is at most this factor times
+    /// the piece's; otherwise as a compound of the convex hulls of small clusters of its
+    /// elements.
+    pub hull_volume_factor: f64,
+    /// A piece that moves slower than this (m/s, and its rotation slower than the same speed at
+    /// its size) for `sleep_after_s` falls asleep; the run ends when every piece sleeps.
+    pub sleep_speed_m_s: f64,
+    /// How long a piece stays slow before it sleeps, seconds.
+    pub sleep_after_s: f64,
+    /// A checkpoint (the rapier world, for resume) is written every this many frames.
+    pub checkpoint_every_frames: u32,
+}
+
+impl Default for RigidConfig {
+    fn default() -> Self {
+        RigidConfig {
+            follow_through_s: 3.0,
+            handoff_quiet_frames: 4,
+            handoff_internal_energy_ratio: 0.1,
+            handoff_rest_speed_m_s: 0.01,
+            max_fracture_duration_s: 0.02,
+            max_step_s: 1.0 / 960.0,
+            solver_iterations: 4,
+            floor_friction: 0.6,
+            floor_restitution: 0.2,
+            piece_friction: 0.5,
+            piece_restitution: 0.1,
+            hull_volume_factor: 1.15,
+            sleep_speed_m_s: 0.005,
+            sleep_after_s: 0.5,
+            checkpoint_every_frames: 24,
+        }
+    }
+}
+
+impl RigidConfig {
+    pub(super) fn validate(&self, check: &Checker) -> Result<(), ConfigError> {
+        check.positive("rigid.follow_through_s", self.follow_through_s, "seconds")?;
+        check.that(
+            self.follow_through_s <= 3600.0,
+            "rigid.follow_through_s",
+            &self.follow_through_s.to_string(),
+            || "must be at most 3600 seconds".into(),
+        )?;
+        check.non_negative("rigid.handoff_internal_energy_ratio", self.handoff_internal_energy_ratio, "a fraction")?;
+        check.non_negative("rigid.handoff_rest_speed_m_s", self.handoff_rest_speed_m_s, "m/s")?;
+        check.positive("rigid.max_fracture_duration_s", self.max_fracture_duration_s, "seconds")?;
+        check.positive("rigid.max_step_s", self.max_step_s, "seconds")?;
+        check.that(self.max_step_s <= 0.1, "rigid.max_step_s", &self.max_step_s.to_string(), || {
+            "must be at most 0.1 seconds".into()
+        })?;
+        let iterations = self.solver_iterations;
+        check.that((1..=64).contains(&iterations), "rigid.solver_iterations", &iterations.to_string(), || {
+            "must be 1 to 64".into()
+        })?;
+        for (key, value) in
+            [("rigid.floor_friction", self.floor_friction), ("rigid.piece_friction", self.piece_friction)]
+        {
+            check.non_negative(key, value, "a friction coefficient")?;
+        }
+        for (key, value) in
+            [("rigid.floor_restitution", self.floor_restitution), ("rigid.piece_restitution", self.piece_restitution)]
+        {
+            check.that(value.is_finite() && (0.0..=1.0).contains(&value), key, &value.to_string(), || {
+                "must be between 0 and 1".into()
+            })?;
+        }
+        let factor = self.hull_volume_factor;
+        check.that(factor.is_finite() && factor >= 1.0, "rigid.hull_volume_factor", &factor.to_string(), || {
+            "must be a finite number of at least 1 (1: only exactly convex pieces are drawn as hulls)".into()
+        })?;
+        check.non_negative("rigid.sleep_speed_m_s", self.sleep_speed_m_s, "m/s")?;
+        check.non_negative("rigid.sleep_after_s", self.sleep_after_s, "seconds")?;
+        let every = self.checkpoint_every_frames;
+        check.that(every >= 1, "rigid.checkpoint_every_frames", &every.to_string(), || "must be at least 1".into())
+    }
+
+    /// Frames the follow-through adds at `frames_per_second`.
+    pub fn follow_through_frames(&self, frames_per_second: f64) -> u32 {
+        (self.follow_through_s * frames_per_second).round().max(1.0) as u32
+    }
+}

@@ -1,0 +1,152 @@
+//! What rapier's solver sees of each contact (a physics hook): the floor's and the pieces'
+//! friction and restitution exactly as configured (not rapier's average of the two colliders'),
+//! and no push from overlaps the handoff itself made.
+//!
+//! At the handoff, neighbouring pieces were one body a moment ago: their collision shapes
+//! (hulls, a little larger than the pieces where the pieces are not quite convex) may overlap.
+//! Resolving that overlap would blow the pieces apart with energy no crack gave them. Each pair
+//! that overlaps at the handoff keeps its overlap depth as an allowance: the solver treats
+//! contacts up to that depth as touching, so the pair may not sink deeper but is not pushed
+//! out. The allowance shrinks to the pair's current depth after every step and ends when the
+//! pair separates.
+
+use std::collections::BTreeMap;
+use std::sync::Mutex;
+
+use rapier3d_f64::geometry::{ColliderHandle, NarrowPhase};
+use rapier3d_f64::pipeline::{ContactModificationContext, PhysicsHooks};
+use serde::{Deserialize, Serialize};
+
+/// A collider pair, in order of the handles' raw parts.
+pub type PairKey = ((u32, u32), (u32, u32));
+
+/// The key of the pair `a`, `b` (either order).
+pub fn pair_key(a: ColliderHandle, b: ColliderHandle) -> PairKey {
+    let (a, b) = (a.into_raw_parts(), b.into_raw_parts());
+    if a <= b { (a, b) } else { (b, a) }
+}
+
+/// Friction, restitution and overlap allowances of a rigid world.
+#[derive(Debug, Serialize, Deserialize)]
+pub struct ContactRules {
+    /// The floor's collider, if there is a floor.
+    pub floor: Option<ColliderHandle>,
+    /// Friction coefficient between a piece and the floor.
+    pub floor_friction: f64,
+    /// Restitution of a bounce on the floor.
+    pub floor_restitution: f64,
+    /// Friction coefficient between pieces (and a piece and a projectile).
+    pub piece_friction: f64,
+    /// Restitution between pieces.
+    pub piece_restitution: f64,
+    /// Overlap allowance of each pair that overlapped at the handoff, metres.
+    pub allowance_m: BTreeMap<PairKey, f64>,
+    /// True until the first step: the overlaps it finds become allowances.
+    pub at_handoff: bool,
+    /// The overlaps found during the first step.
+    #[serde(skip)]
+    found: Mutex<BTreeMap<PairKey, f64>>,
+}
+
+impl Clone for ContactRules {
+    fn clone(&self) -> Self {
+        let found = self.found.lock().map(|found| found.clone()).unwrap_or_default();
+        ContactRules { found: Mutex::new(found), allowance_m: self.allowance_m.clone(), ..*self }
+    }
+}
+
+impl PartialEq for ContactRules {
+    fn eq(&self, other: &Self) -> bool {
+        self.floor == other.floor
+            && self.allowance_m == other.allowance_m
+            && self.at_handoff == other.at_handoff
+            && [self.floor_friction, self.floor_restitution, self.piece_friction, self.piece_restitution]
+                == [other.floor_friction, other.floor_restitution, other.piece_friction, other.piece_restitution]
+    }
+}
+
+impl ContactRules {
+    /// Rules with these coefficients and no allowances yet (the first step finds them).
+    pub fn new(
+        floor: Option<ColliderHandle>,
+        [floor_friction, floor_restitution, piece_friction, piece_restitution]: [f64; 4],
+    ) -> ContactRules {
+        ContactRules {
+            floor,
+            floor_friction,
+            floor_restitution,
+            piece_friction,
+            piece_restitution,
+            allowance_m: BTreeMap::new(),
+            at_handoff: true,
+            found: Mutex::new(BTreeMap::new()),
+        }
+    }
+
+    /// The deepest overlap of every pair in contact now, metres (positive: overlapping).
+    pub fn overlaps(narrow_phase: &NarrowPhase) -> BTreeMap<PairKey, f64> {
+        let mut overlaps = BTreeMap::new();
+        for pair in narrow_phase.contact_pairs() {
+            let depth = deepest(pair.manifolds().iter().flat_map(|m| m.points.iter().map(|p| p.dist)));
+            if depth > 0.0 {
+                overlaps.insert(pair_key(pair.collider1, pair.collider2), depth);
+            }
+        }
+        overlaps
+    }
+
+    /// After a step: each allowance shrinks to its pair's current overlap; a pair that no
+    /// longer overlaps loses it.
+    pub fn shrink_allowances(&mut self, narrow_phase: &NarrowPhase) {
+        if self.at_handoff {
+            self.at_handoff = false;
+            if let Ok(found) = self.found.get_mut() {
+                self.allowance_m = std::mem::take(found);
+            }
+        }
+        let now = ContactRules::overlaps(narrow_phase);
+        self.allowance_m.retain(|key, allowance| match now.get(key) {
+            Some(depth) => {
+                *allowance = allowance.min(*depth);
+                true
+            }
+            None => false,
+        });
+    }
+}
+
+fn deepest(distances: impl Iterator<Item = f64>) -> f64 {
+    distances.fold(0.0, |deepest: f64, dist| deepest.max(-dist))
+}
+
+impl PhysicsHooks for ContactRules {
+    fn modify_solver_contacts(&self, context: &mut ContactModificationContext) {
+        let on_floor = self.floor.is_some_and(|floor| context.collider1 == floor || context.collider2 == floor);
+        let key = pair_key(context.collider1, context.collider2);
+        let Some(manifold) = context.rigid_mut() else { return };
+        let allowance = if self.at_handoff {
+            let depth = deepest(manifold.solver_contacts.iter().map(|c| c.dist));
+            if depth > 0.0
+                && let Ok(mut found) = self.found.lock()
+            {
+                let entry = found.entry(key).or_insert(0.0);
+                *entry = entry.max(depth);
+            }
+            (depth > 0.0).then_some(depth)
+        } else {
+            self.allowance_m.get(&key).copied()
+        };
+        if on_floor {
+            *manifold.friction = self.floor_friction;
+            *manifold.restitution = self.floor_restitution;
+        } else {
+            *manifold.friction = self.piece_friction;
+            *manifold.restitution = self.piece_restitution;
+        }
+        if let Some(allowance) = allowance {
+            for contact in manifold.solver_contacts.iter_mut() {
+                contact.dist = (contact.dist + allowance).min(contact.dist.max(0.0));
+            }
+        }
+    }
+}

@@ -1,0 +1,16 @@
+//! shatter rigid: the follow-through of a shot on rigid bodies (rapier3d, on parry3d). Once the
+//! fracture has quieted, every fragment becomes one rigid body with its elements' exact mass
+//! properties, the pose post fitted and the velocity that keeps the particles' momentum and
+//! angular momentum; the pieces then fly, collide, skid and come to rest at real speed.
+//!
+//! - [`mass`]: mass, centre and inertia of elements and pieces from their closed surfaces.
+//! - [`velocity_fit`]: the rigid velocity that conserves momentum and angular momentum.
+//! - [`shapes`]: collision shapes (hulls, or a decomposition made of the piece's elements).
+//! - [`contact_rules`]: friction, restitution and the handoff's overlap allowances (a hook).
+//! - [`world`]: the rapier world: pieces, floor, projectiles; stepping; snapshots.
+
+pub mod contact_rules;
+pub mod mass;
+pub mod shapes;
+pub mod velocity_fit;
+pub mod world;

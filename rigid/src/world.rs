@@ -1,0 +1,196 @@
+//! The rigid world of a follow-through: one dynamic body per piece, a fixed floor, projectiles
+//! and indenters as kinematic spheres, stepped by rapier with the [`ContactRules`] hook. The
+//! whole world serialises, so a resumed run continues bit for bit.
+
+use rapier3d_f64::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::contact_rules::ContactRules;
+use crate::mass::MassProps;
+
+/// The natural frequency of rapier's soft contact constraints, Hz.
+pub const CONTACT_FREQUENCY_HZ: f64 = 120.0;
+
+/// Settings of a rigid world.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WorldSettings {
+    /// Gravity, m/s^2.
+    pub gravity_m_s2: [f64; 3],
+    /// The length the solver's tolerances scale with (rapier's `length_unit`), metres.
+    pub length_unit_m: f64,
+    /// Solver velocity iterations per step.
+    pub solver_iterations: usize,
+    /// Friction coefficient piece-floor.
+    pub floor_friction: f64,
+    /// Restitution piece-floor.
+    pub floor_restitution: f64,
+    /// Friction coefficient piece-piece.
+    pub piece_friction: f64,
+    /// Restitution piece-piece.
+    pub piece_restitution: f64,
+    /// Speed below which a piece may fall asleep, m/s.
+    pub sleep_speed_m_s: f64,
+    /// How long it must stay below it, seconds.
+    pub sleep_after_s: f64,
+}
+
+/// A piece as it enters the rigid world.
+#[derive(Debug, Clone)]
+pub struct PieceBody {
+    /// Rest-frame mass properties.
+    pub mass: MassProps,
+    /// Rotation from the rest frame.
+    pub rotation: Rotation,
+    /// Translation: x = R X + t.
+    pub translation_m: Vector,
+    /// Velocity of the centre of mass, m/s.
+    pub linear_m_s: Vector,
+    /// Angular velocity, rad/s.
+    pub angular_rad_s: Vector,
+    /// Collision shape in the rest frame; None for a piece that collides with nothing.
+    pub shape: Option<SharedShape>,
+}
+
+/// A sphere on a straight path (a projectile or an indenter).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KinematicSphere {
+    /// Centre at the handoff, metres.
+    pub centre_m: [f64; 3],
+    /// Velocity, m/s.
+    pub velocity_m_s: [f64; 3],
+    /// Radius, metres.
+    pub radius_m: f64,
+}
+
+/// The rigid world.
+#[derive(Serialize, Deserialize)]
+pub struct RigidWorld {
+    world: PhysicsWorld,
+    rules: ContactRules,
+    pieces: Vec<RigidBodyHandle>,
+}
+
+impl RigidWorld {
+    /// A world of `pieces` above a floor at `floor_height_m` (if any), with `spheres`, at the
+    /// handoff. Overlaps between shapes at this moment become allowances in the first step
+    /// (see [`ContactRules`]).
+    pub fn new(
+        settings: &WorldSettings,
+        floor_height_m: Option<f64>,
+        spheres: &[KinematicSphere],
+        pieces: &[PieceBody],
+    ) -> RigidWorld {
+        let mut world = PhysicsWorld::new();
+        world.gravity = Vector::from_array(settings.gravity_m_s2);
+        world.integration_parameters.length_unit = settings.length_unit_m;
+        world.integration_parameters.num_solver_iterations = settings.solver_iterations;
+        // stiffer contacts than rapier's 30 Hz default: a pile of small pieces under gravity
+        // then sinks into itself by tenths of a millimetre, not millimetres
+        world.integration_parameters.contact_softness.natural_frequency = CONTACT_FREQUENCY_HZ;
+        let hooks = ActiveHooks::MODIFY_SOLVER_CONTACTS;
+        let floor = floor_height_m.map(|height| {
+            let body = world.insert_body(RigidBodyBuilder::fixed().translation(Vector::new(0.0, height, 0.0)));
+            let collider = ColliderBuilder::new(SharedShape::halfspace(Vector::Y)).active_hooks(hooks);
+            world.insert_collider(collider, Some(body))
+        });
+        for sphere in spheres {
+            let body = RigidBodyBuilder::kinematic_velocity_based()
+                .translation(Vector::from_array(sphere.centre_m))
+                .linvel(Vector::from_array(sphere.velocity_m_s));
+            let body = world.insert_body(body);
+            world.insert_collider(ColliderBuilder::ball(sphere.radius_m).active_hooks(hooks), Some(body));
+        }
+        let mut handles = Vec::with_capacity(pieces.len());
+        for piece in pieces {
+            let inertia = piece.mass.inertia();
+            let mass = MassProperties::with_inertia_matrix(piece.mass.centre_m, piece.mass.mass_kg, inertia);
+            let body = RigidBodyBuilder::dynamic()
+                .pose(Pose::from_parts(piece.translation_m, piece.rotation))
+                .additional_mass_properties(mass)
+                .linvel(piece.linear_m_s)
+                .angvel(piece.angular_rad_s)
+                .ccd_enabled(true)
+                .gyroscopic_forces_enabled(true)
+                .build();
+            let handle = world.insert_body(body);
+            let activation = world.bodies[handle].activation_mut();
+            activation.normalized_linear_threshold = settings.sleep_speed_m_s / settings.length_unit_m;
+            activation.time_until_sleep = settings.sleep_after_s;
+            if let Some(shape) = &piece.shape {
+                let collider = ColliderBuilder::new(shape.clone()).density(0.0).active_hooks(hooks);
+                world.insert_collider(collider, Some(handle));
+            }
+            handles.push(handle);
+        }
+        let coefficients =
+            [settings.floor_friction, settings.floor_restitution, settings.piece_friction, settings.piece_restitution];
+        let rules = ContactRules::new(floor, coefficients);
+        RigidWorld { world, rules, pieces: handles }
+    }
+
+    /// Advances `duration_s` in equal steps no longer than `max_step_s`; returns the steps taken.
+    pub fn advance(&mut self, duration_s: f64, max_step_s: f64) -> u64 {
+        let steps = (duration_s / max_step_s).ceil().max(1.0);
+        self.world.integration_parameters.dt = duration_s / steps;
+        for _ in 0..steps as u64 {
+            self.world.step_with_events(&self.rules, &());
+            self.rules.shrink_allowances(&self.world.narrow_phase);
+        }
+        steps as u64
+    }
+
+    /// Each piece's pose: rotation from the rest frame and translation (x = R X + t).
+    pub fn poses(&self) -> Vec<(Rotation, Vector)> {
+        self.pieces
+            .iter()
+            .map(|&handle| {
+                let body = &self.world.bodies[handle];
+                (*body.rotation(), body.translation())
+            })
+            .collect()
+    }
+
+    /// Each piece's velocity of its centre of mass and angular velocity.
+    pub fn velocities(&self) -> Vec<(Vector, Vector)> {
+        self.pieces.iter().map(|&h| (self.world.bodies[h].linvel(), self.world.bodies[h].angvel())).collect()
+    }
+
+    /// Each piece's centre of mass in the world, metres.
+    pub fn centres(&self) -> Vec<Vector> {
+        self.pieces.iter().map(|&h| self.world.bodies[h].center_of_mass()).collect()
+    }
+
+    /// Total kinetic energy of the pieces, J.
+    pub fn kinetic_energy_j(&self) -> f64 {
+        self.pieces.iter().map(|&h| self.world.bodies[h].kinetic_energy()).sum()
+    }
+
+    /// Whether every piece sleeps.
+    pub fn all_asleep(&self) -> bool {
+        self.pieces.iter().all(|&h| self.world.bodies[h].is_sleeping())
+    }
+
+    /// The overlap allowances still in force (see [`ContactRules`]).
+    pub fn allowances(&self) -> usize {
+        self.rules.allowance_m.len()
+    }
+
+    /// The deepest overlap between two pieces or a piece and the floor now, metres, beyond
+    /// the handoff's allowances.
+    pub fn deepest_penetration_m(&self) -> f64 {
+        ContactRules::overlaps(&self.world.narrow_phase)
+            .iter()
+            .map(|(key, depth)| depth - self.rules.allowance_m.get(key).copied().unwrap_or(0.0))
+            .fold(0.0, f64::max)
+    }
+
+    /// The world serialised (MessagePack: every f64, infinities too, round trips exactly).
+    pub fn snapshot(&self) -> Result<Vec<u8>, rmp_serde::encode::Error> {
+        rmp_serde::to_vec_named(self)
+    }
+
+    /// A world from [`RigidWorld::snapshot`].
+    pub fn restore(bytes: &[u8]) -> Result<RigidWorld, rmp_serde::decode::Error> {
+        rmp_serde::from_slice(bytes)
+    }
+}
