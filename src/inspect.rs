@@ -10,6 +10,7 @@ use shatter_core::fragments::FragmentFrame;
 use shatter_core::frames::{BreakLog, PointFrame};
 use shatter_core::particles::ParticleSet;
 use shatter_core::ply::PointCache;
+use shatter_core::rigid_checkpoint::RigidCheckpoint;
 use shatter_core::stage_file::{StageKind, read_header};
 use shatter_post::components::size_histogram;
 
@@ -46,6 +47,14 @@ pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
                        "time_s": frame.meta.time_s, "elements": frame.fragment_of.len(),
                        "fragments": frame.fragment_count(), "largest_fragment_elements": largest,
                        "size_histogram": size_histogram(&frame.elements), "smoothed": frame.meta.smoothed})
+            }
+            StageKind::RigidCheckpoint => {
+                let checkpoint = RigidCheckpoint::read(path)?;
+                let meta = checkpoint.meta;
+                json!({"kind": "rigid_checkpoint", "handoff_frame": meta.handoff_frame,
+                       "handoff_time_s": meta.handoff_time_s, "frame": meta.frame, "last_frame": meta.last_frame,
+                       "rigid_steps": meta.steps, "every_piece_asleep": meta.asleep,
+                       "world_bytes": checkpoint.world.len()})
             }
         }
     };

@@ -8,6 +8,7 @@ mod preprocess;
 mod progress_bars;
 mod progress_log;
 mod render;
+mod rigid;
 mod sim;
 mod stamps;
 
@@ -21,6 +22,7 @@ use shatter_core::{ConfigError, OutputLayout, PipelineConfig};
 use shatter_post::PostError;
 use shatter_preprocess::PreprocessError;
 use shatter_render::render_driver::RenderError;
+use shatter_rigid::RigidError;
 use shatter_sim::sim_driver::RunError;
 
 /// Exit code for bad input: a config, mesh or setting the user must fix (clap uses it for bad
@@ -62,6 +64,7 @@ enum Stage {
     Preprocess,
     Sim,
     Post,
+    Rigid,
     Render,
 }
 
@@ -78,6 +81,14 @@ enum Command {
     },
     /// Find fragments and their rigid motion per frame.
     Post(ConfigArg),
+    /// Hand the fragments over to rigid bodies once the cracks quiet and simulate the
+    /// follow-through (needs a [rigid] table).
+    Rigid {
+        #[command(flatten)]
+        config: ConfigArg,
+        #[command(flatten)]
+        options: rigid::RigidArgs,
+    },
     /// Ray trace the fragments to EXR frames.
     Render {
         #[command(flatten)]
@@ -122,6 +133,7 @@ impl<E: Into<anyhow::Error>> From<E> for Failure {
                 || cause.is::<PreprocessError>()
                 || cause.downcast_ref::<RunError>().is_some_and(RunError::is_bad_input)
                 || cause.downcast_ref::<PostError>().is_some_and(PostError::is_bad_input)
+                || cause.downcast_ref::<RigidError>().is_some_and(RigidError::is_bad_input)
                 || cause.downcast_ref::<RenderError>().is_some_and(RenderError::is_bad_input)
         }) {
             EXIT_BAD_INPUT
@@ -174,6 +186,10 @@ fn run(cli: Cli) -> Result<(), Failure> {
             let (config, _lock) = open_scene(&arg, Access::Exclusive)?;
             post::run(&config)
         }
+        Command::Rigid { config, options } => {
+            let (config, _lock) = open_scene(&config, Access::Exclusive)?;
+            rigid::run(&config, &options)
+        }
         Command::Render { config, options } => {
             let (config, _lock) = open_scene(&config, Access::Shared)?;
             check_memory(&config, Stage::Render, Stage::Render)?;
@@ -191,8 +207,8 @@ fn run(cli: Cli) -> Result<(), Failure> {
 /// Refuses, before anything is allocated, a stage from `first` to `last` whose estimated peak
 /// memory cannot fit (see [`shatter_core::memory`]).
 fn check_memory(config: &PipelineConfig, first: Stage, last: Stage) -> Result<(), Failure> {
-    let stages = [Stage::Preprocess, Stage::Sim, Stage::Post, Stage::Render];
-    let names = ["preprocess", "sim", "post", "render"];
+    let stages = [Stage::Preprocess, Stage::Sim, Stage::Post, Stage::Rigid, Stage::Render];
+    let names = ["preprocess", "sim", "post", "rigid", "render"];
     for (stage, need) in shatter_core::memory::config_needs(config) {
         let position = names.iter().position(|name| *name == stage).map(|i| stages[i]);
         if position.is_some_and(|s| (first..=last).contains(&s)) {

@@ -8,12 +8,14 @@ use std::time::Instant;
 
 use shatter_core::config::GeometrySource;
 use shatter_core::fragments::FragmentFrame;
+use shatter_core::shot::Shot;
 use shatter_core::{OutputLayout, PipelineConfig};
 use shatter_sim::sim_driver::RunError;
 
+use crate::rigid::RigidArgs;
 use crate::sim::SimArgs;
 use crate::stamps::{Hasher, Stamps};
-use crate::{Failure, Stage, post, preprocess, render, sim};
+use crate::{Failure, Stage, post, preprocess, render, rigid, sim};
 
 /// One line of the summary.
 struct Done {
@@ -94,12 +96,32 @@ pub fn run(config: &PipelineConfig, options: &SimArgs, until: Stage) -> Result<(
         stamps.record("post", &post_hash)?;
         done.push(Done { stage: "post", seconds: started.elapsed().as_secs_f64(), note: String::new() });
     }
-    if until < Stage::Render {
+    if until < Stage::Rigid {
         return summary(&done, config);
     }
 
+    // rigid (with [rigid] only): post's outputs, [rigid] and the frame rate
+    let mut shot_hash = post_hash.clone();
+    if config.rigid.is_some() {
+        let rigid_hash = Hasher::default().bytes(post_hash.as_bytes()).json(&config.rigid).finish();
+        let started = Instant::now();
+        if stamps.matches("rigid", &rigid_hash) && Shot::of(config, &layout).is_ok() {
+            done.push(Done { stage: "rigid", seconds: 0.0, note: "up to date".into() });
+        } else {
+            rigid::run(config, &RigidArgs { resume: layout.rigid_checkpoint().is_file() })?;
+            stamps.record("rigid", &rigid_hash)?;
+            done.push(Done { stage: "rigid", seconds: started.elapsed().as_secs_f64(), note: String::new() });
+        }
+        shot_hash = rigid_hash;
+    }
+    if until < Stage::Render {
+        return summary(&done, config);
+    }
+    let shot = Shot::of(config, &layout).map_err(|message| anyhow::anyhow!(message))?;
+    let frames = shot.last;
+
     // render, frame by frame: the fragments, [render] and the image files it reads
-    let mut hash = Hasher::default().bytes(post_hash.as_bytes()).json(&config.render).json(&backend);
+    let mut hash = Hasher::default().bytes(shot_hash.as_bytes()).json(&config.render).json(&backend);
     for path in config.render.environment.iter().chain(config.render.floor.as_ref().and_then(|f| f.texture.as_ref())) {
         hash = hash.file(path);
     }
@@ -138,8 +160,9 @@ fn summary(done: &[Done], config: &PipelineConfig) -> Result<(), Failure> {
         let time = if line.note == "up to date" { "skipped".to_string() } else { format!("{:.1} s", line.seconds) };
         println!("  {:<11} {time:>10}  {}", line.stage, line.note);
     }
-    let last = layout.fragments(config.sim.frames);
-    if let Ok(frame) = FragmentFrame::read(&last) {
+    let last = Shot::of(config, &layout).map(|shot| shot.fragments(&layout, shot.last));
+    if let Ok(frame) = last.map_err(|message| anyhow::anyhow!(message)).and_then(|path| Ok(FragmentFrame::read(&path)?))
+    {
         let largest = frame.elements.iter().copied().max().unwrap_or(0);
         println!("  fragments in the last frame: {} (largest {} elements)", frame.fragment_count(), largest);
     }

@@ -1,6 +1,7 @@
 //! `shatter render`: fragments to EXR frames.
 
-use shatter_core::PipelineConfig;
+use shatter_core::shot::Shot;
+use shatter_core::{OutputLayout, PipelineConfig};
 use shatter_render::render_driver::{AfterFrame, RenderError, parse_frames, run_render};
 
 use crate::Failure;
@@ -10,7 +11,8 @@ use crate::sim::BackendArg;
 /// Command-line choices of `shatter render`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct RenderArgs {
-    /// Frames to render, e.g. `1-240`, `12` or `1-10,20` (default: all of sim.frames).
+    /// Frames to render, e.g. `1-240`, `12` or `1-10,20` (default: all of the shot's: the
+    /// simulation's frames, and the follow-through's with [rigid]).
     #[arg(long, value_name = "LIST")]
     pub frames: Option<String>,
     /// Where to trace: a hardware GPU when found, else the CPU (auto); or force one. Default:
@@ -21,9 +23,10 @@ pub struct RenderArgs {
 
 /// Runs the render stage for the frames `args` asks for.
 pub fn run(config: &PipelineConfig, args: &RenderArgs) -> Result<(), Failure> {
+    let shot = Shot::of(config, &OutputLayout::of(config)).map_err(RenderError::Input)?;
     let frames = match &args.frames {
-        Some(text) => parse_frames(text, config.sim.frames).map_err(RenderError::Input)?,
-        None => (1..=config.sim.frames).collect(),
+        Some(text) => parse_frames(text, shot.last).map_err(RenderError::Input)?,
+        None => (1..=shot.last).collect(),
     };
     render_frames(config, &frames, args.backend, &mut |_| Ok(()))
 }

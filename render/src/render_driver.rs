@@ -13,6 +13,7 @@ use shatter_core::fragments::FragmentFrame;
 use shatter_core::layout::missing_input;
 use shatter_core::memory::{self, MemoryError, SetSize};
 use shatter_core::particles::ParticleSet;
+use shatter_core::shot::Shot;
 use shatter_core::stage_file::StageFileError;
 use shatter_core::{OutputLayout, PipelineConfig, Progress};
 use shatter_gpu::{AdapterChoice, GpuContext, GpuError};
@@ -141,7 +142,7 @@ pub fn parse_frames(text: &str, last: u32) -> Result<Vec<u32>, String> {
             None => (number(part)?, number(part)?),
         };
         if first == 0 || end < first || end > last {
-            return Err(format!("--frames {text:?}: {part} is not within frames 1-{last} (sim.frames = {last})"));
+            return Err(format!("--frames {text:?}: {part} is not within frames 1-{last} (the shot's frames)"));
         }
         frames.extend(first..=end);
     }
@@ -216,20 +217,24 @@ pub fn camera(render: &RenderConfig, particles: &ParticleSet) -> Camera {
     }
 }
 
-/// Frame `frame`'s fragments, checked against the particle file (`elements`) and the inputs
-/// they must have been made from; None for frame 1 when post has not written it (the rest state).
+/// Frame `frame`'s fragments (post's up to the shot's handoff, the follow-through's after),
+/// checked against the particle file (`elements`) and the inputs they must have been made from
+/// (`inputs`: post's, then the follow-through's); None for frame 1 when post has not written it
+/// (the rest state).
 fn read_fragments(
     layout: &OutputLayout,
+    shot: &Shot,
     frame: u32,
     elements: usize,
-    post_inputs: u32,
+    inputs: [u32; 2],
 ) -> Result<Option<FragmentFrame>, RenderError> {
-    let path = layout.fragments(frame);
+    let path = shot.fragments(layout, frame);
+    let stage = shot.stage_of(frame);
     if !path.is_file() {
         if frame == 1 {
             return Ok(None);
         }
-        return Err(RenderError::Input(format!("{}: missing; run `shatter post` first", path.display())));
+        return Err(RenderError::Input(format!("{}: missing; run `shatter {stage}` first", path.display())));
     }
     let fragments = FragmentFrame::read(&path)?;
     if fragments.fragment_of.len() != elements {
@@ -239,10 +244,16 @@ fn read_fragments(
             fragments.fragment_of.len(),
         )));
     }
-    if fragments.meta.inputs != Some(post_inputs) {
+    let expected = if stage == "rigid" { inputs[1] } else { inputs[0] };
+    if fragments.meta.inputs != Some(expected) {
+        let what = if stage == "rigid" {
+            "[rigid] settings or frame rate, or earlier stages"
+        } else {
+            "particle file, [sim], [material] or [post] settings"
+        };
+        let again = if stage == "rigid" { "`shatter rigid`" } else { "`shatter sim` and `shatter post`" };
         return Err(RenderError::Input(format!(
-            "{}: made from other inputs (particle file, [sim], [material] or [post] settings); run `shatter sim` \
-             and `shatter post` again",
+            "{}: made from other inputs ({what}); run {again} again",
             path.display()
         )));
     }
@@ -253,7 +264,7 @@ fn read_fragments(
     Ok(Some(fragments))
 }
 
-/// Renders the frames `frames` (all of `sim.frames` when None) of `config` on `backend` (the
+/// Renders the frames `frames` (all of the shot's when None) of `config` on `backend` (the
 /// config's `render.backend` when None), calling `after_frame` when each frame is written.
 pub fn run_render(
     config: &PipelineConfig,
@@ -264,11 +275,12 @@ pub fn run_render(
 ) -> Result<RenderReport, RenderError> {
     let started = Instant::now();
     let render_config = &config.render;
+    let layout = OutputLayout::of(config);
+    let shot = Shot::of(config, &layout).map_err(RenderError::Input)?;
     let frames: Vec<u32> = match frames {
         Some(frames) => frames.to_vec(),
-        None => (1..=config.sim.frames).collect(),
+        None => (1..=shot.last).collect(),
     };
-    let layout = OutputLayout::of(config);
     if let Some(message) = missing_input(&layout.particles(), "preprocess") {
         return Err(RenderError::Input(message));
     }
@@ -276,6 +288,7 @@ pub fn run_render(
     let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
     memory::check(&memory::render_need(&SetSize::of(&particles), render_config.resolution))?;
     let post_inputs = digest::post_inputs(digest::sim_inputs(particles_checksum, config), config);
+    let inputs = [post_inputs, digest::rigid_inputs(post_inputs, config)];
     let look = look(render_config)?;
     let camera = camera(render_config, &particles);
     let tracer = Tracer::new(backend.unwrap_or(render_config.backend))?;
@@ -287,16 +300,16 @@ pub fn run_render(
     // Each frame needs its neighbours' motions too; frames already read are kept while needed.
     let mut loaded: BTreeMap<u32, Option<FragmentFrame>> = BTreeMap::new();
     for &frame in &frames {
-        let neighbours = frame.saturating_sub(1).max(1)..=(frame + 1).min(config.sim.frames);
+        let neighbours = frame.saturating_sub(1).max(1)..=(frame + 1).min(shot.last);
         loaded.retain(|f, _| neighbours.contains(f));
         for f in neighbours {
             if let std::collections::btree_map::Entry::Vacant(slot) = loaded.entry(f) {
-                slot.insert(read_fragments(&layout, f, particles.len(), post_inputs)?);
+                slot.insert(read_fragments(&layout, &shot, f, particles.len(), inputs)?);
             }
         }
         let fragments = loaded[&frame].as_ref();
         let previous = (frame > 1).then(|| loaded[&(frame - 1)].as_ref());
-        let next = (frame < config.sim.frames).then(|| loaded[&(frame + 1)].as_ref());
+        let next = (frame < shot.last).then(|| loaded[&(frame + 1)].as_ref());
         let scene = SceneGeometry::build(&particles, fragments);
         let rendered = tracer.render(&scene, &look, &camera, samples)?;
         let motion = motion_vectors(&camera, &rendered.pixels, fragments, previous, next);

@@ -8,9 +8,15 @@
 //! - [`shapes`]: collision shapes (hulls, or a decomposition made of the piece's elements).
 //! - [`contact_rules`]: friction, restitution and the handoff's overlap allowances (a hook).
 //! - [`world`]: the rapier world: pieces, floor, projectiles; stepping; snapshots.
+//! - [`handoff`]: when the fracture has quieted.
+//! - [`follow_driver`]: the `shatter rigid` stage: handoff, frames, checkpoints, resume.
 
 pub mod contact_rules;
+pub mod follow_driver;
+pub mod handoff;
 pub mod mass;
 pub mod shapes;
 pub mod velocity_fit;
 pub mod world;
+
+pub use follow_driver::{RigidError, RigidReport, run_rigid};

@@ -88,23 +88,22 @@ pub fn fit(particles: &ParticleMotion, centre_m: Vector, inertia: Matrix) -> Rig
     }
 }
 
-/// Solves I w = L for a symmetric positive semi-definite I; directions in which I vanishes (a
-/// single point mass, a line of particles) get no rotation.
+/// Solves I w = L for a symmetric positive semi-definite I. Directions in which I (nearly)
+/// vanishes, relative to its largest eigenvalue (a single point mass, particles in a line), get
+/// no rotation: noise in them would otherwise spin the piece at any speed.
 fn solve(inertia: Matrix, angular_momentum: Vector) -> Vector {
-    let scale = inertia.x_axis.x.abs() + inertia.y_axis.y.abs() + inertia.z_axis.z.abs();
-    if scale <= 0.0 || !scale.is_finite() {
+    let eigen = rapier3d_f64::math::SymmetricEigen::new(inertia);
+    let largest = eigen.eigenvalues.max_element();
+    if !(largest.is_finite() && largest > 0.0) {
         return Vector::ZERO;
     }
-    let determinant = inertia.determinant();
-    if determinant.abs() > 1e-9 * scale * scale * scale {
+    if eigen.eigenvalues.min_element() > 1e-6 * largest {
         return inertia.inverse() * angular_momentum;
     }
-    // nearly singular: least squares in the eigenbasis, dropping the vanishing directions
-    let eigen = rapier3d_f64::math::SymmetricEigen::new(inertia);
     let mut omega = Vector::ZERO;
     for axis in 0..3 {
         let value = eigen.eigenvalues[axis];
-        if value > 1e-9 * scale {
+        if value > 1e-6 * largest {
             let direction = eigen.eigenvectors.col(axis);
             omega += direction * (direction.dot(angular_momentum) / value);
         }
@@ -146,6 +145,15 @@ mod tests {
         assert!(fitted.body_energy_j <= fitted.particle_energy_j * (1.0 + 1e-12));
         assert!(fitted.body_energy_j >= 0.95 * fitted.rigid_part_j);
         assert!(fitted.internal_energy_j() < 1e-12 * fitted.particle_energy_j);
+    }
+
+    #[test]
+    fn particles_nearly_in_a_line_do_not_spin_up_from_noise() {
+        let x = [0.0, 0.001, 0.002, 0.003].map(|d| Vector::new(0.01 + d, 0.06 + 1e-9 * d, 0.0));
+        let v = [Vector::new(0.3, -2.0, 1.0), Vector::new(-0.5, 0.4, 0.0), Vector::ZERO, Vector::Y];
+        let m = [2.2e-6; 4];
+        let fitted = fit(&ParticleMotion { mass_kg: &m, position_m: &x, velocity_m_s: &v }, x[1], Matrix::ZERO);
+        assert!(fitted.rigid_part_j <= fitted.particle_energy_j, "{fitted:?}");
     }
 
     #[test]

@@ -1,0 +1,369 @@
+//! The `shatter rigid` driver: picks the handoff frame, turns each fragment into a rigid body
+//! and simulates the follow-through frame by frame into `rigid/fragments.####.shp`, with a
+//! checkpoint of the rapier world every few frames so an interrupted run resumes bit for bit.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use rapier3d_f64::math::{Matrix, Rotation, Vector};
+use shatter_core::config::RigidConfig;
+use shatter_core::digest;
+use shatter_core::fragments::{FragmentFrame, FragmentMeta};
+use shatter_core::frames::{BreakLog, FrameFileError, PointFrame};
+use shatter_core::layout::missing_input;
+use shatter_core::memory::{self, MemoryError, SetSize};
+use shatter_core::particles::ParticleSet;
+use shatter_core::rigid_checkpoint::{RigidCheckpoint, RigidMeta};
+use shatter_core::stage_file::StageFileError;
+use shatter_core::{OutputLayout, PipelineConfig, Progress};
+
+use crate::handoff::{cracks_stopped, members_of_pieces, pieces_calm};
+use crate::mass::{element_mass_props, piece_mass_props};
+use crate::shapes::ElementGeometry;
+use crate::velocity_fit::{ParticleMotion, fit, momenta};
+use crate::world::{KinematicSphere, PieceBody, RigidWorld, WorldSettings};
+
+/// Why the follow-through failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RigidError {
+    /// An earlier stage's outputs are missing or stale, or `[rigid]` is not set (exit code 2).
+    #[error("{0}")]
+    Input(String),
+    /// The stage would not fit in memory (exit code 2).
+    #[error(transparent)]
+    Memory(#[from] MemoryError),
+    /// A stage file could not be read or written.
+    #[error(transparent)]
+    StageFile(#[from] StageFileError),
+    /// A point cache or the break log could not be read.
+    #[error(transparent)]
+    FrameFile(#[from] FrameFileError),
+    /// The rigid world could not be saved or restored.
+    #[error("{path}: {what}")]
+    Snapshot {
+        /// The checkpoint.
+        path: PathBuf,
+        /// What went wrong.
+        what: String,
+    },
+}
+
+impl RigidError {
+    /// True when the user must fix the config or run an earlier stage.
+    pub fn is_bad_input(&self) -> bool {
+        matches!(self, RigidError::Input(_) | RigidError::Memory(_))
+    }
+}
+
+/// What a follow-through run did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RigidReport {
+    /// The last frame of the fracture.
+    pub handoff_frame: u32,
+    /// Its simulated time, seconds.
+    pub handoff_time_s: f64,
+    /// Why the handoff happened there.
+    pub handoff_reason: String,
+    /// The shot's last frame.
+    pub last_frame: u32,
+    /// Rigid bodies (pieces).
+    pub pieces: usize,
+    /// Frames written by this run.
+    pub frames_written: u32,
+    /// The frame from which every piece slept, if it came.
+    pub asleep_from: Option<u32>,
+    /// Handoff bookkeeping (fresh runs only).
+    pub conservation: Option<Conservation>,
+    /// Wall time, seconds.
+    pub wall_s: f64,
+}
+
+/// Momentum, angular momentum and kinetic energy of the particles and of the rigid bodies at
+/// the handoff.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Conservation {
+    /// |P_bodies - P_particles| / |P_particles|.
+    pub momentum_error: f64,
+    /// |L_bodies - L_particles| / |L_particles| (about the origin).
+    pub angular_momentum_error: f64,
+    /// The particles' kinetic energy, J.
+    pub particle_energy_j: f64,
+    /// The kinetic energy of the particles' best rigid motion, piece by piece, J.
+    pub rigid_part_j: f64,
+    /// The rigid bodies' kinetic energy, J.
+    pub body_energy_j: f64,
+}
+
+/// Runs the follow-through of `config`; with `resume`, continues from its checkpoint when
+/// that belongs to the same inputs.
+pub fn run_rigid(config: &PipelineConfig, resume: bool, progress: &dyn Progress) -> Result<RigidReport, RigidError> {
+    let started = Instant::now();
+    let Some(rigid) = &config.rigid else {
+        return Err(RigidError::Input(format!(
+            "{}: no [rigid] table: the shot has no follow-through (see docs/CONFIG.md)",
+            config.path.display()
+        )));
+    };
+    let layout = OutputLayout::of(config);
+    if let Some(message) = missing_input(&layout.particles(), "preprocess") {
+        return Err(RigidError::Input(message));
+    }
+    memory::check(&memory::load_need(&layout.particles()))?;
+    let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
+    memory::check(&memory::post_need(&SetSize::of(&particles)))?;
+    let post_inputs = digest::post_inputs(digest::sim_inputs(particles_checksum, config), config);
+    let inputs = digest::rigid_inputs(post_inputs, config);
+    let fps = config.scene.frames_per_second;
+    let simulated = config.sim.frames;
+    let last_frame = simulated + rigid.follow_through_frames(fps);
+    let folder = layout.rigid_dir();
+    std::fs::create_dir_all(&folder)
+        .map_err(|error| RigidError::Input(format!("{}: cannot create: {error}", folder.display())))?;
+
+    let previous = resume.then(|| RigidCheckpoint::read(&layout.rigid_checkpoint()).ok()).flatten();
+    let (mut world, meta, handoff, conservation, reason) = match previous {
+        Some(checkpoint) if checkpoint.meta.inputs == inputs && checkpoint.meta.last_frame == last_frame => {
+            let world = RigidWorld::restore(&checkpoint.world).map_err(|error| RigidError::Snapshot {
+                path: layout.rigid_checkpoint(),
+                what: format!("cannot restore the rigid world: {error}"),
+            })?;
+            let handoff = read_fragments(&layout, checkpoint.meta.handoff_frame, &particles, post_inputs)?;
+            (world, checkpoint.meta, handoff, None, "resumed".to_string())
+        }
+        _ => {
+            let (frame, reason) = choose_handoff(config, rigid, &layout, &particles, post_inputs)?;
+            let handoff = read_fragments(&layout, frame, &particles, post_inputs)?;
+            let points = PointFrame::read(&layout.frame_points(frame))?;
+            let (world, conservation) = hand_over(config, rigid, &particles, &handoff, &points);
+            let meta = RigidMeta {
+                handoff_frame: frame,
+                handoff_time_s: handoff.meta.time_s,
+                last_frame,
+                frame,
+                steps: 0,
+                asleep: false,
+                inputs,
+            };
+            (world, meta, handoff, Some(conservation), reason)
+        }
+    };
+    let mut meta = meta;
+    let total = last_frame - meta.frame;
+    progress.start("rigid", u64::from(total));
+    let mut asleep_from = None;
+    let first = meta.frame + 1;
+    for frame in first..=last_frame {
+        if !meta.asleep {
+            meta.steps += world.advance(1.0 / fps, rigid.max_step_s);
+            meta.asleep = world.all_asleep();
+        }
+        if meta.asleep && asleep_from.is_none() {
+            asleep_from = Some(frame);
+        }
+        let time_s = meta.handoff_time_s + f64::from(frame - meta.handoff_frame) / fps;
+        rigid_frame(&handoff, &world, frame, time_s, inputs).write(&layout.rigid_fragments(frame))?;
+        meta.frame = frame;
+        if (frame - meta.handoff_frame).is_multiple_of(rigid.checkpoint_every_frames) || frame == last_frame {
+            write_checkpoint(&layout, &meta, &world)?;
+        }
+        progress.advance(1);
+        progress
+            .message(&format!("frame {frame}/{last_frame}{}", if meta.asleep { ", every piece asleep" } else { "" }));
+    }
+    if first > last_frame {
+        write_checkpoint(&layout, &meta, &world)?;
+    }
+    progress.finish();
+    Ok(RigidReport {
+        handoff_frame: meta.handoff_frame,
+        handoff_time_s: meta.handoff_time_s,
+        handoff_reason: reason,
+        last_frame,
+        pieces: handoff.fragment_count(),
+        frames_written: last_frame + 1 - first,
+        asleep_from,
+        conservation,
+        wall_s: started.elapsed().as_secs_f64(),
+    })
+}
+
+fn write_checkpoint(layout: &OutputLayout, meta: &RigidMeta, world: &RigidWorld) -> Result<(), RigidError> {
+    let path = layout.rigid_checkpoint();
+    let bytes = world.snapshot().map_err(|error| RigidError::Snapshot {
+        path: path.clone(),
+        what: format!("cannot serialise the rigid world: {error}"),
+    })?;
+    RigidCheckpoint { meta: meta.clone(), world: bytes }.write(&path)?;
+    Ok(())
+}
+
+/// Post's fragments of `frame`, checked against the particle file and post's inputs.
+fn read_fragments(
+    layout: &OutputLayout,
+    frame: u32,
+    particles: &ParticleSet,
+    post_inputs: u32,
+) -> Result<FragmentFrame, RigidError> {
+    let path = layout.fragments(frame);
+    if let Some(message) = missing_input(&path, "post") {
+        return Err(RigidError::Input(message));
+    }
+    let fragments = FragmentFrame::read(&path)?;
+    if fragments.meta.inputs != Some(post_inputs) || fragments.fragment_of.len() != particles.len() {
+        return Err(RigidError::Input(format!(
+            "{}: made from other inputs (particle file, [sim], [material] or [post] settings); run `shatter sim` and \
+             `shatter post` again",
+            path.display()
+        )));
+    }
+    Ok(fragments)
+}
+
+/// The handoff frame and why (see [`crate::handoff`]).
+fn choose_handoff(
+    config: &PipelineConfig,
+    rigid: &RigidConfig,
+    layout: &OutputLayout,
+    particles: &ParticleSet,
+    post_inputs: u32,
+) -> Result<(u32, String), RigidError> {
+    let simulated = config.sim.frames;
+    let blocks = BreakLog::read_through(&layout.break_log(), simulated)?;
+    let mut breaks = vec![0u64; simulated as usize];
+    for block in &blocks {
+        if let Some(count) = breaks.get_mut(block.frame as usize - 1) {
+            *count += block.events.len() as u64;
+        }
+    }
+    let mass: Vec<f64> = particles.volume_m3.iter().map(|v| f64::from(*v) * config.material.density_kg_m3).collect();
+    for frame in 2..=simulated {
+        let fragments = read_fragments(layout, frame, particles, post_inputs)?;
+        if fragments.meta.time_s >= rigid.max_fracture_duration_s {
+            return Ok((frame, format!("rigid.max_fracture_duration_s ({} s) reached", rigid.max_fracture_duration_s)));
+        }
+        if !cracks_stopped(&breaks, frame, rigid.handoff_quiet_frames) {
+            continue;
+        }
+        let points = PointFrame::read(&layout.frame_points(frame))?;
+        let (position, velocity) = vectors(&points);
+        if pieces_calm(rigid, &fragments.fragment_of, fragments.fragment_count(), &mass, &position, &velocity) {
+            return Ok((
+                frame,
+                format!(
+                    "no bond broke in {} frames and every piece moves rigidly (internal energy at most {} of rigid)",
+                    rigid.handoff_quiet_frames, rigid.handoff_internal_energy_ratio
+                ),
+            ));
+        }
+    }
+    Ok((simulated, "the last simulated frame (the cracks never quieted)".into()))
+}
+
+fn vectors(points: &PointFrame) -> (Vec<Vector>, Vec<Vector>) {
+    let vector = |c: &[Vec<f32>; 3], i: usize| Vector::new(f64::from(c[0][i]), f64::from(c[1][i]), f64::from(c[2][i]));
+    let n = points.damage.len();
+    ((0..n).map(|i| vector(&points.position, i)).collect(), (0..n).map(|i| vector(&points.velocity, i)).collect())
+}
+
+/// The rigid world at the handoff: one body per fragment, with the particles' momenta.
+fn hand_over(
+    config: &PipelineConfig,
+    rigid: &RigidConfig,
+    particles: &ParticleSet,
+    handoff: &FragmentFrame,
+    points: &PointFrame,
+) -> (RigidWorld, Conservation) {
+    let density = config.material.density_kg_m3;
+    let elements = element_mass_props(particles, density);
+    let pieces = handoff.fragment_count();
+    let rest = piece_mass_props(&elements, &handoff.fragment_of, pieces);
+    let geometry = ElementGeometry::of(particles);
+    let (position, velocity) = vectors(points);
+    let mass: Vec<f64> = elements.iter().map(|e| e.mass_kg).collect();
+    let members = members_of_pieces(&handoff.fragment_of, pieces);
+    let mut bodies = Vec::with_capacity(pieces);
+    let mut conservation = Conservation {
+        momentum_error: 0.0,
+        angular_momentum_error: 0.0,
+        particle_energy_j: 0.0,
+        rigid_part_j: 0.0,
+        body_energy_j: 0.0,
+    };
+    let (mut particle_p, mut particle_l, mut body_p, mut body_l) =
+        (Vector::ZERO, Vector::ZERO, Vector::ZERO, Vector::ZERO);
+    for (piece, members) in members.iter().enumerate() {
+        let q = handoff.rotation[piece].map(f64::from);
+        let rotation = Rotation::from_xyzw(q[0], q[1], q[2], q[3]).normalize();
+        let translation = Vector::from_array(handoff.translation_m[piece]);
+        let r = Matrix::from_quat(rotation);
+        let centre = rotation * rest[piece].centre_m + translation;
+        let inertia = r * rest[piece].inertia() * r.transpose();
+        let m: Vec<f64> = members.iter().map(|&i| mass[i as usize]).collect();
+        let x: Vec<Vector> = members.iter().map(|&i| position[i as usize]).collect();
+        let v: Vec<Vector> = members.iter().map(|&i| velocity[i as usize]).collect();
+        let motion = ParticleMotion { mass_kg: &m, position_m: &x, velocity_m_s: &v };
+        let fitted = fit(&motion, centre, inertia);
+        let (p, l) = momenta(&motion);
+        particle_p += p;
+        particle_l += l;
+        body_p += fitted.linear_m_s * rest[piece].mass_kg;
+        body_l += inertia * fitted.angular_rad_s + centre.cross(fitted.linear_m_s * rest[piece].mass_kg);
+        conservation.particle_energy_j += fitted.particle_energy_j;
+        conservation.rigid_part_j += fitted.rigid_part_j;
+        conservation.body_energy_j += fitted.body_energy_j;
+        bodies.push(PieceBody {
+            mass: rest[piece],
+            rotation,
+            translation_m: translation,
+            linear_m_s: fitted.linear_m_s,
+            angular_rad_s: fitted.angular_rad_s,
+            shape: geometry.piece_shape(members, rigid.hull_volume_factor).shared_shape(),
+        });
+    }
+    let relative = |a: Vector, b: Vector| if b.length() > 0.0 { (a - b).length() / b.length() } else { a.length() };
+    conservation.momentum_error = relative(body_p, particle_p);
+    conservation.angular_momentum_error = relative(body_l, particle_l);
+    let time = handoff.meta.time_s;
+    let spheres: Vec<KinematicSphere> = config
+        .sim
+        .projectile
+        .iter()
+        .map(|p| (p.center_m, p.velocity_m_s, p.radius_m))
+        .chain(config.sim.indenter.iter().map(|i| (i.center_m, i.velocity_m_s, i.radius_m)))
+        .map(|(centre, velocity, radius_m)| KinematicSphere {
+            centre_m: [0, 1, 2].map(|a| centre[a] + velocity[a] * time),
+            velocity_m_s: velocity,
+            radius_m,
+        })
+        .collect();
+    let settings = WorldSettings {
+        gravity_m_s2: config.sim.gravity_m_s2,
+        length_unit_m: LENGTH_UNIT_SPACINGS * particles.meta.lambda_m,
+        solver_iterations: rigid.solver_iterations as usize,
+        floor_friction: rigid.floor_friction,
+        floor_restitution: rigid.floor_restitution,
+        piece_friction: rigid.piece_friction,
+        piece_restitution: rigid.piece_restitution,
+        sleep_speed_m_s: rigid.sleep_speed_m_s,
+        sleep_after_s: rigid.sleep_after_s,
+    };
+    let floor = config.sim.floor.as_ref().map(|floor| floor.height_m);
+    (RigidWorld::new(&settings, floor, &spheres, &bodies), conservation)
+}
+
+/// Rapier's length unit (the scale of its tolerances) in particle spacings: about a small
+/// piece.
+pub const LENGTH_UNIT_SPACINGS: f64 = 10.0;
+
+/// The fragments file of a rigid frame: the handoff's fragments at the bodies' poses.
+fn rigid_frame(handoff: &FragmentFrame, world: &RigidWorld, frame: u32, time_s: f64, inputs: u32) -> FragmentFrame {
+    let poses = world.poses();
+    FragmentFrame {
+        meta: FragmentMeta { frame, step: handoff.meta.step, time_s, smoothed: false, inputs: Some(inputs) },
+        fragment_of: handoff.fragment_of.clone(),
+        rotation: poses.iter().map(|(r, _)| [r.x as f32, r.y as f32, r.z as f32, r.w as f32]).collect(),
+        translation_m: poses.iter().map(|(_, t)| t.to_array()).collect(),
+        elements: handoff.elements.clone(),
+        mass_kg: handoff.mass_kg.clone(),
+    }
+}

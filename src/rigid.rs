@@ -1,0 +1,40 @@
+//! `shatter rigid`: the follow-through on rigid bodies, after post.
+
+use shatter_core::PipelineConfig;
+
+use crate::Failure;
+use crate::progress_bars::for_stderr;
+
+/// Command-line choices of `shatter rigid`.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct RigidArgs {
+    /// Continue from the follow-through's checkpoint (when it belongs to the same inputs)
+    /// instead of starting at the handoff.
+    #[arg(long)]
+    pub resume: bool,
+}
+
+/// Runs the follow-through.
+pub fn run(config: &PipelineConfig, args: &RigidArgs) -> Result<(), Failure> {
+    let report = shatter_rigid::run_rigid(config, args.resume, &*for_stderr())?;
+    println!(
+        "rigid: handoff at frame {} ({:.4e} s): {}",
+        report.handoff_frame, report.handoff_time_s, report.handoff_reason
+    );
+    if let Some(c) = report.conservation {
+        println!(
+            "  {} pieces; momentum kept to {:.1e}, angular momentum to {:.1e}; kinetic energy {:.4e} J in the particles \
+             ({:.4e} J rigid), {:.4e} J in the bodies",
+            report.pieces,
+            c.momentum_error,
+            c.angular_momentum_error,
+            c.particle_energy_j,
+            c.rigid_part_j,
+            c.body_energy_j
+        );
+    }
+    let asleep = report.asleep_from.map_or(String::new(), |frame| format!("; every piece asleep from frame {frame}"));
+    println!("  frames {}-{} written{asleep}", report.last_frame + 1 - report.frames_written, report.last_frame);
+    println!("wrote {} in {:.1} s", shatter_core::OutputLayout::of(config).rigid_dir().display(), report.wall_s);
+    Ok(())
+}
