@@ -8,7 +8,7 @@ use std::process::Command;
 use serde_json::Value;
 
 /// The stage crates, in the order data flows through them.
-const STAGES: [&str; 4] = ["shatter-preprocess", "shatter-sim", "shatter-post", "shatter-render"];
+const STAGES: [&str; 5] = ["shatter-preprocess", "shatter-sim", "shatter-post", "shatter-rigid", "shatter-render"];
 /// What stages share: they may depend on these, and these on no stage.
 const SHARED: [&str; 3] = ["shatter-core", "shatter-geometry", "shatter-gpu"];
 

@@ -41,8 +41,10 @@ pub struct RigidConfig {
     /// the piece's; otherwise as a compound of the convex hulls of small clusters of its
     /// elements.
     pub hull_volume_factor: f64,
-    /// A piece that moves slower than this (m/s, and its rotation slower than the same speed at
-    /// its size) for `sleep_after_s` falls asleep; the run ends when every piece sleeps.
+    /// A piece whose farthest point moves slower than this (m/s) for `sleep_after_s` falls
+    /// asleep (friction stops a sliding piece from this speed in milliseconds; a lower value
+    /// lets small shards rock on their contacts for seconds); once every piece sleeps the
+    /// remaining frames repeat the last.
     pub sleep_speed_m_s: f64,
     /// How long a piece stays slow before it sleeps, seconds.
     pub sleep_after_s: f64,
@@ -65,7 +67,7 @@ impl Default for RigidConfig {
             piece_friction: 0.5,
             piece_restitution: 0.1,
             hull_volume_factor: 1.15,
-            sleep_speed_m_s: 0.005,
+            sleep_speed_m_s: 0.02,
             sleep_after_s: 0.5,
             checkpoint_every_frames: 24,
         }

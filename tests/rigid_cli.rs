@@ -1,0 +1,202 @@
+//! `shatter rigid`, the follow-through: a struck plate hands its pieces to rigid bodies with
+//! their momentum, they fall and come to rest on the floor; the same at any thread count and
+//! after kill -9 and `--resume`; a scene without `[rigid]` is told what is missing.
+
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use shatter_core::fragments::FragmentFrame;
+use shatter_core::particles::{Elements, ParticleSet};
+use shatter_core::rigid_checkpoint::RigidCheckpoint;
+use support::{shatter, stderr, tree_files};
+
+mod support;
+
+const SCENE: &str = r#"
+[scene]
+name = "struck"
+output_dir = "out"
+seed = 5
+[geometry]
+source = "box"
+box_size_m = [0.024, 0.024, 0.004]
+sampler = "grid"
+spacing_m = 0.001
+horizon_factor = 3.0
+[geometry.transform]
+translate_m = [0.0, 0.03, 0.0]
+[material]
+density_kg_m3 = 2200.0
+bulk_modulus_pa = 14.9e9
+[sim]
+frames = 16
+steps_per_frame = 40
+[sim.floor]
+height_m = 0.0
+[[sim.projectile]]
+center_m = [0.0, 0.03, 0.0067]
+velocity_m_s = [0.0, 0.0, -150.0]
+radius_m = 0.003
+stiffness_pa = 3e6
+[rigid]
+follow_through_s = 2.0
+checkpoint_every_frames = 4
+[render]
+backend = "cpu"
+resolution = [64, 48]
+samples_per_pixel = 2
+"#;
+
+fn scene(dir: &Path, text: &str) {
+    std::fs::write(dir.join("pipeline.toml"), text).expect("config");
+}
+
+/// A number printed after `label` on the rigid stage's summary.
+fn figure(stdout: &str, label: &str) -> f64 {
+    let at = stdout.find(label).unwrap_or_else(|| panic!("no {label:?} in {stdout}")) + label.len();
+    let text: String =
+        stdout[at..].trim_start().chars().take_while(|c| !c.is_whitespace() && !matches!(c, ',' | ';')).collect();
+    text.parse().unwrap_or_else(|_| panic!("{text:?} after {label:?} is not a number"))
+}
+
+/// The height at `frame` of a point `c` of the piece `piece`'s rest frame, metres.
+fn height(frame: &FragmentFrame, piece: u32, c: [f64; 3]) -> f64 {
+    let [x, y, z, w] = frame.rotation[piece as usize].map(f64::from);
+    // y of R c for the unit quaternion (x, y, z, w)
+    let ry = 2.0 * (x * y + w * z) * c[0] + (1.0 - 2.0 * (x * x + z * z)) * c[1] + 2.0 * (y * z - w * x) * c[2];
+    ry + frame.translation_m[piece as usize][1]
+}
+
+/// The lowest point of every element at `frame`, metres.
+fn lowest_point(particles: &ParticleSet, frame: &FragmentFrame) -> f64 {
+    let Elements::Cubes { half_size_m, .. } = &particles.elements else { panic!("a grid makes cubes") };
+    let mut lowest = f64::INFINITY;
+    for (element, &piece) in frame.fragment_of.iter().enumerate() {
+        let p = particles.rest_position_m[element].map(f64::from);
+        let h = f64::from(half_size_m[element]);
+        for corner in 0..8 {
+            let c = [0, 1, 2].map(|a| p[a] + if corner & (1 << a) != 0 { h } else { -h });
+            lowest = lowest.min(height(frame, piece, c));
+        }
+    }
+    lowest
+}
+
+/// The mean height of the particles at `frame`, metres.
+fn mean_height(particles: &ParticleSet, frame: &FragmentFrame) -> f64 {
+    let sum: f64 = frame
+        .fragment_of
+        .iter()
+        .enumerate()
+        .map(|(element, &piece)| height(frame, piece, particles.rest_position_m[element].map(f64::from)))
+        .sum();
+    sum / frame.fragment_of.len() as f64
+}
+
+#[test]
+fn a_struck_plate_hands_over_falls_and_comes_to_rest_the_same_at_any_thread_count() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    scene(dir.path(), SCENE);
+    let output = shatter(&["--threads", "2", "run", "--until", "rigid"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(figure(&stdout, "momentum kept to") <= 1e-6, "{stdout}");
+    assert!(figure(&stdout, "angular momentum to") <= 1e-6, "{stdout}");
+    let particles_energy = figure(&stdout, "kinetic energy");
+    let rigid_part = figure(&stdout, "J in the particles (");
+    let bodies = figure(&stdout, "J rigid), ");
+    assert!(bodies <= particles_energy * (1.0 + 1e-9), "rigid bodies gained energy: {stdout}");
+    assert!(bodies >= 0.95 * rigid_part, "rigid bodies lost too much of the rigid motion: {stdout}");
+
+    let out = dir.path().join("out");
+    let checkpoint = RigidCheckpoint::read(&out.join("rigid/rigid.checkpoint.shp")).expect("checkpoint");
+    assert_eq!(checkpoint.meta.last_frame, 16 + 48);
+    assert_eq!(checkpoint.meta.frame, checkpoint.meta.last_frame);
+    assert!(checkpoint.meta.asleep, "every piece sleeps at the end of the shot");
+    let particles = ParticleSet::read(&out.join("particles.shp")).expect("particles");
+    let handoff = checkpoint.meta.handoff_frame;
+    let start = FragmentFrame::read(&out.join(format!("fragments/fragments.{handoff:04}.shp"))).expect("handoff");
+    let end = FragmentFrame::read(&out.join("rigid/fragments.0064.shp")).expect("last frame");
+    assert_eq!(start.fragment_of, end.fragment_of, "the pieces are the handoff's");
+    assert!(lowest_point(&particles, &start) > 0.002, "the plate starts above the floor");
+    let lowest = lowest_point(&particles, &end);
+    assert!(lowest > -1e-3, "a piece ends {lowest} m below the floor");
+    assert!(mean_height(&particles, &start) > 0.025, "the plate starts at its height");
+    assert!(mean_height(&particles, &end) < 0.002, "the pieces fell and lie on the floor");
+    let before_end = FragmentFrame::read(&out.join("rigid/fragments.0063.shp")).expect("frame 63");
+    assert_eq!(before_end.translation_m, end.translation_m, "asleep pieces stay put");
+
+    // one thread: the very same files
+    let single = tempfile::tempdir().expect("tempdir");
+    scene(single.path(), SCENE);
+    let output = shatter(&["--threads", "1", "run", "--until", "rigid"], single.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    // (the simulation's checkpoint names its backend, thread count included)
+    let skip = ["stamps.json", "shatter.lock", "sim.checkpoint.shp"];
+    assert!(tree_files(&out, &skip) == tree_files(&single.path().join("out"), &skip), "1 and 2 threads differ");
+
+    // the shot renders through the handoff into the follow-through
+    let output = shatter(&["render", "--frames", "16-17,64"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(out.join("render/struck.0064.exr").is_file());
+}
+
+#[test]
+fn a_follow_through_killed_and_resumed_ends_identical() {
+    let reference = tempfile::tempdir().expect("tempdir");
+    scene(reference.path(), SCENE);
+    let output = shatter(&["run", "--until", "rigid"], reference.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let started = Instant::now();
+    let output = shatter(&["rigid"], reference.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let rigid_time = started.elapsed();
+    let expected = tree_files(&reference.path().join("out/rigid"), &[]);
+
+    let killed = tempfile::tempdir().expect("tempdir");
+    scene(killed.path(), SCENE);
+    let output = shatter(&["run", "--until", "post"], killed.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let mut kills = 0;
+    for attempt in 0..4 {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_shatter"))
+            .args(if attempt == 0 { vec!["rigid"] } else { vec!["rigid", "--resume"] })
+            .current_dir(killed.path())
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("spawn");
+        std::thread::sleep(rigid_time.mul_f64(0.2).max(Duration::from_millis(20)));
+        if child.try_wait().expect("wait").is_none() {
+            child.kill().expect("SIGKILL");
+            kills += 1;
+        }
+        child.wait().expect("reap");
+    }
+    assert!(kills >= 2, "most runs were killed mid-way ({kills} of 4)");
+    let output = shatter(&["rigid", "--resume"], killed.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let resumed = tree_files(&killed.path().join("out/rigid"), &[]);
+    assert_eq!(resumed.len(), expected.len());
+    for ((name, bytes), (expected_name, expected_bytes)) in resumed.iter().zip(&expected) {
+        assert_eq!(name, expected_name);
+        assert!(bytes == expected_bytes, "{name} differs after kill -9 and resume");
+    }
+}
+
+#[test]
+fn a_scene_without_rigid_is_told_so_and_renders_as_before() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let text = SCENE.split("[rigid]").next().expect("head").to_string()
+        + "[render]\nbackend = \"cpu\"\nresolution = [64, 48]\nsamples_per_pixel = 2\n";
+    scene(dir.path(), &text);
+    let output = shatter(&["rigid"], dir.path());
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    assert!(stderr(&output).contains("pipeline.toml: no [rigid] table"), "{}", stderr(&output));
+    let output = shatter(&["run"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(dir.path().join("out/render/struck.0016.exr").is_file());
+    assert!(!dir.path().join("out/render/struck.0017.exr").exists(), "no follow-through frames");
+    assert!(!dir.path().join("out/rigid").exists());
+}
