@@ -8,6 +8,7 @@ use serde_json::json;
 use shatter_core::checkpoint;
 use shatter_core::fragments::FragmentFrame;
 use shatter_core::frames::{BreakLog, PointFrame};
+use shatter_core::lead_in::LeadIn;
 use shatter_core::particles::ParticleSet;
 use shatter_core::ply::PointCache;
 use shatter_core::rigid_checkpoint::RigidCheckpoint;
@@ -48,6 +49,7 @@ pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
                        "fragments": frame.fragment_count(), "largest_fragment_elements": largest,
                        "size_histogram": size_histogram(&frame.elements), "smoothed": frame.meta.smoothed})
             }
+            StageKind::LeadIn => serde_json::to_value(LeadIn::read(path)?)?,
             StageKind::RigidCheckpoint => {
                 let checkpoint = RigidCheckpoint::read(path)?;
                 let meta = checkpoint.meta;

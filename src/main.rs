@@ -2,6 +2,7 @@
 //! bars and stage dispatch; the work happens in the library crates.
 
 mod inspect;
+mod lead_in;
 mod pipeline;
 mod post;
 mod preprocess;
@@ -62,6 +63,7 @@ struct ConfigArg {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, clap::ValueEnum)]
 enum Stage {
     Preprocess,
+    LeadIn,
     Sim,
     Post,
     Rigid,
@@ -72,6 +74,8 @@ enum Stage {
 enum Command {
     /// Sample the scene's geometry into particles, bonds and elements (writes particles.shp).
     Preprocess(ConfigArg),
+    /// Fly the intact body as one rigid body to its first contact (needs a [lead_in] table).
+    LeadIn(ConfigArg),
     /// Simulate fracture (writes frames, the bond-break log and checkpoints).
     Sim {
         #[command(flatten)]
@@ -177,6 +181,10 @@ fn run(cli: Cli) -> Result<(), Failure> {
             check_memory(&config, Stage::Preprocess, Stage::Preprocess)?;
             preprocess::run(&config)
         }
+        Command::LeadIn(arg) => {
+            let (config, _lock) = open_scene(&arg, Access::Exclusive)?;
+            lead_in::run(&config)
+        }
         Command::Sim { config, options } => {
             let (config, _lock) = open_scene(&config, Access::Exclusive)?;
             check_memory(&config, Stage::Sim, Stage::Sim)?;
@@ -207,8 +215,8 @@ fn run(cli: Cli) -> Result<(), Failure> {
 /// Refuses, before anything is allocated, a stage from `first` to `last` whose estimated peak
 /// memory cannot fit (see [`shatter_core::memory`]).
 fn check_memory(config: &PipelineConfig, first: Stage, last: Stage) -> Result<(), Failure> {
-    let stages = [Stage::Preprocess, Stage::Sim, Stage::Post, Stage::Rigid, Stage::Render];
-    let names = ["preprocess", "sim", "post", "rigid", "render"];
+    let stages = [Stage::Preprocess, Stage::LeadIn, Stage::Sim, Stage::Post, Stage::Rigid, Stage::Render];
+    let names = ["preprocess", "lead-in", "sim", "post", "rigid", "render"];
     for (stage, need) in shatter_core::memory::config_needs(config) {
         let position = names.iter().position(|name| *name == stage).map(|i| stages[i]);
         if position.is_some_and(|s| (first..=last).contains(&s)) {

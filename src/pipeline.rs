@@ -15,7 +15,7 @@ use shatter_sim::sim_driver::RunError;
 use crate::rigid::RigidArgs;
 use crate::sim::SimArgs;
 use crate::stamps::{Hasher, Stamps};
-use crate::{Failure, Stage, post, preprocess, render, rigid, sim};
+use crate::{Failure, Stage, lead_in, post, preprocess, render, rigid, sim};
 
 /// One line of the summary.
 struct Done {
@@ -53,18 +53,38 @@ pub fn run(config: &PipelineConfig, options: &SimArgs, until: Stage) -> Result<(
         stamps.record("preprocess", &preprocess_hash)?;
         done.push(Done { stage: "preprocess", seconds: started.elapsed().as_secs_f64(), note: "particles.shp".into() });
     }
+    if until < Stage::LeadIn {
+        return summary(&done, config);
+    }
+
+    // lead-in (with [lead_in] only): the particles, [lead_in], what it flies into ([sim]) and
+    // the frame rate
+    let mut upstream = preprocess_hash.clone();
+    if config.lead_in.is_some() {
+        let lead_in_hash = Hasher::default()
+            .bytes(preprocess_hash.as_bytes())
+            .json(&config.lead_in)
+            .json(&config.sim)
+            .json(&config.scene.frames_per_second)
+            .finish();
+        let started = Instant::now();
+        if stamps.matches("lead-in", &lead_in_hash) && layout.lead_in().is_file() {
+            done.push(Done { stage: "lead-in", seconds: 0.0, note: "up to date".into() });
+        } else {
+            lead_in::run(config)?;
+            stamps.record("lead-in", &lead_in_hash)?;
+            done.push(Done { stage: "lead-in", seconds: started.elapsed().as_secs_f64(), note: String::new() });
+        }
+        upstream = lead_in_hash;
+    }
     if until < Stage::Sim {
         return summary(&done, config);
     }
 
     // sim: the particles and the simulation settings (the backend too: GPU and CPU round apart)
     let backend = options.backend.map(crate::sim::BackendArg::backend).unwrap_or(config.sim.backend);
-    let sim_hash = Hasher::default()
-        .bytes(preprocess_hash.as_bytes())
-        .json(&config.sim)
-        .json(&config.material)
-        .json(&backend)
-        .finish();
+    let sim_hash =
+        Hasher::default().bytes(upstream.as_bytes()).json(&config.sim).json(&config.material).json(&backend).finish();
     let started = Instant::now();
     if stamps.matches("sim", &sim_hash) && layout.frame_points(frames).is_file() {
         done.push(Done { stage: "sim", seconds: 0.0, note: "up to date".into() });

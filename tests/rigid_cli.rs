@@ -148,18 +148,16 @@ fn a_follow_through_killed_and_resumed_ends_identical() {
     scene(reference.path(), SCENE);
     let output = shatter(&["run", "--until", "rigid"], reference.path());
     assert!(output.status.success(), "{}", stderr(&output));
-    let started = Instant::now();
-    let output = shatter(&["rigid"], reference.path());
-    assert!(output.status.success(), "{}", stderr(&output));
-    let rigid_time = started.elapsed();
     let expected = tree_files(&reference.path().join("out/rigid"), &[]);
 
     let killed = tempfile::tempdir().expect("tempdir");
     scene(killed.path(), SCENE);
     let output = shatter(&["run", "--until", "post"], killed.path());
     assert!(output.status.success(), "{}", stderr(&output));
+    let checkpoint = killed.path().join("out/rigid/rigid.checkpoint.shp");
+    let reached = || RigidCheckpoint::read(&checkpoint).map_or(0, |c| c.meta.frame);
     let mut kills = 0;
-    for attempt in 0..4 {
+    for attempt in 0..3 {
         let mut child = Command::new(env!("CARGO_BIN_EXE_shatter"))
             .args(if attempt == 0 { vec!["rigid"] } else { vec!["rigid", "--resume"] })
             .current_dir(killed.path())
@@ -167,14 +165,24 @@ fn a_follow_through_killed_and_resumed_ends_identical() {
             .stderr(Stdio::null())
             .spawn()
             .expect("spawn");
-        std::thread::sleep(rigid_time.mul_f64(0.2).max(Duration::from_millis(20)));
+        // kill a little after the run has saved a checkpoint past the last one: mid-way
+        // between checkpoints, with frames written that the resumed run writes again
+        let before = reached();
+        let started = Instant::now();
+        while reached() <= before
+            && child.try_wait().expect("wait").is_none()
+            && started.elapsed() < Duration::from_secs(60)
+        {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        std::thread::sleep(Duration::from_millis(40 * (attempt + 1)));
         if child.try_wait().expect("wait").is_none() {
             child.kill().expect("SIGKILL");
             kills += 1;
         }
         child.wait().expect("reap");
     }
-    assert!(kills >= 2, "most runs were killed mid-way ({kills} of 4)");
+    assert!(kills >= 2, "most runs were killed mid-way ({kills} of 3)");
     let output = shatter(&["rigid", "--resume"], killed.path());
     assert!(output.status.success(), "{}", stderr(&output));
     let resumed = tree_files(&killed.path().join("out/rigid"), &[]);
@@ -199,4 +207,94 @@ fn a_scene_without_rigid_is_told_so_and_renders_as_before() {
     assert!(dir.path().join("out/render/struck.0016.exr").is_file());
     assert!(!dir.path().join("out/render/struck.0017.exr").exists(), "no follow-through frames");
     assert!(!dir.path().join("out/rigid").exists());
+}
+
+const DROP: &str = r#"
+[scene]
+name = "drop"
+output_dir = "out"
+seed = 3
+[geometry]
+source = "box"
+box_size_m = [0.012, 0.012, 0.012]
+sampler = "grid"
+spacing_m = 0.001
+horizon_factor = 3.0
+[geometry.transform]
+translate_m = [0.0, 0.0065, 0.0]
+[material]
+density_kg_m3 = 2200.0
+bulk_modulus_pa = 14.9e9
+[lead_in]
+translate_m = [0.0, 0.05, 0.0]
+velocity_m_s = [0.1, 0.0, 0.0]
+rotate_axis = [1.0, 0.0, 1.0]
+rotate_deg = 30.0
+[sim]
+frames = 6
+steps_per_frame = 100
+[sim.floor]
+height_m = 0.0
+[rigid]
+follow_through_s = 0.25
+[render]
+backend = "cpu"
+resolution = [32, 24]
+samples_per_pixel = 1
+"#;
+
+#[test]
+fn a_dropped_block_flies_the_parabola_and_the_simulation_takes_over_from_there() {
+    use shatter_core::frames::PointFrame;
+    use shatter_core::lead_in::LeadIn;
+
+    let dir = tempfile::tempdir().expect("tempdir");
+    scene(dir.path(), DROP);
+    let output = shatter(&["run"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let out = dir.path().join("out");
+    let lead_in = LeadIn::read(&out.join("rigid/lead_in.shp")).expect("lead-in");
+    let g = -9.81;
+    let t_c = lead_in.handoff_time_s;
+    // the block's lowest corner starts 50.5 mm up and the simulation starts a horizon (3 mm)
+    // above the floor: about 0.1 s of flight, on the parabola
+    assert!((0.08..0.11).contains(&t_c), "handoff at {t_c} s");
+    let start = [0.0, 0.0565, 0.0];
+    let expected = [start[0] + 0.1 * t_c, start[1] + 0.5 * g * t_c * t_c, start[2]];
+    let drop = start[1] - expected[1];
+    for a in 0..3 {
+        assert!(
+            (lead_in.centre_m[a] - expected[a]).abs() <= 1e-6 * drop,
+            "centre {:?} vs {expected:?}",
+            lead_in.centre_m
+        );
+    }
+    let v = lead_in.velocity_m_s;
+    assert!((v[0] - 0.1).abs() < 1e-9 && (v[1] - g * t_c).abs() < 1e-9 && v[2].abs() < 1e-9, "velocity {v:?}");
+    // every lead-in frame on the same parabola, one frame of the shot's rate apart
+    for frame in 1..=lead_in.frames {
+        let fragments = FragmentFrame::read(&out.join(format!("rigid/lead_in.{frame:04}.shp"))).expect("frame");
+        let time = f64::from(frame - 1) / 24.0;
+        assert_eq!(fragments.meta.time_s, time);
+        let y = fragments.translation_m[0][1] - lead_in.translation_m[1];
+        let analytic = 0.5 * g * (time * time - t_c * t_c);
+        assert!((y - analytic).abs() <= 1e-6 * drop, "frame {frame}: {y} vs {analytic}");
+    }
+    // the simulation's first frame is the body at the handoff, every particle moving with it
+    let particles = ParticleSet::read(&out.join("particles.shp")).expect("particles");
+    let first = PointFrame::read(&out.join("frames/points.0001.ply")).expect("frame 1");
+    let [x, y, z, w] = lead_in.rotation;
+    for (i, rest) in particles.rest_position_m.iter().enumerate().step_by(97) {
+        let p = rest.map(f64::from);
+        let ry = 2.0 * (x * y + w * z) * p[0] + (1.0 - 2.0 * (x * x + z * z)) * p[1] + 2.0 * (y * z - w * x) * p[2];
+        let now = f64::from(first.position[1][i]);
+        assert!((now - (ry + lead_in.translation_m[1])).abs() < 1e-6, "particle {i} at {now}");
+        assert!((f64::from(first.velocity[1][i]) - v[1]).abs() < 1e-5);
+    }
+    // the shot: lead-in, simulation, follow-through, rendered in one numbering
+    let last = lead_in.frames + 6 + 6;
+    assert!(out.join(format!("render/drop.{last:04}.exr")).is_file(), "the shot's last frame is rendered");
+    assert!(!out.join(format!("render/drop.{:04}.exr", last + 1)).exists());
+    let inspect = shatter(&["inspect", "out/rigid/lead_in.shp"], dir.path());
+    assert!(String::from_utf8_lossy(&inspect.stdout).contains("handoff_time_s"));
 }

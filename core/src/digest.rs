@@ -8,7 +8,11 @@ use crate::PipelineConfig;
 /// A hash of everything that shapes a simulation besides the particle file: the `[sim]` and
 /// `[material]` settings.
 pub fn sim_settings(config: &PipelineConfig) -> u32 {
-    let settings = serde_json::json!({ "sim": config.sim, "material": config.material });
+    let mut settings = serde_json::json!({ "sim": config.sim, "material": config.material });
+    // the lead-in sets where the simulation starts (absent, the digest is what it always was)
+    if let Some(lead_in) = &config.lead_in {
+        settings["lead_in"] = serde_json::json!({ "lead_in": lead_in, "fps": config.scene.frames_per_second });
+    }
     crc32fast::hash(settings.to_string().as_bytes())
 }
 

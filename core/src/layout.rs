@@ -12,6 +12,8 @@
 //!   fragments/fragments.####.shp   post: fragment ids and rigid motions
 //!   fragments/points.####.ply  post: positions with fragment ids
 //!   fragments/fragments.usda   post: the USD shot
+//!   rigid/lead_in.shp          lead-in: the handoff to the simulation
+//!   rigid/lead_in.####.shp     lead-in: its frames (one fragment: the intact body)
 //!   rigid/fragments.####.shp   rigid: the follow-through's frames (after the handoff)
 //!   rigid/rigid.checkpoint.shp rigid: the rapier world (resume) and the shot's frame range
 //!   render/<scene>.####.exr    render (and .png previews)
@@ -113,6 +115,16 @@ impl OutputLayout {
         self.root.join("rigid")
     }
 
+    /// The lead-in's handoff file.
+    pub fn lead_in(&self) -> PathBuf {
+        self.rigid_dir().join("lead_in.shp")
+    }
+
+    /// The fragments file of the lead-in's `frame`.
+    pub fn lead_in_fragments(&self, frame: u32) -> PathBuf {
+        self.rigid_dir().join(format!("lead_in.{frame:04}.shp"))
+    }
+
     /// The fragments file of the follow-through's `frame`.
     pub fn rigid_fragments(&self, frame: u32) -> PathBuf {
         self.rigid_dir().join(format!("fragments.{frame:04}.shp"))
@@ -169,6 +181,8 @@ mod tests {
         assert_eq!(layout.fragments(12), Path::new("out/plate/fragments/fragments.0012.shp"));
         assert_eq!(layout.fragment_points(3), Path::new("out/plate/fragments/points.0003.ply"));
         assert_eq!(layout.usd(), Path::new("out/plate/fragments/fragments.usda"));
+        assert_eq!(layout.lead_in(), Path::new("out/plate/rigid/lead_in.shp"));
+        assert_eq!(layout.lead_in_fragments(2), Path::new("out/plate/rigid/lead_in.0002.shp"));
         assert_eq!(layout.rigid_fragments(60), Path::new("out/plate/rigid/fragments.0060.shp"));
         assert_eq!(layout.rigid_checkpoint(), Path::new("out/plate/rigid/rigid.checkpoint.shp"));
         assert_eq!(layout.render_frame(240, "exr"), Path::new("out/plate/render/plate.0240.exr"));

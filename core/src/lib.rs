@@ -11,6 +11,7 @@
 //! - [`fragments`]: the per-frame fragments file written by `shatter post`.
 //! - [`particles`]: the particle file written by `shatter preprocess` (rest state, element
 //!   geometry, bonds, element adjacency).
+//! - [`lead_in`]: where the lead-in hands the body over to the simulation.
 //! - [`rigid_checkpoint`]: the follow-through's rapier world (resume) and frame range;
 //!   [`shot`]: which file holds each frame of a shot.
 //! - [`ply`]: checksummed binary PLY point caches, the public per-frame format.
@@ -25,6 +26,7 @@ pub mod digest;
 pub mod fragments;
 pub mod frames;
 pub mod layout;
+pub mod lead_in;
 pub mod memory;
 pub mod output_lock;
 pub mod particles;

@@ -1,16 +1,44 @@
-//! The frames of a shot and which stage's file holds each: the simulation's frames
-//! (`fragments/`, written by post) up to the handoff, the follow-through's (`rigid/`) after it.
-//! Without `[rigid]`, the shot is the simulation's frames.
+//! The frames of a shot and which stage's file holds each: the lead-in's (`rigid/lead_in.*`,
+//! with `[lead_in]`), then the simulation's (post's `fragments/`) up to the handoff, then the
+//! follow-through's (`rigid/`, with `[rigid]`). The simulation and post number their frames from
+//! 1 at the simulation's start; the shot numbers from its own start, so a shot frame is the
+//! simulation's frame plus the lead-in's frame count.
 
 use std::path::PathBuf;
 
+use crate::lead_in::LeadIn;
 use crate::rigid_checkpoint::RigidCheckpoint;
 use crate::{OutputLayout, PipelineConfig};
+
+/// The stage whose file holds a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Source {
+    /// The lead-in (`shatter lead-in`).
+    LeadIn,
+    /// The simulation, through post (`shatter post`).
+    Post,
+    /// The follow-through (`shatter rigid`).
+    Rigid,
+}
+
+impl Source {
+    /// The command that writes it.
+    pub fn command(self) -> &'static str {
+        match self {
+            Source::LeadIn => "lead-in",
+            Source::Post => "post",
+            Source::Rigid => "rigid",
+        }
+    }
+}
 
 /// A shot's frame range.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Shot {
-    /// The last frame from the fracture (post's fragments files): `sim.frames` without `[rigid]`.
+    /// Frames of the lead-in, before the simulation's frame 1.
+    pub lead_in: u32,
+    /// The last frame from the simulation, in its own numbering: `sim.frames` without
+    /// `[rigid]`.
     pub handoff: u32,
     /// The shot's last frame.
     pub last: u32,
@@ -19,11 +47,22 @@ pub struct Shot {
 }
 
 impl Shot {
-    /// The shot of `config`: with `[rigid]`, as the finished follow-through recorded it. An
-    /// error names what to run when the follow-through is missing or unfinished.
+    /// The shot of `config`, as its lead-in and finished follow-through recorded it. An error
+    /// names what to run when one is missing or unfinished.
     pub fn of(config: &PipelineConfig, layout: &OutputLayout) -> Result<Shot, String> {
+        let lead_in = match config.lead_in {
+            None => 0,
+            Some(_) => {
+                let path = layout.lead_in();
+                if !path.is_file() {
+                    return Err(format!("{}: missing ([lead_in] is set); run `shatter lead-in` first", path.display()));
+                }
+                LeadIn::read(&path).map_err(|error| error.to_string())?.frames
+            }
+        };
         if config.rigid.is_none() {
-            return Ok(Shot { handoff: config.sim.frames, last: config.sim.frames, rigid: false });
+            let frames = config.sim.frames;
+            return Ok(Shot { lead_in, handoff: frames, last: lead_in + frames, rigid: false });
         }
         let path = layout.rigid_checkpoint();
         if !path.is_file() {
@@ -39,16 +78,43 @@ impl Shot {
                 meta.last_frame
             ));
         }
-        Ok(Shot { handoff: meta.handoff_frame, last: meta.last_frame, rigid: true })
+        Ok(Shot { lead_in, handoff: meta.handoff_frame, last: lead_in + meta.last_frame, rigid: true })
     }
 
-    /// The fragments file of `frame`.
+    /// Which stage holds shot frame `frame`, and its number there.
+    pub fn locate(&self, frame: u32) -> (Source, u32) {
+        if frame <= self.lead_in {
+            return (Source::LeadIn, frame);
+        }
+        let local = frame - self.lead_in;
+        if self.rigid && local > self.handoff { (Source::Rigid, local) } else { (Source::Post, local) }
+    }
+
+    /// The fragments file of shot frame `frame`.
     pub fn fragments(&self, layout: &OutputLayout, frame: u32) -> PathBuf {
-        if self.rigid && frame > self.handoff { layout.rigid_fragments(frame) } else { layout.fragments(frame) }
+        match self.locate(frame) {
+            (Source::LeadIn, local) => layout.lead_in_fragments(local),
+            (Source::Post, local) => layout.fragments(local),
+            (Source::Rigid, local) => layout.rigid_fragments(local),
+        }
     }
+}
 
-    /// The stage that writes `frame`'s fragments file (for messages).
-    pub fn stage_of(&self, frame: u32) -> &'static str {
-        if self.rigid && frame > self.handoff { "rigid" } else { "post" }
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shot_frames_map_to_each_stage_in_turn() {
+        let shot = Shot { lead_in: 10, handoff: 20, last: 10 + 68, rigid: true };
+        assert_eq!(shot.locate(1), (Source::LeadIn, 1));
+        assert_eq!(shot.locate(10), (Source::LeadIn, 10));
+        assert_eq!(shot.locate(11), (Source::Post, 1));
+        assert_eq!(shot.locate(30), (Source::Post, 20));
+        assert_eq!(shot.locate(31), (Source::Rigid, 21));
+        let layout = OutputLayout::new("out", "s");
+        assert_eq!(shot.fragments(&layout, 31), layout.rigid_fragments(21));
+        let plain = Shot { lead_in: 0, handoff: 48, last: 48, rigid: false };
+        assert_eq!(plain.locate(48), (Source::Post, 48));
     }
 }

@@ -45,6 +45,9 @@ pub enum StageKind {
     Checkpoint,
     /// `fragments/fragments.####.shp`: one frame's fragments, written by `shatter post`.
     Fragments,
+    /// `rigid/lead_in.shp`: where the lead-in hands over to the simulation, written by
+    /// `shatter lead-in`.
+    LeadIn,
     /// `rigid/rigid.checkpoint.shp`: the follow-through's rigid-body world, written by
     /// `shatter rigid` for resume, and the shot's frame range.
     RigidCheckpoint,
@@ -52,8 +55,13 @@ pub enum StageKind {
 
 impl StageKind {
     /// Every kind this build knows.
-    pub const ALL: [StageKind; 4] =
-        [StageKind::Particles, StageKind::Checkpoint, StageKind::Fragments, StageKind::RigidCheckpoint];
+    pub const ALL: [StageKind; 5] = [
+        StageKind::Particles,
+        StageKind::Checkpoint,
+        StageKind::Fragments,
+        StageKind::LeadIn,
+        StageKind::RigidCheckpoint,
+    ];
 
     /// The four-byte tag in the header.
     pub fn tag(self) -> [u8; 4] {
@@ -61,6 +69,7 @@ impl StageKind {
             StageKind::Particles => *b"PART",
             StageKind::Checkpoint => *b"CHKP",
             StageKind::Fragments => *b"FRAG",
+            StageKind::LeadIn => *b"LEAD",
             StageKind::RigidCheckpoint => *b"RIGD",
         }
     }
@@ -70,7 +79,7 @@ impl StageKind {
         match self {
             // particles 2: trimtopes carry the parts of their faces inside the mesh
             StageKind::Particles => 2,
-            StageKind::Checkpoint | StageKind::Fragments | StageKind::RigidCheckpoint => 1,
+            StageKind::Checkpoint | StageKind::Fragments | StageKind::LeadIn | StageKind::RigidCheckpoint => 1,
         }
     }
 
@@ -80,6 +89,7 @@ impl StageKind {
             StageKind::Particles => "particles",
             StageKind::Checkpoint => "checkpoint",
             StageKind::Fragments => "fragments",
+            StageKind::LeadIn => "lead-in",
             StageKind::RigidCheckpoint => "rigid checkpoint",
         }
     }

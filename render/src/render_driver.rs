@@ -13,7 +13,7 @@ use shatter_core::fragments::FragmentFrame;
 use shatter_core::layout::missing_input;
 use shatter_core::memory::{self, MemoryError, SetSize};
 use shatter_core::particles::ParticleSet;
-use shatter_core::shot::Shot;
+use shatter_core::shot::{Shot, Source};
 use shatter_core::stage_file::StageFileError;
 use shatter_core::{OutputLayout, PipelineConfig, Progress};
 use shatter_gpu::{AdapterChoice, GpuContext, GpuError};
@@ -217,48 +217,51 @@ pub fn camera(render: &RenderConfig, particles: &ParticleSet) -> Camera {
     }
 }
 
-/// Frame `frame`'s fragments (post's up to the shot's handoff, the follow-through's after),
-/// checked against the particle file (`elements`) and the inputs they must have been made from
-/// (`inputs`: post's, then the follow-through's); None for frame 1 when post has not written it
-/// (the rest state).
+/// Shot frame `frame`'s fragments (the lead-in's, post's, or the follow-through's: see
+/// [`Shot`]), checked against the particle file (`elements`) and the inputs each stage's files
+/// must have been made from (`inputs`: the simulation's, post's, the follow-through's); None for
+/// frame 1 when post has not written it (the rest state).
 fn read_fragments(
     layout: &OutputLayout,
     shot: &Shot,
     frame: u32,
     elements: usize,
-    inputs: [u32; 2],
+    inputs: [u32; 3],
 ) -> Result<Option<FragmentFrame>, RenderError> {
     let path = shot.fragments(layout, frame);
-    let stage = shot.stage_of(frame);
+    let (source, local) = shot.locate(frame);
+    let command = source.command();
     if !path.is_file() {
-        if frame == 1 {
+        if frame == 1 && source == Source::Post {
             return Ok(None);
         }
-        return Err(RenderError::Input(format!("{}: missing; run `shatter {stage}` first", path.display())));
+        return Err(RenderError::Input(format!("{}: missing; run `shatter {command}` first", path.display())));
     }
+    let again = match source {
+        Source::Post => "`shatter sim` and `shatter post`".to_string(),
+        other => format!("`shatter {}`", other.command()),
+    };
     let fragments = FragmentFrame::read(&path)?;
     if fragments.fragment_of.len() != elements {
         return Err(RenderError::Input(format!(
-            "{}: {} elements, but the particle file has {elements}; run `shatter sim` and `shatter post` again",
+            "{}: {} elements, but the particle file has {elements}; run {again} again",
             path.display(),
             fragments.fragment_of.len(),
         )));
     }
-    let expected = if stage == "rigid" { inputs[1] } else { inputs[0] };
+    let (expected, what) = match source {
+        Source::LeadIn => (inputs[0], "particle file, [lead_in], [sim] or [material] settings"),
+        Source::Post => (inputs[1], "particle file, [sim], [material] or [post] settings"),
+        Source::Rigid => (inputs[2], "[rigid] settings, frame rate or earlier stages"),
+    };
     if fragments.meta.inputs != Some(expected) {
-        let what = if stage == "rigid" {
-            "[rigid] settings or frame rate, or earlier stages"
-        } else {
-            "particle file, [sim], [material] or [post] settings"
-        };
-        let again = if stage == "rigid" { "`shatter rigid`" } else { "`shatter sim` and `shatter post`" };
         return Err(RenderError::Input(format!(
             "{}: made from other inputs ({what}); run {again} again",
             path.display()
         )));
     }
-    if fragments.meta.frame != frame {
-        let what = format!("holds frame {}, not {frame} (renamed from another frame's name?)", fragments.meta.frame);
+    if fragments.meta.frame != local {
+        let what = format!("holds frame {}, not {local} (renamed from another frame's name?)", fragments.meta.frame);
         return Err(StageFileError::Malformed { path, what }.into());
     }
     Ok(Some(fragments))
@@ -288,7 +291,8 @@ pub fn run_render(
     let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
     memory::check(&memory::render_need(&SetSize::of(&particles), render_config.resolution))?;
     let post_inputs = digest::post_inputs(digest::sim_inputs(particles_checksum, config), config);
-    let inputs = [post_inputs, digest::rigid_inputs(post_inputs, config)];
+    let sim_inputs = digest::sim_inputs(particles_checksum, config);
+    let inputs = [sim_inputs, post_inputs, digest::rigid_inputs(post_inputs, config)];
     let look = look(render_config)?;
     let camera = camera(render_config, &particles);
     let tracer = Tracer::new(backend.unwrap_or(render_config.backend))?;

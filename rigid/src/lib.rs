@@ -8,15 +8,19 @@
 //! - [`shapes`]: collision shapes (hulls, or a decomposition made of the piece's elements).
 //! - [`contact_rules`]: friction, restitution and the handoff's overlap allowances (a hook).
 //! - [`world`]: the rapier world: pieces, floor, projectiles; stepping; snapshots.
+//! - [`lead_in_driver`]: the `shatter lead-in` stage: the intact body's flight to its first
+//!   contact.
 //! - [`handoff`]: when the fracture has quieted.
-//! - [`follow_driver`]: the `shatter rigid` stage: handoff, frames, checkpoints, resume.
+//! - [`rigid_driver`]: the `shatter rigid` stage: handoff, frames, checkpoints, resume.
 
 pub mod contact_rules;
-pub mod follow_driver;
 pub mod handoff;
+pub mod lead_in_driver;
 pub mod mass;
+pub mod rigid_driver;
 pub mod shapes;
 pub mod velocity_fit;
 pub mod world;
 
-pub use follow_driver::{RigidError, RigidReport, run_rigid};
+pub use lead_in_driver::{LeadInReport, run_lead_in};
+pub use rigid_driver::{RigidError, RigidReport, run_rigid};

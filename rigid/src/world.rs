@@ -165,6 +165,25 @@ impl RigidWorld {
         self.pieces.iter().map(|&h| self.world.bodies[h].kinetic_energy()).sum()
     }
 
+    /// The distance from piece `piece`'s shape to the nearest other collider (the floor, a
+    /// sphere, another piece), metres: 0 when touching, infinite when there is none.
+    pub fn clearance_m(&self, piece: usize) -> f64 {
+        let body = &self.world.bodies[self.pieces[piece]];
+        let mut nearest = f64::INFINITY;
+        for &own in body.colliders() {
+            let own = &self.world.colliders[own];
+            for (_, other) in self.world.colliders.iter() {
+                if other.parent() == Some(self.pieces[piece]) {
+                    continue;
+                }
+                let distance =
+                    rapier3d_f64::parry::query::distance(own.position(), own.shape(), other.position(), other.shape());
+                nearest = nearest.min(distance.map_or(0.0, |d| d.distance));
+            }
+        }
+        nearest
+    }
+
     /// Whether every piece sleeps.
     pub fn all_asleep(&self) -> bool {
         self.pieces.iter().all(|&h| self.world.bodies[h].is_sleeping())

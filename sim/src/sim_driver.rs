@@ -11,6 +11,7 @@ use shatter_core::config::sim::BackendChoice;
 use shatter_core::digest;
 use shatter_core::frames::{BreakLog, FrameFileError, PointFrame};
 use shatter_core::layout::missing_input;
+use shatter_core::lead_in::LeadIn;
 use shatter_core::memory::{self, MemoryError, SetSize};
 use shatter_core::particles::ParticleSet;
 use shatter_core::stage_file::StageFileError;
@@ -185,6 +186,87 @@ fn restoring<T>(previous: &mut Option<PreviousRun>, outcome: Result<T, RunError>
     outcome
 }
 
+/// The lead-in's handoff, when the scene has `[lead_in]`: checked to belong to this particle
+/// file and these settings.
+fn read_lead_in(config: &PipelineConfig, layout: &OutputLayout, inputs: u32) -> Result<Option<LeadIn>, RunError> {
+    if config.lead_in.is_none() {
+        return Ok(None);
+    }
+    let path = layout.lead_in();
+    if let Some(message) = missing_input(&path, "lead-in") {
+        return Err(RunError::MissingInput(message));
+    }
+    let lead_in = LeadIn::read(&path)?;
+    if lead_in.inputs != inputs {
+        return Err(RunError::MissingInput(format!(
+            "{}: made from another particle file or other [lead_in], [sim] or [material] settings; run `shatter \
+             lead-in` again",
+            path.display()
+        )));
+    }
+    Ok(Some(lead_in))
+}
+
+/// The config the simulation runs with after a lead-in: projectiles and indenters, whose paths
+/// are given in the shot's time, where they are at the handoff (the simulation's time 0).
+fn paths_from_handoff(config: &PipelineConfig, handoff_time_s: f64) -> PipelineConfig {
+    let mut physics = config.clone();
+    for p in &mut physics.sim.projectile {
+        p.center_m = [0, 1, 2].map(|a| p.center_m[a] + p.velocity_m_s[a] * handoff_time_s);
+    }
+    for i in &mut physics.sim.indenter {
+        i.center_m = [0, 1, 2].map(|a| i.center_m[a] + i.velocity_m_s[a] * handoff_time_s);
+    }
+    physics
+}
+
+/// The body's rigid motion at the lead-in's handoff, applied to particles by rest position.
+struct RigidMotion {
+    rotation: [[f64; 3]; 3],
+    translation: [f64; 3],
+    centre: [f64; 3],
+    velocity: [f64; 3],
+    angular: [f64; 3],
+}
+
+impl RigidMotion {
+    fn of(lead_in: &LeadIn) -> RigidMotion {
+        let [x, y, z, w] = lead_in.rotation;
+        let rotation = [
+            [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
+            [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
+            [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)],
+        ];
+        RigidMotion {
+            rotation,
+            translation: lead_in.translation_m,
+            centre: lead_in.centre_m,
+            velocity: lead_in.velocity_m_s,
+            angular: lead_in.angular_velocity_rad_s,
+        }
+    }
+
+    /// Where a particle at rest position `rest` is: R X + t.
+    fn position(&self, rest: [f32; 3]) -> [f64; 3] {
+        let x = rest.map(f64::from);
+        [0, 1, 2].map(|a| (0..3).map(|b| self.rotation[a][b] * x[b]).sum::<f64>() + self.translation[a])
+    }
+
+    fn displacement(&self, rest: [f32; 3]) -> [f32; 3] {
+        let x = self.position(rest);
+        [0, 1, 2].map(|a| (x[a] - f64::from(rest[a])) as f32)
+    }
+
+    /// v + w x (x - c), plus `sim.initial_velocity_m_s` as without a lead-in.
+    fn velocity(&self, rest: [f32; 3], extra: [f32; 3]) -> [f32; 3] {
+        let x = self.position(rest);
+        let r = [0, 1, 2].map(|a| x[a] - self.centre[a]);
+        let w = self.angular;
+        let spin = [w[1] * r[2] - w[2] * r[1], w[2] * r[0] - w[0] * r[2], w[0] * r[1] - w[1] * r[0]];
+        [0, 1, 2].map(|a| (self.velocity[a] + spin[a]) as f32 + extra[a])
+    }
+}
+
 /// Runs the simulation of `config` on the particle file in its output folder, on the backend
 /// `options.backend` (or the config's `sim.backend`) chooses.
 pub fn run_sim(config: &PipelineConfig, options: RunOptions, progress: &dyn Progress) -> Result<RunReport, RunError> {
@@ -208,7 +290,9 @@ pub fn run_with(
     memory::check(&memory::load_need(&layout.particles()))?;
     let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
     memory::check(&memory::sim_need(&SetSize::of(&particles)))?;
-    let (mut simulation, fallback) = make(config, &particles)?;
+    let lead_in = read_lead_in(config, &layout, digest::sim_inputs(particles_checksum, config))?;
+    let physics = lead_in.as_ref().map(|lead_in| paths_from_handoff(config, lead_in.handoff_time_s));
+    let (mut simulation, fallback) = make(physics.as_ref().unwrap_or(config), &particles)?;
 
     let mut warnings: Vec<String> = fallback.into_iter().collect();
     let stable_dt_s = simulation.stable_dt_s();
@@ -288,7 +372,11 @@ pub fn run_with(
         let mut start = || -> Result<BreakLog, RunError> {
             let log = BreakLog::create(&log_path)?;
             let initial_velocity = config.sim.initial_velocity_m_s.map(|v| v as f32);
-            if initial_velocity != [0.0; 3] {
+            if let Some(lead_in) = &lead_in {
+                let motion = RigidMotion::of(lead_in);
+                simulation.set_displacement(&|_, rest| motion.displacement(rest))?;
+                simulation.set_velocity(&|_, rest| motion.velocity(rest, initial_velocity))?;
+            } else if initial_velocity != [0.0; 3] {
                 simulation.set_velocity(&|_, _| initial_velocity)?;
             }
             write_frame(simulation.as_ref(), &layout, 1, inputs)?;

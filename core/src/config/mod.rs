@@ -13,11 +13,13 @@ use serde::{Deserialize, Serialize};
 mod array_lengths;
 pub mod derived;
 mod lammps_terms;
+pub mod lead_in;
 pub mod post;
 pub mod render;
 pub mod rigid;
 pub mod sim;
 
+pub use lead_in::LeadInConfig;
 pub use post::PostConfig;
 pub use render::RenderConfig;
 pub use rigid::RigidConfig;
@@ -79,6 +81,10 @@ pub struct PipelineConfig {
     pub geometry: GeometryConfig,
     /// `[material]`: density, stiffness, strength.
     pub material: MaterialConfig,
+    /// `[lead_in]`: the intact body's rigid flight before its first contact; absent, the
+    /// simulation starts at once.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lead_in: Option<LeadInConfig>,
     /// `[sim]`: time stepping, forces, art direction (every key has a default).
     #[serde(default)]
     pub sim: SimConfig,
@@ -563,6 +569,15 @@ impl PipelineConfig {
         )?;
         check.non_negative("material.compression_alpha", material.compression_alpha, "dimensionless")?;
         derived::validate(self, &check)?;
+        if let Some(lead_in) = &self.lead_in {
+            lead_in.validate(&check)?;
+            check.that(
+                self.sim.floor.is_some() || !self.sim.projectile.is_empty() || !self.sim.indenter.is_empty(),
+                "lead_in",
+                "(table)",
+                || "needs something to fly into: a [sim.floor], a [[sim.projectile]] or a [[sim.indenter]]".into(),
+            )?;
+        }
         self.sim.validate(&check)?;
         self.post.validate(&check)?;
         if let Some(rigid) = &self.rigid {

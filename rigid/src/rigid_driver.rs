@@ -323,19 +323,7 @@ fn hand_over(
     let relative = |a: Vector, b: Vector| if b.length() > 0.0 { (a - b).length() / b.length() } else { a.length() };
     conservation.momentum_error = relative(body_p, particle_p);
     conservation.angular_momentum_error = relative(body_l, particle_l);
-    let time = handoff.meta.time_s;
-    let spheres: Vec<KinematicSphere> = config
-        .sim
-        .projectile
-        .iter()
-        .map(|p| (p.center_m, p.velocity_m_s, p.radius_m))
-        .chain(config.sim.indenter.iter().map(|i| (i.center_m, i.velocity_m_s, i.radius_m)))
-        .map(|(centre, velocity, radius_m)| KinematicSphere {
-            centre_m: [0, 1, 2].map(|a| centre[a] + velocity[a] * time),
-            velocity_m_s: velocity,
-            radius_m,
-        })
-        .collect();
+    let spheres = kinematic_spheres(config, handoff.meta.time_s);
     let settings = WorldSettings {
         gravity_m_s2: config.sim.gravity_m_s2,
         length_unit_m: LENGTH_UNIT_SPACINGS * particles.meta.lambda_m,
@@ -349,6 +337,20 @@ fn hand_over(
     };
     let floor = config.sim.floor.as_ref().map(|floor| floor.height_m);
     (RigidWorld::new(&settings, floor, &spheres, &bodies), conservation)
+}
+
+/// The projectiles and indenters at simulated time `time_s`, on their straight paths.
+pub(crate) fn kinematic_spheres(config: &PipelineConfig, time_s: f64) -> Vec<KinematicSphere> {
+    let projectiles = config.sim.projectile.iter().map(|p| (p.center_m, p.velocity_m_s, p.radius_m));
+    let indenters = config.sim.indenter.iter().map(|i| (i.center_m, i.velocity_m_s, i.radius_m));
+    projectiles
+        .chain(indenters)
+        .map(|(centre, velocity, radius_m)| KinematicSphere {
+            centre_m: [0, 1, 2].map(|a| centre[a] + velocity[a] * time_s),
+            velocity_m_s: velocity,
+            radius_m,
+        })
+        .collect()
 }
 
 /// Rapier's length unit (the scale of its tolerances) in particle spacings: about a small

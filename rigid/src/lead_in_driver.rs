@@ -1,0 +1,186 @@
+//! The `shatter lead-in` driver: the intact body flies as one rigid body (rapier3d) from its
+//! start pose and velocity until it comes within the handoff gap of its first contact (floor,
+//! projectile or indenter); its frames go to `rigid/lead_in.####.shp` and the handoff, from
+//! which the simulation starts, to `rigid/lead_in.shp`.
+//!
+//! rapier integrates semi-implicit Euler over `solver_iterations` substeps (v += g h, then
+//! x += v h), which trails the parabola by g t h / 2. The lead-in takes one substep per step
+//! (nothing touches the body, so no solver iterations are needed) and starts the velocity half a
+//! step back (v0 - g dt / 2): the same update is then the leapfrog scheme, exact for a uniform
+//! field. The body's centre follows the parabola to rounding (tested to 1e-9), and its velocity
+//! at a step is rapier's plus g dt / 2. The step is small enough
+//! that the body, at the fastest it can reach, crosses at most half the handoff gap per step,
+//! and divides a frame evenly, so frames fall on steps.
+
+use std::time::Instant;
+
+use rapier3d_f64::math::{Rotation, Vector};
+use shatter_core::config::{LeadInConfig, RigidConfig};
+use shatter_core::digest;
+use shatter_core::fragments::{FragmentFrame, FragmentMeta};
+use shatter_core::layout::missing_input;
+use shatter_core::lead_in::LeadIn;
+use shatter_core::memory::{self, SetSize};
+use shatter_core::particles::ParticleSet;
+use shatter_core::{OutputLayout, PipelineConfig, Progress};
+
+use crate::mass::{element_mass_props, piece_mass_props};
+use crate::rigid_driver::{LENGTH_UNIT_SPACINGS, RigidError, kinematic_spheres};
+use crate::shapes::ElementGeometry;
+use crate::world::{PieceBody, RigidWorld, WorldSettings};
+
+/// What a lead-in run did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LeadInReport {
+    /// The handoff and the body's motion then.
+    pub lead_in: LeadIn,
+    /// The rigid time step, seconds.
+    pub step_s: f64,
+    /// The gap to the first contact at the handoff, metres.
+    pub gap_m: f64,
+    /// Wall time, seconds.
+    pub wall_s: f64,
+}
+
+/// Runs the lead-in of `config`.
+pub fn run_lead_in(config: &PipelineConfig, progress: &dyn Progress) -> Result<LeadInReport, RigidError> {
+    let started = Instant::now();
+    let Some(lead_in) = &config.lead_in else {
+        return Err(RigidError::Input(format!(
+            "{}: no [lead_in] table: the shot starts with the simulation (see docs/CONFIG.md)",
+            config.path.display()
+        )));
+    };
+    let layout = OutputLayout::of(config);
+    if let Some(message) = missing_input(&layout.particles(), "preprocess") {
+        return Err(RigidError::Input(message));
+    }
+    memory::check(&memory::load_need(&layout.particles()))?;
+    let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
+    memory::check(&memory::post_need(&SetSize::of(&particles)))?;
+    let inputs = digest::sim_inputs(particles_checksum, config);
+    let folder = layout.rigid_dir();
+    std::fs::create_dir_all(&folder)
+        .map_err(|error| RigidError::Input(format!("{}: cannot create: {error}", folder.display())))?;
+
+    let elements = element_mass_props(&particles, config.material.density_kg_m3);
+    let rest = piece_mass_props(&elements, &vec![0; particles.len()], 1)[0];
+    let all: Vec<u32> = (0..particles.len() as u32).collect();
+    // the flight touches nothing, so [rigid]'s contact settings do not matter: the defaults keep
+    // the lead-in a function of [lead_in], [sim] and the particles alone (its digest)
+    let rigid = RigidConfig::default();
+    let shape = ElementGeometry::of(&particles).piece_shape(&all, rigid.hull_volume_factor);
+    let axis = Vector::from_array(lead_in.rotate_axis).normalize();
+    let rotation = Rotation::from_axis_angle(axis, lead_in.rotate_deg.to_radians());
+    let translation = rest.centre_m + Vector::from_array(lead_in.translate_m) - rotation * rest.centre_m;
+    let gravity = Vector::from_array(config.sim.gravity_m_s2);
+    let gap = lead_in.handoff_gap_m.unwrap_or(particles.meta.delta_m);
+    let fps = config.scene.frames_per_second;
+    let lowest = shape.hulls.iter().flatten().map(|p| (rotation * *p + translation).y).fold(f64::INFINITY, f64::min);
+    let step_s = step(lead_in, config, gravity, lowest, &shape.hulls, rest.centre_m, gap);
+    let steps_per_frame = ((1.0 / fps) / step_s).ceil().max(1.0);
+    let dt = 1.0 / (fps * steps_per_frame);
+    let steps_per_frame = steps_per_frame as u64;
+
+    let body = PieceBody {
+        mass: rest,
+        rotation,
+        translation_m: translation,
+        linear_m_s: Vector::from_array(lead_in.velocity_m_s) - gravity * (0.5 * dt),
+        angular_rad_s: Vector::from_array(lead_in.angular_velocity_rad_s),
+        shape: shape.shared_shape(),
+    };
+    let settings = WorldSettings {
+        gravity_m_s2: config.sim.gravity_m_s2,
+        length_unit_m: LENGTH_UNIT_SPACINGS * particles.meta.lambda_m,
+        // one substep: the leapfrog start below is exact for rapier's update only then
+        solver_iterations: 1,
+        floor_friction: rigid.floor_friction,
+        floor_restitution: rigid.floor_restitution,
+        piece_friction: rigid.piece_friction,
+        piece_restitution: rigid.piece_restitution,
+        // a flying body never sleeps
+        sleep_speed_m_s: -1.0,
+        sleep_after_s: rigid.sleep_after_s,
+    };
+    let floor = config.sim.floor.as_ref().map(|floor| floor.height_m);
+    let mut world = RigidWorld::new(&settings, floor, &kinematic_spheres(config, 0.0), &[body]);
+    let limit = (lead_in.max_duration_s / dt).ceil() as u64;
+    progress.start("lead-in", limit);
+    let mass_kg = vec![rest.mass_kg];
+    let frame_file = |frame: u32, time_s: f64, world: &RigidWorld| {
+        let (r, t) = world.poses()[0];
+        FragmentFrame {
+            meta: FragmentMeta { frame, step: 0, time_s, smoothed: false, inputs: Some(inputs) },
+            fragment_of: vec![0; particles.len()],
+            rotation: vec![[r.x as f32, r.y as f32, r.z as f32, r.w as f32]],
+            translation_m: vec![t.to_array()],
+            elements: vec![particles.len() as u32],
+            mass_kg: mass_kg.clone(),
+        }
+        .write(&layout.lead_in_fragments(frame))
+    };
+    let mut frames = 0;
+    let mut steps = 0u64;
+    let mut clearance = world.clearance_m(0);
+    while clearance > gap {
+        if steps.is_multiple_of(steps_per_frame) {
+            frames += 1;
+            frame_file(frames, steps as f64 * dt, &world)?;
+            progress.advance(steps_per_frame.min(limit));
+            progress.message(&format!("frame {frames}, {:.1} mm from the first contact", clearance * 1e3));
+        }
+        if steps == limit {
+            return Err(RigidError::Input(format!(
+                "{}: lead_in.max_duration_s = {}: the body touches nothing in that time ({:.3} m away at the end)",
+                config.path.display(),
+                lead_in.max_duration_s,
+                clearance
+            )));
+        }
+        world.advance(dt, dt);
+        steps += 1;
+        clearance = world.clearance_m(0);
+    }
+    progress.finish();
+    let (r, t) = world.poses()[0];
+    let (v, w) = world.velocities()[0];
+    let handoff = LeadIn {
+        frames,
+        handoff_time_s: steps as f64 * dt,
+        rotation: [r.x, r.y, r.z, r.w],
+        translation_m: t.to_array(),
+        centre_m: world.centres()[0].to_array(),
+        velocity_m_s: (v + gravity * (0.5 * dt)).to_array(),
+        angular_velocity_rad_s: w.to_array(),
+        steps,
+        inputs,
+    };
+    handoff.write(&layout.lead_in())?;
+    Ok(LeadInReport { lead_in: handoff, step_s: dt, gap_m: clearance, wall_s: started.elapsed().as_secs_f64() })
+}
+
+/// The largest step at which the body crosses at most half the handoff gap: from the fastest
+/// it can move (its start speed, plus falling to the floor, plus its spin at its size, plus the
+/// fastest sphere), and no longer than `max_step_s`.
+fn step(
+    lead_in: &LeadInConfig,
+    config: &PipelineConfig,
+    gravity: Vector,
+    lowest_m: f64,
+    hulls: &[Vec<Vector>],
+    centre: Vector,
+    gap: f64,
+) -> f64 {
+    let g = gravity.length();
+    let drop = match &config.sim.floor {
+        Some(floor) => (lowest_m - floor.height_m).max(0.0),
+        None => 0.5 * g * lead_in.max_duration_s.powi(2),
+    };
+    let radius = hulls.iter().flatten().map(|p| (*p - centre).length()).fold(0.0, f64::max);
+    let spin = Vector::from_array(lead_in.angular_velocity_rad_s).length() * radius;
+    let spheres =
+        kinematic_spheres(config, 0.0).iter().map(|s| Vector::from_array(s.velocity_m_s).length()).fold(0.0, f64::max);
+    let fastest = Vector::from_array(lead_in.velocity_m_s).length() + (2.0 * g * drop).sqrt() + spin + spheres;
+    if fastest > 0.0 { lead_in.max_step_s.min(0.5 * gap / fastest) } else { lead_in.max_step_s }
+}
