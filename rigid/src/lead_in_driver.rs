@@ -18,14 +18,11 @@ use rapier3d_f64::math::{Rotation, Vector};
 use shatter_core::config::{LeadInConfig, RigidConfig};
 use shatter_core::digest;
 use shatter_core::fragments::{FragmentFrame, FragmentMeta};
-use shatter_core::layout::missing_input;
 use shatter_core::lead_in::LeadIn;
-use shatter_core::memory::{self, SetSize};
-use shatter_core::particles::ParticleSet;
-use shatter_core::{OutputLayout, PipelineConfig, Progress};
+use shatter_core::{PipelineConfig, Progress};
 
 use crate::mass::{element_mass_props, piece_mass_props};
-use crate::rigid_driver::{LENGTH_UNIT_SPACINGS, RigidError, kinematic_spheres};
+use crate::rigid_driver::{LENGTH_UNIT_SPACINGS, RigidError, kinematic_spheres, open_particles};
 use crate::shapes::ElementGeometry;
 use crate::world::{PieceBody, RigidWorld, WorldSettings};
 
@@ -51,17 +48,8 @@ pub fn run_lead_in(config: &PipelineConfig, progress: &dyn Progress) -> Result<L
             config.path.display()
         )));
     };
-    let layout = OutputLayout::of(config);
-    if let Some(message) = missing_input(&layout.particles(), "preprocess") {
-        return Err(RigidError::Input(message));
-    }
-    memory::check(&memory::load_need(&layout.particles()))?;
-    let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
-    memory::check(&memory::post_need(&SetSize::of(&particles)))?;
+    let (layout, particles, particles_checksum) = open_particles(config)?;
     let inputs = digest::sim_inputs(particles_checksum, config);
-    let folder = layout.rigid_dir();
-    std::fs::create_dir_all(&folder)
-        .map_err(|error| RigidError::Input(format!("{}: cannot create: {error}", folder.display())))?;
 
     let elements = element_mass_props(&particles, config.material.density_kg_m3);
     let rest = piece_mass_props(&elements, &vec![0; particles.len()], 1)[0];

@@ -104,21 +104,12 @@ pub fn run_rigid(config: &PipelineConfig, resume: bool, progress: &dyn Progress)
             config.path.display()
         )));
     };
-    let layout = OutputLayout::of(config);
-    if let Some(message) = missing_input(&layout.particles(), "preprocess") {
-        return Err(RigidError::Input(message));
-    }
-    memory::check(&memory::load_need(&layout.particles()))?;
-    let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
-    memory::check(&memory::post_need(&SetSize::of(&particles)))?;
+    let (layout, particles, particles_checksum) = open_particles(config)?;
     let post_inputs = digest::post_inputs(digest::sim_inputs(particles_checksum, config), config);
     let inputs = digest::rigid_inputs(post_inputs, config);
     let fps = config.scene.frames_per_second;
     let simulated = config.sim.frames;
     let last_frame = simulated + rigid.follow_through_frames(fps);
-    let folder = layout.rigid_dir();
-    std::fs::create_dir_all(&folder)
-        .map_err(|error| RigidError::Input(format!("{}: cannot create: {error}", folder.display())))?;
 
     let previous = resume.then(|| RigidCheckpoint::read(&layout.rigid_checkpoint()).ok()).flatten();
     let (mut world, meta, handoff, conservation, reason) = match previous {
@@ -185,6 +176,22 @@ pub fn run_rigid(config: &PipelineConfig, resume: bool, progress: &dyn Progress)
         conservation,
         wall_s: started.elapsed().as_secs_f64(),
     })
+}
+
+/// The output folder's layout (its `rigid/` folder made) and the particle file with its
+/// checksum, once the stage is known to fit in memory.
+pub(crate) fn open_particles(config: &PipelineConfig) -> Result<(OutputLayout, ParticleSet, u32), RigidError> {
+    let layout = OutputLayout::of(config);
+    if let Some(message) = missing_input(&layout.particles(), "preprocess") {
+        return Err(RigidError::Input(message));
+    }
+    memory::check(&memory::load_need(&layout.particles()))?;
+    let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
+    memory::check(&memory::post_need(&SetSize::of(&particles)))?;
+    let folder = layout.rigid_dir();
+    std::fs::create_dir_all(&folder)
+        .map_err(|error| RigidError::Input(format!("{}: cannot create: {error}", folder.display())))?;
+    Ok((layout, particles, particles_checksum))
 }
 
 fn write_checkpoint(layout: &OutputLayout, meta: &RigidMeta, world: &RigidWorld) -> Result<(), RigidError> {
