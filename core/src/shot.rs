@@ -33,10 +33,13 @@ impl Source {
 }
 
 /// A shot's frame range.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Shot {
     /// Frames of the lead-in, before the simulation's frame 1.
     pub lead_in: u32,
+    /// The shot's time at the simulation's start (the lead-in's handoff), seconds: the
+    /// simulation's and the follow-through's files count time from there.
+    pub sim_start_s: f64,
     /// The last frame from the simulation, in its own numbering: `sim.frames` without
     /// `[rigid]`.
     pub handoff: u32,
@@ -50,19 +53,20 @@ impl Shot {
     /// The shot of `config`, as its lead-in and finished follow-through recorded it. An error
     /// names what to run when one is missing or unfinished.
     pub fn of(config: &PipelineConfig, layout: &OutputLayout) -> Result<Shot, String> {
-        let lead_in = match config.lead_in {
-            None => 0,
+        let (lead_in, sim_start_s) = match config.lead_in {
+            None => (0, 0.0),
             Some(_) => {
                 let path = layout.lead_in();
                 if !path.is_file() {
                     return Err(format!("{}: missing ([lead_in] is set); run `shatter lead-in` first", path.display()));
                 }
-                LeadIn::read(&path).map_err(|error| error.to_string())?.frames
+                let lead_in = LeadIn::read(&path).map_err(|error| error.to_string())?;
+                (lead_in.frames, lead_in.handoff_time_s)
             }
         };
         if config.rigid.is_none() {
             let frames = config.sim.frames;
-            return Ok(Shot { lead_in, handoff: frames, last: lead_in + frames, rigid: false });
+            return Ok(Shot { lead_in, sim_start_s, handoff: frames, last: lead_in + frames, rigid: false });
         }
         let path = layout.rigid_checkpoint();
         if !path.is_file() {
@@ -78,7 +82,7 @@ impl Shot {
                 meta.last_frame
             ));
         }
-        Ok(Shot { lead_in, handoff: meta.handoff_frame, last: lead_in + meta.last_frame, rigid: true })
+        Ok(Shot { lead_in, sim_start_s, handoff: meta.handoff_frame, last: lead_in + meta.last_frame, rigid: true })
     }
 
     /// Which stage holds shot frame `frame`, and its number there.
@@ -88,6 +92,14 @@ impl Shot {
         }
         let local = frame - self.lead_in;
         if self.rigid && local > self.handoff { (Source::Rigid, local) } else { (Source::Post, local) }
+    }
+
+    /// The shot's time of shot frame `frame`, whose fragments file says `file_time_s`.
+    pub fn time_s(&self, frame: u32, file_time_s: f64) -> f64 {
+        match self.locate(frame).0 {
+            Source::LeadIn => file_time_s,
+            Source::Post | Source::Rigid => self.sim_start_s + file_time_s,
+        }
     }
 
     /// The fragments file of shot frame `frame`.
@@ -106,7 +118,9 @@ mod tests {
 
     #[test]
     fn shot_frames_map_to_each_stage_in_turn() {
-        let shot = Shot { lead_in: 10, handoff: 20, last: 10 + 68, rigid: true };
+        let shot = Shot { lead_in: 10, sim_start_s: 0.4, handoff: 20, last: 10 + 68, rigid: true };
+        assert_eq!(shot.time_s(3, 0.1), 0.1);
+        assert_eq!(shot.time_s(31, 0.5), 0.9);
         assert_eq!(shot.locate(1), (Source::LeadIn, 1));
         assert_eq!(shot.locate(10), (Source::LeadIn, 10));
         assert_eq!(shot.locate(11), (Source::Post, 1));
@@ -114,7 +128,7 @@ mod tests {
         assert_eq!(shot.locate(31), (Source::Rigid, 21));
         let layout = OutputLayout::new("out", "s");
         assert_eq!(shot.fragments(&layout, 31), layout.rigid_fragments(21));
-        let plain = Shot { lead_in: 0, handoff: 48, last: 48, rigid: false };
+        let plain = Shot { lead_in: 0, sim_start_s: 0.0, handoff: 48, last: 48, rigid: false };
         assert_eq!(plain.locate(48), (Source::Post, 48));
     }
 }

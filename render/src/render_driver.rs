@@ -325,7 +325,7 @@ pub fn run_render(
             world_to_camera: camera.world_to_camera(),
             world_to_ndc: camera.world_to_ndc(),
             frames_per_second: config.scene.frames_per_second,
-            simulation_time_s: fragments.map_or(0.0, |f| f.meta.time_s),
+            simulation_time_s: shot.time_s(frame, fragments.map_or(0.0, |f| f.meta.time_s)),
         };
         write_exr(&layout.render_frame(frame, "exr"), width as usize, height as usize, &layers, &header)?;
         if render_config.previews {

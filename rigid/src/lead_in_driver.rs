@@ -77,6 +77,7 @@ pub fn run_lead_in(config: &PipelineConfig, progress: &dyn Progress) -> Result<L
         linear_m_s: Vector::from_array(lead_in.velocity_m_s) - gravity * (0.5 * dt),
         angular_rad_s: Vector::from_array(lead_in.angular_velocity_rad_s),
         shape: shape.shared_shape(),
+        dust: false,
     };
     let settings = WorldSettings {
         gravity_m_s2: config.sim.gravity_m_s2,

@@ -98,8 +98,7 @@ pub fn element_triangles(particles: &ParticleSet, element: usize, out: &mut Vec<
             }
         }
         Elements::Tets { vertices_m } => {
-            let [v0, v1, v2, v3] = vertices_m[element].map(vector);
-            out.extend([[v1, v2, v3], [v0, v3, v2], [v0, v1, v3], [v0, v2, v1]]);
+            out.extend(tet_triangles(vertices_m[element].map(vector)));
         }
         Elements::Trimtopes { triangle_offsets, triangles_m, face_offsets, face_triangles_m, .. } => {
             let range = |offsets: &[u64]| offsets[element] as usize..offsets[element + 1] as usize;
@@ -107,6 +106,15 @@ pub fn element_triangles(particles: &ParticleSet, element: usize, out: &mut Vec<
             let faces = face_triangles_m[range(face_offsets)].iter();
             out.extend(surface.chain(faces).map(|t| t.map(vector)));
         }
+    }
+}
+
+/// The four faces of a tetrahedron, wound outward whichever its vertices' orientation.
+pub fn tet_triangles([v0, v1, v2, v3]: [Vector; 4]) -> [[Vector; 3]; 4] {
+    if (v1 - v0).dot((v2 - v0).cross(v3 - v0)) >= 0.0 {
+        [[v1, v2, v3], [v0, v3, v2], [v0, v1, v3], [v0, v2, v1]]
+    } else {
+        [[v1, v3, v2], [v0, v2, v3], [v0, v3, v1], [v0, v1, v2]]
     }
 }
 
@@ -185,6 +193,20 @@ mod tests {
         let diagonal = Vector::new(inertia.x_axis.x, inertia.y_axis.y, inertia.z_axis.z);
         assert!((diagonal - expected).length() < 1e-12, "{diagonal:?} vs {expected:?}");
         assert!(inertia.x_axis.y.abs() < 1e-12 && inertia.x_axis.z.abs() < 1e-12 && inertia.y_axis.z.abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_tet_of_either_orientation_has_its_volume_and_centroid() {
+        let corners = [Vector::ZERO, Vector::X, Vector::Y, Vector::Z].map(|v| v * 0.006 + Vector::new(0.1, 0.2, 0.3));
+        for vertices in [corners, [corners[0], corners[2], corners[1], corners[3]]] {
+            let (volume, centroid, second) = solid_of_triangles(&tet_triangles(vertices), vertices[0]).expect("solid");
+            assert!((volume - 0.006f64.powi(3) / 6.0).abs() < 1e-18, "{volume}");
+            let expected = vertices.iter().fold(Vector::ZERO, |c, v| c + *v) / 4.0;
+            assert!((centroid - expected).length() < 1e-15);
+            let props = MassProps { mass_kg: 1.0, centre_m: centroid, second_moment: second / volume };
+            let eigen = rapier3d_f64::math::SymmetricEigen::new(props.inertia());
+            assert!(eigen.eigenvalues.min_element() > 1e-7, "a real tet turns: {:?}", eigen.eigenvalues);
+        }
     }
 
     #[test]

@@ -311,6 +311,7 @@ fn hand_over(
         let motion = ParticleMotion { mass_kg: &m, position_m: &x, velocity_m_s: &v };
         let fitted = fit(&motion, centre, inertia);
         let (p, l) = momenta(&motion);
+
         particle_p += p;
         particle_l += l;
         body_p += fitted.linear_m_s * rest[piece].mass_kg;
@@ -325,6 +326,7 @@ fn hand_over(
             linear_m_s: fitted.linear_m_s,
             angular_rad_s: fitted.angular_rad_s,
             shape: geometry.piece_shape(members, rigid.hull_volume_factor).shared_shape(),
+            dust: members.len() <= rigid.dust_max_elements as usize,
         });
     }
     let relative = |a: Vector, b: Vector| if b.length() > 0.0 { (a - b).length() / b.length() } else { a.length() };

@@ -76,8 +76,15 @@ pub fn fit(particles: &ParticleMotion, centre_m: Vector, inertia: Matrix) -> Rig
         point_inertia += (Matrix::from_diagonal(Vector::splat(r.length_squared())) - outer(r, r)) * *m;
         point_angular += r.cross(*v - linear) * *m;
     }
-    let angular = solve(inertia, angular_momentum);
     let translational = 0.5 * mass * linear.length_squared();
+    let mut angular = solve(inertia, angular_momentum);
+    // a body never turns faster than its particles' energy allows (an element so thin that its
+    // inertia is rounding would otherwise spin from rounding in L)
+    let spin = 0.5 * angular.dot(inertia * angular);
+    let available = (particle_energy - translational).max(0.0);
+    if !(spin <= available) {
+        angular = if spin.is_finite() && spin > 0.0 { angular * (available / spin).sqrt() } else { Vector::ZERO };
+    }
     let point_omega = solve(point_inertia, point_angular);
     RigidVelocity {
         linear_m_s: linear,
@@ -154,6 +161,19 @@ mod tests {
         let m = [2.2e-6; 4];
         let fitted = fit(&ParticleMotion { mass_kg: &m, position_m: &x, velocity_m_s: &v }, x[1], Matrix::ZERO);
         assert!(fitted.rigid_part_j <= fitted.particle_energy_j, "{fitted:?}");
+    }
+
+    #[test]
+    fn a_body_of_rounding_inertia_does_not_spin_up() {
+        let x = [Vector::new(0.1, 0.2, 0.3)];
+        let v = [Vector::new(-9.9, 7.3, 6.8)];
+        let inertia = Matrix::from_diagonal(Vector::new(0.0, 1e-39, 1e-39));
+        let fitted = fit(
+            &ParticleMotion { mass_kg: &[1e-3], position_m: &x, velocity_m_s: &v },
+            x[0] + Vector::X * 1e-12,
+            inertia,
+        );
+        assert!(fitted.body_energy_j <= fitted.particle_energy_j * (1.0 + 1e-12), "{fitted:?}");
     }
 
     #[test]

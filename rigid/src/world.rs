@@ -49,6 +49,18 @@ pub struct PieceBody {
     pub angular_rad_s: Vector,
     /// Collision shape in the rest frame; None for a piece that collides with nothing.
     pub shape: Option<SharedShape>,
+    /// Dust collides with the floor, projectiles and indenters only, not with other pieces.
+    pub dust: bool,
+}
+
+/// Collision groups: pieces collide with pieces and the environment; dust with the environment
+/// only; the environment (floor, spheres) with everything.
+const PIECES: Group = Group::GROUP_1;
+const DUST: Group = Group::GROUP_2;
+const ENVIRONMENT: Group = Group::GROUP_3;
+
+fn groups(memberships: Group, filter: Group) -> InteractionGroups {
+    InteractionGroups::new(memberships, filter, InteractionTestMode::And)
 }
 
 /// A sphere on a straight path (a projectile or an indenter).
@@ -90,7 +102,9 @@ impl RigidWorld {
         let hooks = ActiveHooks::MODIFY_SOLVER_CONTACTS;
         let floor = floor_height_m.map(|height| {
             let body = world.insert_body(RigidBodyBuilder::fixed().translation(Vector::new(0.0, height, 0.0)));
-            let collider = ColliderBuilder::new(SharedShape::halfspace(Vector::Y)).active_hooks(hooks);
+            let collider = ColliderBuilder::new(SharedShape::halfspace(Vector::Y))
+                .active_hooks(hooks)
+                .collision_groups(groups(ENVIRONMENT, Group::ALL));
             world.insert_collider(collider, Some(body))
         });
         for sphere in spheres {
@@ -98,7 +112,10 @@ impl RigidWorld {
                 .translation(Vector::from_array(sphere.centre_m))
                 .linvel(Vector::from_array(sphere.velocity_m_s));
             let body = world.insert_body(body);
-            world.insert_collider(ColliderBuilder::ball(sphere.radius_m).active_hooks(hooks), Some(body));
+            let collider = ColliderBuilder::ball(sphere.radius_m)
+                .active_hooks(hooks)
+                .collision_groups(groups(ENVIRONMENT, Group::ALL));
+            world.insert_collider(collider, Some(body));
         }
         let mut handles = Vec::with_capacity(pieces.len());
         for piece in pieces {
@@ -117,7 +134,9 @@ impl RigidWorld {
             activation.normalized_linear_threshold = settings.sleep_speed_m_s / settings.length_unit_m;
             activation.time_until_sleep = settings.sleep_after_s;
             if let Some(shape) = &piece.shape {
-                let collider = ColliderBuilder::new(shape.clone()).density(0.0).active_hooks(hooks);
+                let group = if piece.dust { groups(DUST, ENVIRONMENT) } else { groups(PIECES, PIECES | ENVIRONMENT) };
+                let collider =
+                    ColliderBuilder::new(shape.clone()).density(0.0).active_hooks(hooks).collision_groups(group);
                 world.insert_collider(collider, Some(handle));
             }
             handles.push(handle);

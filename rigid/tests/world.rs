@@ -46,6 +46,7 @@ fn box_piece(rest_centre: Vector, half: Vector, centre: Vector, velocity: Vector
         linear_m_s: velocity,
         angular_rad_s: Vector::ZERO,
         shape: PieceShape { hulls: vec![corners] }.shared_shape(),
+        dust: false,
     }
 }
 

@@ -41,6 +41,10 @@ pub struct RigidConfig {
     /// the piece's; otherwise as a compound of the convex hulls of small clusters of its
     /// elements.
     pub hull_volume_factor: f64,
+    /// Pieces of at most this many elements are dust: they fall, bounce on the floor and are
+    /// pushed by projectiles, but do not collide with other pieces (0: every piece collides).
+    /// A broken body's thousands of single elements would otherwise cost most of the contacts.
+    pub dust_max_elements: u32,
     /// A piece whose farthest point moves slower than this (m/s) for `sleep_after_s` falls
     /// asleep (friction stops a sliding piece from this speed in milliseconds; a lower value
     /// lets small shards rock on their contacts for seconds); once every piece sleeps the
@@ -67,6 +71,7 @@ impl Default for RigidConfig {
             piece_friction: 0.5,
             piece_restitution: 0.1,
             hull_volume_factor: 1.15,
+            dust_max_elements: 1,
             sleep_speed_m_s: 0.02,
             sleep_after_s: 0.5,
             checkpoint_every_frames: 24,
