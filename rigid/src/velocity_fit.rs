@@ -82,8 +82,10 @@ pub fn fit(particles: &ParticleMotion, centre_m: Vector, inertia: Matrix) -> Rig
     // inertia is rounding would otherwise spin from rounding in L)
     let spin = 0.5 * angular.dot(inertia * angular);
     let available = (particle_energy - translational).max(0.0);
-    if !(spin <= available) {
-        angular = if spin.is_finite() && spin > 0.0 { angular * (available / spin).sqrt() } else { Vector::ZERO };
+    if !spin.is_finite() {
+        angular = Vector::ZERO;
+    } else if spin > available {
+        angular *= (available / spin).sqrt();
     }
     let point_omega = solve(point_inertia, point_angular);
     RigidVelocity {
