@@ -33,7 +33,10 @@ pub fn run(config: &PipelineConfig, args: &RigidArgs) -> Result<(), Failure> {
             c.body_energy_j
         );
     }
-    let asleep = report.asleep_from.map_or(String::new(), |frame| format!("; every piece asleep from frame {frame}"));
+    let asleep = match report.asleep_from {
+        Some(frame) => format!("; every piece asleep from frame {frame}"),
+        None => format!("; {} of {} pieces still moving at the end", report.awake_at_end, report.pieces),
+    };
     println!("  frames {}-{} written{asleep}", report.last_frame + 1 - report.frames_written, report.last_frame);
     println!("wrote {} in {:.1} s", shatter_core::OutputLayout::of(config).rigid_dir().display(), report.wall_s);
     Ok(())

