@@ -304,3 +304,38 @@ fn a_dropped_block_flies_the_parabola_and_the_simulation_takes_over_from_there()
     let inspect = shatter(&["inspect", "out/rigid/lead_in.shp"], dir.path());
     assert!(String::from_utf8_lossy(&inspect.stdout).contains("handoff_time_s"));
 }
+
+#[test]
+fn bad_lead_in_and_rigid_values_are_refused_by_name() {
+    let cases = [
+        ("[rigid]\nfollow_through_s = 0.25", "[rigid]\nfollow_through_s = -1", "rigid.follow_through_s"),
+        ("[rigid]\nfollow_through_s = 0.25", "[rigid]\nfloor_restitution = 2.0", "rigid.floor_restitution"),
+        ("[rigid]\nfollow_through_s = 0.25", "[rigid]\nsolver_iterations = 0", "rigid.solver_iterations"),
+        ("[rigid]\nfollow_through_s = 0.25", "[rigid]\nmax_step_s = nan", "rigid.max_step_s"),
+        ("[rigid]\nfollow_through_s = 0.25", "[rigid]\nfollow_through_s = 4000.0", "rigid.follow_through_s"),
+        ("[rigid]\nfollow_through_s = 0.25", "[rigid]\nbounce = 1", "bounce"),
+        ("rotate_axis = [1.0, 0.0, 1.0]", "rotate_axis = [0.0, 0.0, 0.0]", "lead_in.rotate_axis"),
+        ("rotate_deg = 30.0", "rotate_deg = inf", "lead_in.rotate_deg"),
+        ("velocity_m_s = [0.1, 0.0, 0.0]", "velocity_m_s = [0.1, 0.0]", "lead_in.velocity_m_s"),
+        ("[lead_in]", "[lead_in]\nhandoff_gap_m = 0.0", "lead_in.handoff_gap_m"),
+        ("[lead_in]", "[lead_in]\nmax_duration_s = 1e308", "lead_in.max_duration_s"),
+        ("[sim.floor]\nheight_m = 0.0", "", "lead_in"),
+        ("seed = 3", "seed = 3\nframes_per_second = 1e308", "scene.frames_per_second"),
+        ("seed = 3", "seed = 3\nframes_per_second = 1000.0\n", "rigid.follow_through_s"),
+    ];
+    for (from, to, key) in cases {
+        assert!(DROP.contains(from), "{from}");
+        let dir = tempfile::tempdir().expect("tempdir");
+        let mut text = DROP.replacen(from, to, 1);
+        if to.contains("frames_per_second = 1000.0") {
+            // 1,000 fps for 1,200 s: more frames than a follow-through may add
+            text = text.replace("follow_through_s = 0.25", "follow_through_s = 1200.0");
+        }
+        scene(dir.path(), &text);
+        let output = shatter(&["run"], dir.path());
+        let message = stderr(&output);
+        assert_eq!(output.status.code(), Some(2), "{to}: {message}");
+        assert!(message.contains("pipeline.toml") && message.contains(key), "{to}: {message}");
+        assert!(!message.contains("panicked"), "{to}: {message}");
+    }
+}

@@ -30,6 +30,10 @@ pub const MAX_HORIZON_FACTOR: f64 = 8.0;
 /// The longest scene name: it names files (`<name>.####.exr`, and a temporary name a little
 /// longer while one is written) that must stay within the 255 bytes file systems allow.
 pub const MAX_SCENE_NAME_BYTES: usize = 200;
+/// The highest frame rate accepted (high-speed cameras stop well below).
+pub const MAX_FRAMES_PER_SECOND: f64 = 100_000.0;
+/// The most frames a follow-through may add to a shot.
+pub const MAX_FOLLOW_THROUGH_FRAMES: f64 = 1_000_000.0;
 /// The largest config file read.
 pub const MAX_CONFIG_BYTES: u64 = 1 << 20;
 /// The largest per-bond threshold jitter accepted, as a fraction of the mean threshold.
@@ -462,6 +466,10 @@ impl PipelineConfig {
             )
         })?;
         check.positive("scene.frames_per_second", scene.frames_per_second, "frames per second")?;
+        let fps = scene.frames_per_second;
+        check.that(fps <= MAX_FRAMES_PER_SECOND, "scene.frames_per_second", &fps.to_string(), || {
+            format!("must be at most {MAX_FRAMES_PER_SECOND} frames per second")
+        })?;
 
         let geometry = &self.geometry;
         match &geometry.source {
@@ -582,6 +590,17 @@ impl PipelineConfig {
         self.post.validate(&check)?;
         if let Some(rigid) = &self.rigid {
             rigid.validate(&check)?;
+            let frames = rigid.follow_through_s * self.scene.frames_per_second;
+            check.that(
+                frames <= MAX_FOLLOW_THROUGH_FRAMES,
+                "rigid.follow_through_s",
+                &rigid.follow_through_s.to_string(),
+                || {
+                    format!(
+                        "at scene.frames_per_second it adds {frames:.0} frames, more than {MAX_FOLLOW_THROUGH_FRAMES}"
+                    )
+                },
+            )?;
         }
         self.render.validate(&check)
     }
