@@ -9,6 +9,7 @@ use std::time::Instant;
 use shatter_core::config::GeometrySource;
 use shatter_core::fragments::FragmentFrame;
 use shatter_core::shot::Shot;
+use shatter_core::sim_frames::SimFrames;
 use shatter_core::{OutputLayout, PipelineConfig};
 use shatter_sim::sim_driver::RunError;
 
@@ -31,7 +32,12 @@ pub fn run(config: &PipelineConfig, options: &SimArgs, until: Stage) -> Result<(
     std::fs::create_dir_all(output).map_err(|error| anyhow::anyhow!("{}: cannot create: {error}", output.display()))?;
     let mut stamps = Stamps::load(layout.stamps());
     let mut done = Vec::new();
-    let frames = config.sim.frames;
+    // the timeline shapes every stage's frames from the lead-in on, and with [rigid] the
+    // simulation ends at its longest fracture
+    let timeline = config
+        .timeline
+        .as_ref()
+        .map(|timeline| (timeline, config.rigid.as_ref().map(|rigid| rigid.max_fracture_duration_s)));
 
     // preprocess: the geometry and material settings, and the mesh's contents
     let mut hash = Hasher::default()
@@ -66,6 +72,7 @@ pub fn run(config: &PipelineConfig, options: &SimArgs, until: Stage) -> Result<(
             .json(&config.lead_in)
             .json(&config.sim)
             .json(&config.scene.frames_per_second)
+            .json_if(timeline.as_ref())
             .finish();
         let started = Instant::now();
         if stamps.matches("lead-in", &lead_in_hash) && layout.lead_in().is_file() {
@@ -83,8 +90,14 @@ pub fn run(config: &PipelineConfig, options: &SimArgs, until: Stage) -> Result<(
 
     // sim: the particles and the simulation settings (the backend too: GPU and CPU round apart)
     let backend = options.backend.map(crate::sim::BackendArg::backend).unwrap_or(config.sim.backend);
-    let sim_hash =
-        Hasher::default().bytes(upstream.as_bytes()).json(&config.sim).json(&config.material).json(&backend).finish();
+    let sim_hash = Hasher::default()
+        .bytes(upstream.as_bytes())
+        .json(&config.sim)
+        .json(&config.material)
+        .json(&backend)
+        .json_if(timeline.as_ref())
+        .finish();
+    let frames = SimFrames::read(config, &layout).map_err(|message| anyhow::anyhow!(message))?.count();
     let started = Instant::now();
     if stamps.matches("sim", &sim_hash) && layout.frame_points(frames).is_file() {
         done.push(Done { stage: "sim", seconds: 0.0, note: "up to date".into() });
@@ -123,7 +136,8 @@ pub fn run(config: &PipelineConfig, options: &SimArgs, until: Stage) -> Result<(
     // rigid (with [rigid] only): post's outputs, [rigid] and the frame rate
     let mut shot_hash = post_hash.clone();
     if config.rigid.is_some() {
-        let rigid_hash = Hasher::default().bytes(post_hash.as_bytes()).json(&config.rigid).finish();
+        let rigid_hash =
+            Hasher::default().bytes(post_hash.as_bytes()).json(&config.rigid).json_if(timeline.as_ref()).finish();
         let started = Instant::now();
         if stamps.matches("rigid", &rigid_hash) && Shot::of(config, &layout).is_ok() {
             done.push(Done { stage: "rigid", seconds: 0.0, note: "up to date".into() });

@@ -34,6 +34,15 @@ impl Hasher {
         self.bytes(text.as_bytes())
     }
 
+    /// Feeds a value's JSON form when there is one (absent, the hash is what it would be
+    /// without this call).
+    pub fn json_if(self, value: Option<&impl serde::Serialize>) -> Hasher {
+        match value {
+            Some(value) => self.json(value),
+            None => self,
+        }
+    }
+
     /// Feeds a file's contents (or a marker when it cannot be read).
     pub fn file(self, path: &Path) -> Hasher {
         match std::fs::read(path) {

@@ -306,6 +306,75 @@ fn a_dropped_block_flies_the_parabola_and_the_simulation_takes_over_from_there()
 }
 
 #[test]
+fn a_timeline_puts_every_frame_of_the_shot_where_its_speed_curve_says() {
+    use shatter_core::PipelineConfig;
+    use shatter_core::frames::PointFrame;
+    use shatter_core::lead_in::LeadIn;
+    use shatter_core::timeline::Timeline;
+
+    // the drop at real speed, easing into 4000x slow motion for the impact (about 100 steps a
+    // frame) and back out for the follow-through
+    let timed = DROP
+        .replace("frames = 6\nsteps_per_frame = 100\n", "")
+        .replace("[rigid]\nfollow_through_s = 0.25", "[rigid]\nmax_fracture_duration_s = 6e-5")
+        .replace(
+            "[render]",
+            "[timeline]\nfps = 24.0\nduration_s = 0.75\n[timeline.slow_motion]\nspeed = 2.5e-4\nlead_s = 0.05\n\
+             hold_s = 0.2\nramp_in_s = 0.1\nramp_out_s = 0.1\n[render]",
+        );
+    let dir = tempfile::tempdir().expect("tempdir");
+    scene(dir.path(), &timed);
+    let output = shatter(&["run"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let out = dir.path().join("out");
+    let config = PipelineConfig::load(&dir.path().join("pipeline.toml")).expect("config");
+    let lead_in = LeadIn::read(&out.join("rigid/lead_in.shp")).expect("lead-in");
+    let timeline = Timeline::new(config.timeline.as_ref().expect("timeline"), lead_in.handoff_time_s);
+    assert_eq!(timeline.frames(), 18);
+    assert_eq!(lead_in.frames, timeline.impact_frame() - 1);
+    assert!(lead_in.frames >= 3, "the fall takes frames: {}", lead_in.frames);
+    // the lead-in's frames on the parabola at the timeline's times, easing into slow motion
+    let g = -9.81;
+    let t_c = lead_in.handoff_time_s;
+    for frame in 1..=lead_in.frames {
+        let fragments = FragmentFrame::read(&out.join(format!("rigid/lead_in.{frame:04}.shp"))).expect("frame");
+        let time = timeline.time_s(frame);
+        assert_eq!(fragments.meta.time_s, time);
+        let y = fragments.translation_m[0][1] - lead_in.translation_m[1];
+        let analytic = 0.5 * g * (time * time - t_c * t_c);
+        assert!((y - analytic).abs() <= 1e-6 * 0.05, "frame {frame}: {y} vs {analytic}");
+    }
+    // the simulation's frames on the steps nearest the timeline's times, from the impact on
+    let dt = config.sim.dt_s;
+    let mut sim_frames = 0;
+    while out.join(format!("frames/points.{:04}.ply", sim_frames + 1)).is_file() {
+        sim_frames += 1;
+        let points = PointFrame::read(&out.join(format!("frames/points.{sim_frames:04}.ply"))).expect("frame");
+        let since = timeline.since_impact_s(lead_in.frames + sim_frames);
+        assert!((points.time_s - since).abs() <= 0.5 * dt + 1e-15, "frame {sim_frames}: {} vs {since}", points.time_s);
+    }
+    assert!(sim_frames >= 5, "the fracture spans the held window's frames: {sim_frames}");
+    // the follow-through's frames at the timeline's times to the shot's end
+    let checkpoint = RigidCheckpoint::read(&out.join("rigid/rigid.checkpoint.shp")).expect("checkpoint");
+    let meta = checkpoint.meta;
+    assert_eq!(lead_in.frames + meta.last_frame, timeline.frames());
+    for frame in meta.handoff_frame + 1..=meta.last_frame {
+        let fragments = FragmentFrame::read(&out.join(format!("rigid/fragments.{frame:04}.shp"))).expect("frame");
+        let since = timeline.since_impact_s(lead_in.frames + frame);
+        assert!((fragments.meta.time_s - since).abs() <= 0.5 * dt + 1e-12, "rigid frame {frame}");
+    }
+    // rendered in one numbering: exactly the timeline's frames
+    assert!(out.join("render/drop.0018.exr").is_file() && !out.join("render/drop.0019.exr").exists());
+
+    // a shot too short to reach the impact is refused by name, before the simulation
+    let short = timed.replace("duration_s = 0.75", "duration_s = 0.05");
+    scene(dir.path(), &short);
+    let output = shatter(&["lead-in"], dir.path());
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    assert!(stderr(&output).contains("timeline.duration_s = 0.05"), "{}", stderr(&output));
+}
+
+#[test]
 fn bad_lead_in_and_rigid_values_are_refused_by_name() {
     let cases = [
         ("[rigid]\nfollow_through_s = 0.25", "[rigid]\nfollow_through_s = -1", "rigid.follow_through_s"),

@@ -13,6 +13,11 @@ pub fn sim_settings(config: &PipelineConfig) -> u32 {
     if let Some(lead_in) = &config.lead_in {
         settings["lead_in"] = serde_json::json!({ "lead_in": lead_in, "fps": config.scene.frames_per_second });
     }
+    // the timeline sets the frames, which with [rigid] end at its longest fracture
+    if let Some(timeline) = &config.timeline {
+        let fracture_cap_s = config.rigid.as_ref().map(|rigid| rigid.max_fracture_duration_s);
+        settings["timeline"] = serde_json::json!({ "timeline": timeline, "fracture_cap_s": fracture_cap_s });
+    }
     crc32fast::hash(settings.to_string().as_bytes())
 }
 

@@ -7,6 +7,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::OutputLayout;
 use crate::stage_file::{StageFileError, StageKind, StageReader, StageWriter};
 
 /// The body at the handoff to the simulation.
@@ -39,6 +40,16 @@ impl LeadIn {
         let mut out = StageWriter::create(path, StageKind::LeadIn)?;
         out.write_json("meta", self)?;
         out.finish()
+    }
+
+    /// The scene's lead-in file (`layout.lead_in()`), read; the error names what to run when it
+    /// is missing.
+    pub fn read_for(layout: &OutputLayout) -> Result<LeadIn, String> {
+        let path = layout.lead_in();
+        if !path.is_file() {
+            return Err(format!("{}: missing ([lead_in] is set); run `shatter lead-in` first", path.display()));
+        }
+        LeadIn::read(&path).map_err(|error| error.to_string())
     }
 
     /// Reads and validates the file.

@@ -14,6 +14,8 @@
 //! - [`lead_in`]: where the lead-in hands the body over to the simulation.
 //! - [`rigid_checkpoint`]: the follow-through's rapier world (resume) and frame range;
 //!   [`shot`]: which file holds each frame of a shot.
+//! - [`timeline`]: where a `[timeline]` puts each frame in physical time; [`sim_frames`]: the
+//!   simulation's frames that follow.
 //! - [`ply`]: checksummed binary PLY point caches, the public per-frame format.
 //! - [`memory`]: each stage's peak memory, estimated and refused up front when it cannot fit.
 //! - [`progress`]: how library code reports progress to the CLI.
@@ -35,7 +37,9 @@ pub mod progress;
 pub mod random;
 pub mod rigid_checkpoint;
 pub mod shot;
+pub mod sim_frames;
 pub mod stage_file;
+pub mod timeline;
 
 pub use config::{ConfigError, PipelineConfig};
 pub use layout::OutputLayout;

@@ -8,6 +8,7 @@ use std::path::PathBuf;
 
 use crate::lead_in::LeadIn;
 use crate::rigid_checkpoint::RigidCheckpoint;
+use crate::sim_frames::SimFrames;
 use crate::{OutputLayout, PipelineConfig};
 
 /// The stage whose file holds a frame.
@@ -40,7 +41,7 @@ pub struct Shot {
     /// The shot's time at the simulation's start (the lead-in's handoff), seconds: the
     /// simulation's and the follow-through's files count time from there.
     pub sim_start_s: f64,
-    /// The last frame from the simulation, in its own numbering: `sim.frames` without
+    /// The last frame from the simulation, in its own numbering: all of its frames without
     /// `[rigid]`.
     pub handoff: u32,
     /// The shot's last frame.
@@ -53,19 +54,15 @@ impl Shot {
     /// The shot of `config`, as its lead-in and finished follow-through recorded it. An error
     /// names what to run when one is missing or unfinished.
     pub fn of(config: &PipelineConfig, layout: &OutputLayout) -> Result<Shot, String> {
-        let (lead_in, sim_start_s) = match config.lead_in {
-            None => (0, 0.0),
-            Some(_) => {
-                let path = layout.lead_in();
-                if !path.is_file() {
-                    return Err(format!("{}: missing ([lead_in] is set); run `shatter lead-in` first", path.display()));
-                }
-                let lead_in = LeadIn::read(&path).map_err(|error| error.to_string())?;
-                (lead_in.frames, lead_in.handoff_time_s)
-            }
+        let lead_in = match config.lead_in {
+            None => None,
+            Some(_) => Some(LeadIn::read_for(layout)?),
         };
+        let sim_start_s = lead_in.as_ref().map_or(0.0, |lead_in| lead_in.handoff_time_s);
+        let sim_frames = SimFrames::of(config, lead_in.as_ref())?;
+        let lead_in = sim_frames.first_shot_frame - 1;
         if config.rigid.is_none() {
-            let frames = config.sim.frames;
+            let frames = sim_frames.count();
             return Ok(Shot { lead_in, sim_start_s, handoff: frames, last: lead_in + frames, rigid: false });
         }
         let path = layout.rigid_checkpoint();

@@ -12,6 +12,7 @@ use shatter_core::layout::missing_input;
 use shatter_core::memory::{self, MemoryError, SetSize};
 use shatter_core::particles::ParticleSet;
 use shatter_core::ply::{Column, PlyError, PointCache};
+use shatter_core::sim_frames::SimFrames;
 use shatter_core::stage_file::StageFileError;
 use shatter_core::{OutputLayout, PipelineConfig, Progress};
 
@@ -83,11 +84,12 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
     let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
     memory::check(&memory::post_need(&SetSize::of(&particles)))?;
     let sim_inputs = digest::sim_inputs(particles_checksum, config);
-    let total = config.sim.frames;
+    let sim_frames = SimFrames::read(config, &layout).map_err(PostError::MissingInput)?;
+    let total = sim_frames.count();
     for frame in 1..=total {
         if !layout.frame_points(frame).is_file() {
             return Err(PostError::MissingInput(format!(
-                "{}: missing (sim.frames = {total}); run `shatter sim` first",
+                "{}: missing (the simulation writes {total} frames); run `shatter sim` first",
                 layout.frame_points(frame).display()
             )));
         }
@@ -157,7 +159,7 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
         last = Some(tracked);
     }
     progress.finish();
-    let last = last.ok_or_else(|| PostError::MissingInput("sim.frames is 0".into()))?;
+    let last = last.ok_or_else(|| PostError::MissingInput("the simulation has no frames".into()))?;
     if config.post.usd {
         let pieces = last.motion.len();
         let meshes = surfaces::piece_surfaces(&particles, &last.fragment_of, pieces);
@@ -175,9 +177,9 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
         let path = layout.usd();
         let width = 0.5 * particles.meta.lambda_m;
         let fps = config.scene.frames_per_second;
-        // physical m/s to metres per playback second
-        let velocity_scale = config.sim.dt_s * f64::from(config.sim.steps_per_frame) * fps;
-        write_usda(&path, &meshes, &transforms, 1, fps, &debris, width, velocity_scale)
+        // the shot's frame numbers, and physical m/s to metres per playback second
+        let first = sim_frames.first_shot_frame;
+        write_usda(&path, &meshes, &transforms, first, fps, &debris, width, &sim_frames.speed)
             .map_err(|source| PostError::Usd { path, source })?;
     }
     Ok(PostReport {

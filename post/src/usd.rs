@@ -35,8 +35,9 @@ fn matrix(transform: &PieceTransform) -> [[f64; 4]; 4] {
 /// Writes `path` (atomically): `meshes[p]` with `transforms[frame index][p]`, frames numbered from
 /// `first_frame`, `fps` time codes per second, and the `debris` emitter points of each frame as a
 /// `Points` prim (`/Shatter/debris`, points of `width_m`, time-sampled: a frame without breaks
-/// holds none) with velocities (the debris' physical velocities times `velocity_scale`, which
-/// makes them metres per playback second as USD defines them) and the primvars `brokenBonds`,
+/// holds none) with velocities (the debris' physical velocities times the frame's
+/// `velocity_scale`, physical seconds per playback second, which makes them metres per playback
+/// second as USD defines them) and the primvars `brokenBonds`,
 /// `fragment`, `otherFragment`.
 #[allow(clippy::too_many_arguments)]
 pub fn write_usda(
@@ -47,7 +48,7 @@ pub fn write_usda(
     fps: f64,
     debris: &[DebrisFrame],
     width_m: f64,
-    velocity_scale: f64,
+    velocity_scale: &[f64],
 ) -> std::io::Result<()> {
     let last_frame = first_frame + transforms.len().saturating_sub(1) as u32;
     let mut text = String::new();
@@ -85,7 +86,7 @@ pub fn write_usda(
     }
     out.extend_from_slice(LOOKS.as_bytes());
     if !debris.is_empty() {
-        out.extend_from_slice(debris_prim(debris, width_m, velocity_scale).as_bytes());
+        out.extend_from_slice(debris_prim(debris, first_frame, width_m, velocity_scale).as_bytes());
     }
     out.extend_from_slice(b"}\n");
     shatter_core::atomic_file::write_atomically(path, &[&out])
@@ -143,25 +144,25 @@ fn face_subsets(mesh: &SurfaceMesh) -> String {
 }
 
 /// The `Points` prim of the debris: each attribute sampled at every frame.
-fn debris_prim(debris: &[DebrisFrame], width_m: f64, velocity_scale: f64) -> String {
+fn debris_prim(debris: &[DebrisFrame], first_frame: u32, width_m: f64, velocity_scale: &[f64]) -> String {
     let mut prim = String::from("    def Points \"debris\"\n    {\n");
     let vector = |v: &[f32; 3]| format!("({}, {}, {})", v[0], v[1], v[2]);
-    let mut samples = |kind: &str, name: &str, value: &dyn Fn(&DebrisFrame) -> Vec<String>| {
+    let mut samples = |kind: &str, name: &str, value: &dyn Fn(usize, &DebrisFrame) -> Vec<String>| {
         let _ = writeln!(prim, "        {kind} {name}.timeSamples = {{");
-        for frame in debris {
-            let _ = write!(prim, "            {}: [", frame.frame);
-            join(&mut prim, value(frame).into_iter());
+        for (index, frame) in debris.iter().enumerate() {
+            let _ = write!(prim, "            {}: [", first_frame + index as u32);
+            join(&mut prim, value(index, frame).into_iter());
             prim.push_str("],\n");
         }
         prim.push_str("        }\n");
     };
-    samples("point3f[]", "points", &|f| f.position.iter().map(vector).collect());
-    let scaled = |v: &[f32; 3]| vector(&v.map(|c| (f64::from(c) * velocity_scale) as f32));
-    samples("vector3f[]", "velocities", &|f| f.velocity.iter().map(scaled).collect());
-    samples("int[]", "primvars:brokenBonds", &|f| f.broken_bonds.iter().map(i32::to_string).collect());
-    samples("int[]", "primvars:fragment", &|f| f.fragment.iter().map(i32::to_string).collect());
-    samples("int[]", "primvars:otherFragment", &|f| f.other_fragment.iter().map(i32::to_string).collect());
-    samples("float[]", "primvars:breakTime", &|f| f.time_s.iter().map(f32::to_string).collect());
+    samples("point3f[]", "points", &|_, f| f.position.iter().map(vector).collect());
+    let scaled = |v: &[f32; 3], scale: f64| vector(&v.map(|c| (f64::from(c) * scale) as f32));
+    samples("vector3f[]", "velocities", &|i, f| f.velocity.iter().map(|v| scaled(v, velocity_scale[i])).collect());
+    samples("int[]", "primvars:brokenBonds", &|_, f| f.broken_bonds.iter().map(i32::to_string).collect());
+    samples("int[]", "primvars:fragment", &|_, f| f.fragment.iter().map(i32::to_string).collect());
+    samples("int[]", "primvars:otherFragment", &|_, f| f.other_fragment.iter().map(i32::to_string).collect());
+    samples("float[]", "primvars:breakTime", &|_, f| f.time_s.iter().map(f32::to_string).collect());
     let _ =
         writeln!(prim, "        float[] widths = [{width_m}] (\n            interpolation = \"constant\"\n        )");
     prim.push_str("    }\n");

@@ -19,6 +19,7 @@ use shatter_core::config::{LeadInConfig, RigidConfig};
 use shatter_core::digest;
 use shatter_core::fragments::{FragmentFrame, FragmentMeta};
 use shatter_core::lead_in::LeadIn;
+use shatter_core::timeline::Timeline;
 use shatter_core::{PipelineConfig, Progress};
 
 use crate::mass::{element_mass_props, piece_mass_props};
@@ -66,19 +67,16 @@ pub fn run_lead_in(config: &PipelineConfig, progress: &dyn Progress) -> Result<L
     let fps = config.scene.frames_per_second;
     let lowest = shape.hulls.iter().flatten().map(|p| (rotation * *p + translation).y).fold(f64::INFINITY, f64::min);
     let step_s = step(lead_in, config, gravity, lowest, &shape.hulls, rest.centre_m, gap);
-    let steps_per_frame = ((1.0 / fps) / step_s).ceil().max(1.0);
-    let dt = 1.0 / (fps * steps_per_frame);
-    let steps_per_frame = steps_per_frame as u64;
-
-    let body = PieceBody {
-        mass: rest,
-        rotation,
-        translation_m: translation,
-        linear_m_s: Vector::from_array(lead_in.velocity_m_s) - gravity * (0.5 * dt),
-        angular_rad_s: Vector::from_array(lead_in.angular_velocity_rad_s),
-        shape: shape.shared_shape(),
-        dust: false,
+    // without a timeline the frames are a real-speed frame interval apart and fall on steps;
+    // with one they fall where it puts them, between steps
+    let (dt, steps_per_frame) = match config.timeline {
+        None => {
+            let steps_per_frame = ((1.0 / fps) / step_s).ceil().max(1.0);
+            (1.0 / (fps * steps_per_frame), steps_per_frame as u64)
+        }
+        Some(_) => (step_s, 0),
     };
+
     let settings = WorldSettings {
         gravity_m_s2: config.sim.gravity_m_s2,
         length_unit_m: LENGTH_UNIT_SPACINGS * particles.meta.lambda_m,
@@ -93,12 +91,22 @@ pub fn run_lead_in(config: &PipelineConfig, progress: &dyn Progress) -> Result<L
         sleep_after_s: rigid.sleep_after_s,
     };
     let floor = config.sim.floor.as_ref().map(|floor| floor.height_m);
-    let mut world = RigidWorld::new(&settings, floor, &kinematic_spheres(config, 0.0), &[body]);
+    let spheres = kinematic_spheres(config, 0.0);
+    let new_world = || {
+        let body = PieceBody {
+            mass: rest,
+            rotation,
+            translation_m: translation,
+            linear_m_s: Vector::from_array(lead_in.velocity_m_s) - gravity * (0.5 * dt),
+            angular_rad_s: Vector::from_array(lead_in.angular_velocity_rad_s),
+            shape: shape.shared_shape(),
+            dust: false,
+        };
+        RigidWorld::new(&settings, floor, &spheres, &[body])
+    };
     let limit = (lead_in.max_duration_s / dt).ceil() as u64;
-    progress.start("lead-in", limit);
     let mass_kg = vec![rest.mass_kg];
-    let frame_file = |frame: u32, time_s: f64, world: &RigidWorld| {
-        let (r, t) = world.poses()[0];
+    let frame_file = |frame: u32, time_s: f64, (r, t): (Rotation, Vector)| {
         FragmentFrame {
             meta: FragmentMeta { frame, step: 0, time_s, smoothed: false, inputs: Some(inputs) },
             fragment_of: vec![0; particles.len()],
@@ -109,28 +117,67 @@ pub fn run_lead_in(config: &PipelineConfig, progress: &dyn Progress) -> Result<L
         }
         .write(&layout.lead_in_fragments(frame))
     };
+    let fly = |world: &mut RigidWorld, visit: &mut dyn FnMut(u64, &RigidWorld) -> Result<(), RigidError>| {
+        let mut steps = 0u64;
+        let mut clearance = world.clearance_m(0);
+        while clearance > gap {
+            visit(steps, world)?;
+            if steps == limit {
+                return Err(RigidError::Input(format!(
+                    "{}: lead_in.max_duration_s = {}: the body touches nothing in that time ({:.3} m away at the end)",
+                    config.path.display(),
+                    lead_in.max_duration_s,
+                    clearance
+                )));
+            }
+            world.advance(dt, dt);
+            steps += 1;
+            clearance = world.clearance_m(0);
+        }
+        Ok((steps, clearance))
+    };
+
+    let mut world = new_world();
     let mut frames = 0;
-    let mut steps = 0u64;
-    let mut clearance = world.clearance_m(0);
-    while clearance > gap {
-        if steps.is_multiple_of(steps_per_frame) {
-            frames += 1;
-            frame_file(frames, steps as f64 * dt, &world)?;
-            progress.advance(steps_per_frame.min(limit));
-            progress.message(&format!("frame {frames}, {:.1} mm from the first contact", clearance * 1e3));
+    let (steps, clearance) = match &config.timeline {
+        None => {
+            progress.start("lead-in", limit);
+            fly(&mut world, &mut |steps, world| {
+                if steps.is_multiple_of(steps_per_frame) {
+                    frames += 1;
+                    frame_file(frames, steps as f64 * dt, world.poses()[0])?;
+                    progress.advance(steps_per_frame.min(limit));
+                    let clearance = world.clearance_m(0);
+                    progress.message(&format!("frame {frames}, {:.1} mm from the first contact", clearance * 1e3));
+                }
+                Ok(())
+            })?
         }
-        if steps == limit {
-            return Err(RigidError::Input(format!(
-                "{}: lead_in.max_duration_s = {}: the body touches nothing in that time ({:.3} m away at the end)",
-                config.path.display(),
-                lead_in.max_duration_s,
-                clearance
-            )));
+        Some(timeline) => {
+            // find the impact, lay the timeline on it, then fly again writing its frames
+            progress.start("lead-in", 2 * limit);
+            let (impact_steps, _) = fly(&mut new_world(), &mut |_, _| Ok(()))?;
+            progress.advance(impact_steps);
+            let timeline = Timeline::new(timeline, impact_steps as f64 * dt);
+            // a timeline that ends before the impact is refused before any frame is written
+            timeline
+                .reaches_impact()
+                .map_err(|message| RigidError::Input(format!("{}: {message}", config.path.display())))?;
+            let before_impact = timeline.impact_frame() - 1;
+            fly(&mut world, &mut |steps, world| {
+                let next_step_s = (steps + 1) as f64 * dt;
+                while frames < before_impact && timeline.time_s(frames + 1) < next_step_s {
+                    frames += 1;
+                    let time_s = timeline.time_s(frames);
+                    let pose = pose_after(world, gravity, dt, rest.centre_m, time_s - steps as f64 * dt);
+                    frame_file(frames, time_s, pose)?;
+                    progress.message(&format!("frame {frames} of {before_impact} before the impact"));
+                }
+                progress.advance(1);
+                Ok(())
+            })?
         }
-        world.advance(dt, dt);
-        steps += 1;
-        clearance = world.clearance_m(0);
-    }
+    };
     progress.finish();
     let (r, t) = world.poses()[0];
     let (v, w) = world.velocities()[0];
@@ -147,6 +194,18 @@ pub fn run_lead_in(config: &PipelineConfig, progress: &dyn Progress) -> Result<L
     };
     handoff.write(&layout.lead_in())?;
     Ok(LeadInReport { lead_in: handoff, step_s: dt, gap_m: clearance, wall_s: started.elapsed().as_secs_f64() })
+}
+
+/// The body's pose `after_s` (under a step) past the world's state: the centre on its exact
+/// parabola (rapier's velocity trails by g dt / 2, see the module doc), the rotation turned at
+/// the current angular velocity.
+fn pose_after(world: &RigidWorld, gravity: Vector, dt: f64, rest_centre: Vector, after_s: f64) -> (Rotation, Vector) {
+    let (r, _) = world.poses()[0];
+    let (v, w) = world.velocities()[0];
+    let velocity = v + gravity * (0.5 * dt);
+    let centre = world.centres()[0] + velocity * after_s + gravity * (0.5 * after_s * after_s);
+    let rotation = (Rotation::from_scaled_axis(w * after_s) * r).normalize();
+    (rotation, centre - rotation * rest_centre)
 }
 
 /// The largest step at which the body crosses at most half the handoff gap: from the fastest

@@ -11,10 +11,13 @@ use shatter_core::digest;
 use shatter_core::fragments::{FragmentFrame, FragmentMeta};
 use shatter_core::frames::{BreakLog, FrameFileError, PointFrame};
 use shatter_core::layout::missing_input;
+use shatter_core::lead_in::LeadIn;
 use shatter_core::memory::{self, MemoryError, SetSize};
 use shatter_core::particles::ParticleSet;
 use shatter_core::rigid_checkpoint::{RigidCheckpoint, RigidMeta};
+use shatter_core::sim_frames::SimFrames;
 use shatter_core::stage_file::StageFileError;
+use shatter_core::timeline::Timeline;
 use shatter_core::{OutputLayout, PipelineConfig, Progress};
 
 use crate::handoff::{cracks_stopped, members_of_pieces, pieces_calm};
@@ -109,9 +112,8 @@ pub fn run_rigid(config: &PipelineConfig, resume: bool, progress: &dyn Progress)
     let (layout, particles, particles_checksum) = open_particles(config)?;
     let post_inputs = digest::post_inputs(digest::sim_inputs(particles_checksum, config), config);
     let inputs = digest::rigid_inputs(post_inputs, config);
-    let fps = config.scene.frames_per_second;
-    let simulated = config.sim.frames;
-    let last_frame = simulated + rigid.follow_through_frames(fps);
+    let clock = Clock::of(config, rigid, &layout)?;
+    let last_frame = clock.last_frame;
 
     let previous = resume.then(|| RigidCheckpoint::read(&layout.rigid_checkpoint()).ok()).flatten();
     let (mut world, meta, handoff, conservation, reason) = match previous {
@@ -124,7 +126,7 @@ pub fn run_rigid(config: &PipelineConfig, resume: bool, progress: &dyn Progress)
             (world, checkpoint.meta, handoff, None, "resumed".to_string())
         }
         _ => {
-            let (frame, reason) = choose_handoff(config, rigid, &layout, &particles, post_inputs)?;
+            let (frame, reason) = choose_handoff(config, rigid, clock.simulated, &layout, &particles, post_inputs)?;
             let handoff = read_fragments(&layout, frame, &particles, post_inputs)?;
             let points = PointFrame::read(&layout.frame_points(frame))?;
             let (world, conservation) = hand_over(config, rigid, &particles, &handoff, &points);
@@ -147,13 +149,13 @@ pub fn run_rigid(config: &PipelineConfig, resume: bool, progress: &dyn Progress)
     let first = meta.frame + 1;
     for frame in first..=last_frame {
         if !meta.asleep {
-            meta.steps += world.advance(1.0 / fps, rigid.max_step_s);
+            meta.steps += world.advance(clock.step_s(&meta, frame), rigid.max_step_s);
             meta.asleep = world.all_asleep();
         }
         if meta.asleep && asleep_from.is_none() {
             asleep_from = Some(frame);
         }
-        let time_s = meta.handoff_time_s + f64::from(frame - meta.handoff_frame) / fps;
+        let time_s = clock.time_s(&meta, frame);
         rigid_frame(&handoff, &world, frame, time_s, inputs).write(&layout.rigid_fragments(frame))?;
         meta.frame = frame;
         if (frame - meta.handoff_frame).is_multiple_of(rigid.checkpoint_every_frames) || frame == last_frame {
@@ -180,6 +182,60 @@ pub fn run_rigid(config: &PipelineConfig, resume: bool, progress: &dyn Progress)
         conservation,
         wall_s: started.elapsed().as_secs_f64(),
     })
+}
+
+/// When the follow-through's frames fall: a frame interval apart at real speed without
+/// `[timeline]`, where the timeline puts them with it.
+struct Clock {
+    /// The simulation's frames.
+    simulated: u32,
+    /// The last frame, in the simulation's numbering.
+    last_frame: u32,
+    /// Frames per second without a timeline.
+    fps: f64,
+    /// The timeline and the shot frame of the simulation's frame 1.
+    timeline: Option<(Timeline, u32)>,
+}
+
+impl Clock {
+    fn of(config: &PipelineConfig, rigid: &RigidConfig, layout: &OutputLayout) -> Result<Clock, RigidError> {
+        let lead_in = match config.lead_in {
+            None => None,
+            Some(_) => Some(LeadIn::read_for(layout).map_err(RigidError::Input)?),
+        };
+        let sim_frames = SimFrames::of(config, lead_in.as_ref()).map_err(RigidError::Input)?;
+        let simulated = sim_frames.count();
+        let fps = config.scene.frames_per_second;
+        Ok(match &config.timeline {
+            None => Clock { simulated, last_frame: simulated + rigid.follow_through_frames(fps), fps, timeline: None },
+            Some(timeline) => {
+                let impact_time_s = lead_in.as_ref().map_or(0.0, |lead_in| lead_in.handoff_time_s);
+                let timeline = Timeline::new(timeline, impact_time_s);
+                let offset = sim_frames.first_shot_frame - 1;
+                let last_frame = timeline.frames() - offset;
+                Clock { simulated, last_frame, fps, timeline: Some((timeline, offset)) }
+            }
+        })
+    }
+
+    /// The simulated time of `frame` (the simulation's numbering), seconds since its start.
+    fn time_s(&self, meta: &RigidMeta, frame: u32) -> f64 {
+        match &self.timeline {
+            None => meta.handoff_time_s + f64::from(frame - meta.handoff_frame) / self.fps,
+            Some((timeline, offset)) => {
+                let since = |frame: u32| timeline.since_impact_s(frame + offset);
+                meta.handoff_time_s + (since(frame) - since(meta.handoff_frame))
+            }
+        }
+    }
+
+    /// The physical time from `frame - 1` to `frame`, seconds.
+    fn step_s(&self, meta: &RigidMeta, frame: u32) -> f64 {
+        match &self.timeline {
+            None => 1.0 / self.fps,
+            Some(_) => self.time_s(meta, frame) - self.time_s(meta, frame - 1),
+        }
+    }
 }
 
 /// The output folder's layout (its `rigid/` folder made) and the particle file with its
@@ -234,11 +290,11 @@ fn read_fragments(
 fn choose_handoff(
     config: &PipelineConfig,
     rigid: &RigidConfig,
+    simulated: u32,
     layout: &OutputLayout,
     particles: &ParticleSet,
     post_inputs: u32,
 ) -> Result<(u32, String), RigidError> {
-    let simulated = config.sim.frames;
     let blocks = BreakLog::read_through(&layout.break_log(), simulated)?;
     let mut breaks = vec![0u64; simulated as usize];
     for block in &blocks {

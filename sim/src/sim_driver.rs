@@ -14,6 +14,7 @@ use shatter_core::layout::missing_input;
 use shatter_core::lead_in::LeadIn;
 use shatter_core::memory::{self, MemoryError, SetSize};
 use shatter_core::particles::ParticleSet;
+use shatter_core::sim_frames::SimFrames;
 use shatter_core::stage_file::StageFileError;
 use shatter_core::{OutputLayout, PipelineConfig, Progress};
 use shatter_gpu::GpuError;
@@ -321,7 +322,8 @@ pub fn run_with(
     let log_path = layout.break_log();
     let hash = digest::sim_settings(config);
     let inputs = digest::sim_inputs(particles_checksum, config);
-    let total_frames = config.sim.frames;
+    let sim_frames = SimFrames::of(config, lead_in.as_ref()).map_err(RunError::MissingInput)?;
+    let total_frames = sim_frames.count();
 
     let resumable = options.resume && checkpoint_path.exists();
     if options.resume && !resumable {
@@ -340,7 +342,7 @@ pub fn run_with(
             return Err(mismatch("the [sim] or [material] settings changed since this checkpoint"));
         }
         if meta.frame > total_frames {
-            return Err(mismatch("the checkpoint is past sim.frames"));
+            return Err(mismatch("the checkpoint is past the simulation's last frame"));
         }
         if state.particles() != simulation.len() {
             let what = format!("the checkpoint holds {} particles, not {}", state.particles(), simulation.len());
@@ -386,13 +388,13 @@ pub fn run_with(
         (log, 1, 0, simulation.energy().total_j())
     };
 
-    let steps_per_frame = u64::from(config.sim.steps_per_frame);
-    let remaining_frames = total_frames.saturating_sub(start_frame);
-    progress.start("sim", u64::from(remaining_frames) * steps_per_frame);
+    let remaining_steps = sim_frames.steps[total_frames as usize - 1] - sim_frames.steps[start_frame as usize - 1];
+    progress.start("sim", remaining_steps);
     let mut steps = 0u64;
     let mut checkpointed = resumable;
     let mut frames = || -> Result<(), RunError> {
         for frame in start_frame + 1..=total_frames {
+            let steps_per_frame = sim_frames.steps_before(frame);
             for batch in 0..steps_per_frame.div_ceil(50) {
                 let count = (steps_per_frame - batch * 50).min(50);
                 simulation.advance(count)?;

@@ -18,12 +18,14 @@ pub mod post;
 pub mod render;
 pub mod rigid;
 pub mod sim;
+pub mod timeline;
 
 pub use lead_in::LeadInConfig;
 pub use post::PostConfig;
 pub use render::RenderConfig;
 pub use rigid::RigidConfig;
 pub use sim::SimConfig;
+pub use timeline::TimelineConfig;
 
 /// The largest horizon factor N accepted: bonds per particle grow as N^3 (about 2,100 at N = 8).
 pub const MAX_HORIZON_FACTOR: f64 = 8.0;
@@ -98,6 +100,11 @@ pub struct PipelineConfig {
     /// `[rigid]`: the follow-through on rigid bodies; absent, the shot ends with the simulation.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rigid: Option<RigidConfig>,
+    /// `[timeline]`: frame rate, length and speed curve of a shot at real speed; absent, the
+    /// simulation's frames are `sim.frames` of `sim.steps_per_frame` steps, and the lead-in's
+    /// and follow-through's frames are at real speed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub timeline: Option<TimelineConfig>,
     /// `[render]`: camera, image, lighting (every key has a default).
     #[serde(default)]
     pub render: RenderConfig,
@@ -394,6 +401,26 @@ impl PipelineConfig {
         }
         config.path = path.to_path_buf();
         let check = Checker { path };
+        if let Some(timeline) = &config.timeline {
+            // the timeline decides what these would: one of them besides it is a contradiction
+            let table = toml::from_str::<toml::Table>(text).unwrap_or_default();
+            for (table_name, key, instead) in [
+                ("scene", "frames_per_second", "timeline.fps"),
+                ("sim", "frames", "timeline.duration_s and the speed curve"),
+                ("sim", "steps_per_frame", "the speed curve"),
+                ("rigid", "follow_through_s", "timeline.duration_s"),
+            ] {
+                let given = table.get(table_name).and_then(|t| t.get(key));
+                if let Some(value) = given {
+                    return Err(check.invalid(
+                        &format!("{table_name}.{key}"),
+                        &value.to_string(),
+                        &format!("does not go with [timeline]: {instead} sets this; remove the key"),
+                    ));
+                }
+            }
+            config.scene.frames_per_second = timeline.fps;
+        }
         check.that(!config.scene.output_dir.as_os_str().is_empty(), "scene.output_dir", "\"\"", || {
             "must name a folder (\".\" for the config file's own folder)".to_string()
         })?;
@@ -588,6 +615,9 @@ impl PipelineConfig {
         }
         self.sim.validate(&check)?;
         self.post.validate(&check)?;
+        if let Some(timeline) = &self.timeline {
+            timeline.validate(&check)?;
+        }
         if let Some(rigid) = &self.rigid {
             rigid.validate(&check)?;
             let frames = rigid.follow_through_s * self.scene.frames_per_second;

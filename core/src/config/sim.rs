@@ -6,6 +6,9 @@ use serde::{Deserialize, Serialize};
 
 use super::{Checker, ConfigError};
 
+/// The most frames a simulation may write.
+pub const MAX_FRAMES: u32 = 1_000_000;
+
 /// The paper's time step, 2^-23 s (the power of two nearest Silling and Askari's 1e-7 s).
 pub const DEFAULT_DT_S: f64 = 1.0 / 8_388_608.0;
 
@@ -431,6 +434,9 @@ impl SimConfig {
         check.positive("sim.dt_s", self.dt_s, "seconds")?;
         check.that(self.steps_per_frame > 0, "sim.steps_per_frame", "0", || "must be at least 1".into())?;
         check.that(self.frames > 0, "sim.frames", "0", || "must be at least 1 (frame 1 is the rest state)".into())?;
+        check.that(self.frames <= MAX_FRAMES, "sim.frames", &self.frames.to_string(), || {
+            format!("must be at most {MAX_FRAMES} (each frame is a file)")
+        })?;
         check.that(self.checkpoint_every_frames > 0, "sim.checkpoint_every_frames", "0", || {
             "must be at least 1".into()
         })?;
