@@ -103,7 +103,8 @@ mod tests {
 
     #[test]
     fn without_a_timeline_the_frames_are_a_fixed_count_of_steps_apart() {
-        let frames = SimFrames::of(&config("[sim]\nframes = 4\nsteps_per_frame = 10\n").unwrap(), None).unwrap();
+        let frames =
+            SimFrames::of(&config("[sim]\nframes = 4\nsteps_per_frame = 10\n").expect("valid"), None).expect("valid");
         assert_eq!(frames.steps, [0, 10, 20, 30]);
         assert_eq!(frames.first_shot_frame, 1);
         assert_eq!(frames.steps_before(3), 10);
@@ -113,21 +114,22 @@ mod tests {
     fn a_timeline_puts_the_frames_on_the_nearest_steps_up_to_the_longest_fracture() {
         let slow = "[sim]\ndt_s = 1e-6\n[timeline]\nduration_s = 2.0\n[timeline.slow_motion]\nspeed = 0.0048\n\
                     hold_s = 0.5\n[rigid]\nmax_fracture_duration_s = 0.002\n";
-        let config = config(slow).unwrap();
-        let frames = SimFrames::of(&config, Some(&lead_in(0.4))).unwrap();
-        let timeline = Timeline::new(config.timeline.as_ref().unwrap(), 0.4);
+        let config = config(slow).expect("valid");
+        let frames = SimFrames::of(&config, Some(&lead_in(0.4))).expect("valid");
+        let timeline = Timeline::new(config.timeline.as_ref().expect("valid"), 0.4);
         assert_eq!(frames.first_shot_frame, timeline.impact_frame());
         // 200 steps a frame in the held window: 0.002 s is frame 11
         assert_eq!(&frames.steps[..4], [0, 200, 400, 600]);
         assert_eq!(frames.count(), 11);
-        assert_eq!(*frames.steps.last().unwrap(), 2000);
+        assert_eq!(*frames.steps.last().expect("valid"), 2000);
         assert!((frames.speed[0] - 0.0048).abs() < 1e-15);
         // without [rigid] the simulation runs to the shot's end, through the ramp, a step apart at least
-        let to_end = SimFrames::of(&PipelineConfig { rigid: None, ..config.clone() }, Some(&lead_in(0.4))).unwrap();
+        let to_end =
+            SimFrames::of(&PipelineConfig { rigid: None, ..config.clone() }, Some(&lead_in(0.4))).expect("valid");
         assert_eq!(to_end.first_shot_frame + to_end.count() - 1, timeline.frames());
         assert!(to_end.steps.windows(2).all(|pair| pair[1] > pair[0]));
         // a shot that ends before the impact names its length
-        let error = SimFrames::of(&config, Some(&lead_in(5.0))).unwrap_err();
+        let error = SimFrames::of(&config, Some(&lead_in(5.0))).expect_err("refused");
         assert!(error.contains("timeline.duration_s = 2") && error.contains("before the impact"), "{error}");
     }
 
@@ -138,14 +140,14 @@ mod tests {
             ("[sim]\nsteps_per_frame = 4\n", "sim.steps_per_frame"),
             ("[rigid]\nfollow_through_s = 2.0\n", "rigid.follow_through_s"),
         ] {
-            let error = config(&format!("{extra}[timeline]\nfps = 30.0\n")).unwrap_err();
+            let error = config(&format!("{extra}[timeline]\nfps = 30.0\n")).expect_err("refused");
             assert!(error.contains(key) && error.contains("[timeline]"), "{error}");
         }
         let text = format!("{}[timeline]\n", BASE.replace("seed = 1\n", "seed = 1\nframes_per_second = 30.0\n"));
-        let error = PipelineConfig::from_toml_str(&text, Path::new("p.toml")).unwrap_err().to_string();
+        let error = PipelineConfig::from_toml_str(&text, Path::new("p.toml")).expect_err("refused").to_string();
         assert!(error.contains("scene.frames_per_second") && error.contains("timeline.fps"), "{error}");
-        let error = config("[timeline]\n[timeline.slow_motion]\nspeed = 2.0\n").unwrap_err();
+        let error = config("[timeline]\n[timeline.slow_motion]\nspeed = 2.0\n").expect_err("refused");
         assert!(error.contains("timeline.slow_motion.speed"), "{error}");
-        assert_eq!(config("[timeline]\nfps = 30.0\n").unwrap().scene.frames_per_second, 30.0);
+        assert_eq!(config("[timeline]\nfps = 30.0\n").expect("valid").scene.frames_per_second, 30.0);
     }
 }
