@@ -140,22 +140,40 @@ fn leaf_lines(text: &str) -> Vec<(usize, String)> {
     keys
 }
 
-/// After an exit 0: every stage file reads back whole and every frame has its image.
+/// After an exit 0: every stage file reads back whole and every frame of the shot has its image
+/// (the lead-in's, the simulation's up to the handoff and the follow-through's).
 fn outputs_are_sound(dir: &Path) -> Result<(), String> {
     let out = dir.join("out");
     let mut files: Vec<PathBuf> = vec![out.join("particles.shp"), out.join("sim.checkpoint.shp")];
-    for folder in ["frames", "fragments"] {
+    let listing = |folder: &str, prefix: &str| -> Result<Vec<PathBuf>, String> {
         let entries = std::fs::read_dir(out.join(folder)).map_err(|error| format!("{folder}: {error}"))?;
-        files.extend(
-            entries
-                .map(|entry| entry.expect("entry").path())
-                .filter(|path| path.extension().is_some_and(|extension| extension == "ply" || extension == "shp")),
-        );
-    }
-    let frames = files
-        .iter()
-        .filter(|path| path.starts_with(out.join("frames")) && path.extension().is_some_and(|x| x == "ply"))
-        .count();
+        let mut paths: Vec<PathBuf> = entries
+            .map(|entry| entry.expect("entry").path())
+            .filter(|path| path.extension().is_some_and(|extension| extension == "ply" || extension == "shp"))
+            .filter(|path| path.file_name().is_some_and(|name| name.to_string_lossy().starts_with(prefix)))
+            .collect();
+        paths.sort();
+        Ok(paths)
+    };
+    files.extend(listing("frames", "")?);
+    files.extend(listing("fragments", "")?);
+    let simulated = listing("frames", "points.")?.len();
+    let shot_frames = if out.join("rigid").is_dir() {
+        let lead_in = listing("rigid", "lead_in.0")?;
+        let follow_through = listing("rigid", "fragments.")?;
+        files.extend(listing("rigid", "")?);
+        // the follow-through's frames are numbered on from the simulation's handoff frame
+        let last = match follow_through.last() {
+            Some(path) => {
+                let stem = path.file_stem().expect("stem").to_string_lossy().into_owned();
+                stem.rsplit('.').next().and_then(|n| n.parse::<usize>().ok()).expect("frame number")
+            }
+            None => simulated,
+        };
+        lead_in.len() + last
+    } else {
+        simulated
+    };
     for file in &files {
         let output = shatter(&["inspect", &file.display().to_string()], dir);
         if !output.status.success() {
@@ -165,8 +183,8 @@ fn outputs_are_sound(dir: &Path) -> Result<(), String> {
     let images = std::fs::read_dir(out.join("render")).map_err(|error| format!("render: {error}"))?;
     let exrs = images.filter(|entry| entry.as_ref().is_ok_and(|e| e.path().extension().is_some_and(|x| x == "exr")));
     match exrs.count() {
-        count if count == frames => Ok(()),
-        count => Err(format!("{count} images for {frames} frames")),
+        count if count == shot_frames => Ok(()),
+        count => Err(format!("{count} images for {shot_frames} frames")),
     }
 }
 
@@ -182,16 +200,21 @@ fn sweep<T: Sync>(cases: &[T], check: impl Fn(&T) -> Option<String> + Sync) -> V
     })
 }
 
-#[test]
-fn every_hostile_config_value_is_refused_by_name_or_runs_soundly() {
-    let reference = scene(SCENE);
+/// Runs `text` whole, then every hostile value (and the removal) of each of its keys in one of
+/// `tables` (all with an empty list), and asserts each is refused by name or runs soundly.
+fn hostile_values_of(text: &str, tables: &[&str], at_least: usize) {
+    let reference = scene(text);
     let output = shatter(&["run"], reference.path());
     assert!(output.status.success(), "the corpus scene runs: {}", stderr(&output));
     outputs_are_sound(reference.path()).expect("the corpus scene's outputs are sound");
 
-    let lines: Vec<&str> = SCENE.lines().collect();
+    let lines: Vec<&str> = text.lines().collect();
     let mut cases = Vec::new();
-    for (index, key) in leaf_lines(SCENE) {
+    for (index, key) in leaf_lines(text) {
+        let table = key.rsplit_once('.').map_or("", |(table, _)| table);
+        if !tables.is_empty() && !tables.contains(&table) {
+            continue;
+        }
         let name = lines[index].split_once(" = ").expect("a key line").0.trim().to_owned();
         for value in HOSTILE.iter().map(|value| Some(*value)).chain([None]) {
             let mut mutated: Vec<String> = lines.iter().map(|line| (*line).to_owned()).collect();
@@ -199,7 +222,7 @@ fn every_hostile_config_value_is_refused_by_name_or_runs_soundly() {
             cases.push((key.clone(), name.clone(), value, mutated.join("\n")));
         }
     }
-    assert!(cases.len() > 400, "{} cases", cases.len());
+    assert!(cases.len() >= at_least, "{} cases", cases.len());
     let failures = sweep(&cases, |(key, name, value, text)| {
         let dir = scene(text);
         let output = shatter(&["run"], dir.path());
@@ -216,6 +239,89 @@ fn every_hostile_config_value_is_refused_by_name_or_runs_soundly() {
         None
     });
     assert!(failures.is_empty(), "{} of {} configs misbehave:\n{}", failures.len(), cases.len(), failures.join("\n"));
+}
+
+#[test]
+fn every_hostile_config_value_is_refused_by_name_or_runs_soundly() {
+    hostile_values_of(SCENE, &[], 400);
+}
+
+/// A shot with every phase: a small block dropped 2 cm (lead-in), broken in slow motion (the
+/// simulation) and played on as rigid bodies (follow-through), on a timeline.
+const SHOT: &str = r#"[scene]
+name = "shot"
+output_dir = "out"
+seed = 4
+
+[geometry]
+source = "box"
+box_size_m = [0.006, 0.006, 0.006]
+sampler = "grid"
+spacing_m = 0.001
+horizon_factor = 3.0
+
+[geometry.transform]
+translate_m = [0.0, 0.0035, 0.0]
+
+[material]
+density_kg_m3 = 2200.0
+bulk_modulus_pa = 14.9e9
+critical_stretch = 0.001
+
+[lead_in]
+translate_m = [0.0, 0.02, 0.0]
+rotate_axis = [1.0, 0.0, 1.0]
+rotate_deg = 20.0
+velocity_m_s = [0.1, 0.0, 0.0]
+angular_velocity_rad_s = [0.0, 1.0, 0.0]
+handoff_gap_m = 0.003
+max_step_s = 1e-4
+max_duration_s = 1.0
+
+[sim]
+backend = "cpu"
+
+[sim.floor]
+height_m = 0.0
+
+[rigid]
+handoff_quiet_frames = 1
+handoff_internal_energy_ratio = 0.1
+handoff_rest_speed_m_s = 0.01
+max_fracture_duration_s = 1.5e-5
+max_step_s = 0.001
+solver_iterations = 4
+floor_friction = 0.6
+floor_restitution = 0.2
+piece_friction = 0.5
+piece_restitution = 0.1
+hull_volume_factor = 1.15
+dust_max_elements = 1
+sleep_speed_m_s = 0.02
+sleep_after_s = 0.5
+checkpoint_every_frames = 2
+
+[timeline]
+fps = 24.0
+duration_s = 0.25
+speed = 1.0
+
+[timeline.slow_motion]
+speed = 2.5e-4
+lead_s = 0.0
+hold_s = 0.2
+ramp_in_s = 0.05
+ramp_out_s = 0.0
+
+[render]
+backend = "cpu"
+resolution = [24, 16]
+samples_per_pixel = 1
+"#;
+
+#[test]
+fn every_hostile_value_of_a_shots_phases_is_refused_by_name_or_runs_soundly() {
+    hostile_values_of(SHOT, &["lead_in", "rigid", "timeline", "timeline.slow_motion"], 350);
 }
 
 /// Ways to damage a file of `len` bytes: (what, the damaged bytes).
@@ -238,25 +344,47 @@ fn damages(bytes: &[u8], other_kind: &[u8]) -> Vec<(String, Vec<u8>)> {
     out
 }
 
+/// A stage file, a file of another kind to swap in, and the commands that read it.
+type Reader<'a> = (&'a str, &'a str, &'a [&'a [&'a str]]);
+
 #[test]
 fn every_damaged_stage_file_is_refused_by_name_or_changes_nothing() {
-    let reference = scene(SCENE);
+    damaged_files_of(
+        SCENE,
+        &[
+            ("particles.shp", "sim.checkpoint.shp", &[&["sim"], &["post"], &["render"]]),
+            ("sim.checkpoint.shp", "particles.shp", &[&["sim", "--resume"]]),
+            ("frames/points.0002.ply", "fragments/fragments.0002.shp", &[&["post"]]),
+            ("frames/breaks.log", "frames/points.0002.ply", &[&["post"], &["sim", "--resume"]]),
+            ("fragments/fragments.0002.shp", "frames/points.0002.ply", &[&["render"]]),
+            ("fragments/fragments.0003.shp", "particles.shp", &[&["render", "--frames", "3"]]),
+        ],
+    );
+}
+
+#[test]
+fn every_damaged_file_of_a_shots_phases_is_refused_by_name_or_changes_nothing() {
+    damaged_files_of(
+        SHOT,
+        &[
+            ("rigid/lead_in.shp", "rigid/rigid.checkpoint.shp", &[&["sim"], &["post"], &["rigid"], &["render"]]),
+            ("rigid/lead_in.0001.shp", "particles.shp", &[&["render", "--frames", "1"]]),
+            ("rigid/rigid.checkpoint.shp", "rigid/lead_in.shp", &[&["rigid", "--resume"], &["render"]]),
+            ("rigid/fragments.0005.shp", "rigid/lead_in.shp", &[&["render", "--frames", "6"]]),
+        ],
+    );
+}
+
+/// Runs `text` whole, then damages each of `files` in every way, runs each command that reads
+/// it on a copy of the outputs, and asserts it refuses by name or writes what it would have.
+fn damaged_files_of(text: &str, files: &[Reader]) {
+    let reference = scene(text);
     let output = shatter(&["run"], reference.path());
     assert!(output.status.success(), "the corpus scene runs: {}", stderr(&output));
     let expected = tree_files(&reference.path().join("out"), &["shatter.lock", "stamps.json"]);
-
-    // each stage file, a file of another kind, and the commands that read it
-    let files: [(&str, &str, &[&[&str]]); 6] = [
-        ("particles.shp", "sim.checkpoint.shp", &[&["sim"], &["post"], &["render"]]),
-        ("sim.checkpoint.shp", "particles.shp", &[&["sim", "--resume"]]),
-        ("frames/points.0002.ply", "fragments/fragments.0002.shp", &[&["post"]]),
-        ("frames/breaks.log", "frames/points.0002.ply", &[&["post"], &["sim", "--resume"]]),
-        ("fragments/fragments.0002.shp", "frames/points.0002.ply", &[&["render"]]),
-        ("fragments/fragments.0003.shp", "particles.shp", &[&["render", "--frames", "3"]]),
-    ];
     let out = reference.path().join("out");
     let mut cases = Vec::new();
-    for (file, other, commands) in files {
+    for &(file, other, commands) in files {
         let bytes = std::fs::read(out.join(file)).expect("stage file");
         let other = std::fs::read(out.join(other)).expect("other stage file");
         for (damage, damaged) in damages(&bytes, &other) {
@@ -267,8 +395,9 @@ fn every_damaged_stage_file_is_refused_by_name_or_changes_nothing() {
             }
         }
     }
+    assert!(cases.len() >= 25 * files.len(), "{} cases", cases.len());
     let failures = sweep(&cases, |(file, damage, damaged, command)| {
-        let dir = scene(SCENE);
+        let dir = scene(text);
         for (name, bytes) in &expected {
             let path = dir.path().join("out").join(name);
             std::fs::create_dir_all(path.parent().expect("parent")).expect("folder");

@@ -82,8 +82,14 @@ pub enum RunError {
         max_dt_s: f64,
     },
     /// The state blew up; the last good checkpoint is kept.
-    #[error("the simulation became unstable at frame {frame} (step {step}): {what}; {kept}")]
+    #[error(
+        "the simulation became unstable at frame {frame} (step {step}): {what}; {kept}; a smaller sim.dt_s in {} \
+         steadies it",
+        config.display()
+    )]
     Unstable {
+        /// The config file (whose `sim.dt_s` to lower).
+        config: PathBuf,
         /// The frame being simulated.
         frame: u32,
         /// The step reached.
@@ -423,7 +429,7 @@ pub fn run_with(
                     (None, true) => format!("frames up to {} and the last checkpoint are intact", frame - 1),
                     (None, false) => format!("frames up to {} are written; no checkpoint was reached", frame - 1),
                 };
-                return Err(RunError::Unstable { frame, step: dynamics.step, what, kept });
+                return Err(RunError::Unstable { config: config.path.clone(), frame, step: dynamics.step, what, kept });
             }
             write_frame(simulation.as_ref(), &layout, frame, inputs)?;
             log.append(frame, &events)?;
