@@ -37,7 +37,12 @@ pub fn run(config: &PipelineConfig, args: &RigidArgs) -> Result<(), Failure> {
         Some(frame) => format!("; every piece asleep from frame {frame}"),
         None => format!("; {} of {} pieces still moving at the end", report.awake_at_end, report.pieces),
     };
-    println!("  frames {}-{} written{asleep}", report.last_frame + 1 - report.frames_written, report.last_frame);
+    println!(
+        "  frames {}-{} written{asleep}; deepest overlap at the end {:.2} mm",
+        report.last_frame + 1 - report.frames_written,
+        report.last_frame,
+        report.deepest_overlap_m * 1e3
+    );
     println!("wrote {} in {:.1} s", shatter_core::OutputLayout::of(config).rigid_dir().display(), report.wall_s);
     Ok(())
 }

@@ -108,6 +108,7 @@ fn a_struck_plate_hands_over_falls_and_comes_to_rest_the_same_at_any_thread_coun
     let bodies = figure(&stdout, "J rigid), ");
     assert!(bodies <= particles_energy * (1.0 + 1e-9), "rigid bodies gained energy: {stdout}");
     assert!(bodies >= 0.95 * rigid_part, "rigid bodies lost too much of the rigid motion: {stdout}");
+    assert!(figure(&stdout, "deepest overlap at the end") <= 1.0, "a piece ends inside another or the floor: {stdout}");
 
     let out = dir.path().join("out");
     let checkpoint = RigidCheckpoint::read(&out.join("rigid/rigid.checkpoint.shp")).expect("checkpoint");

@@ -77,6 +77,9 @@ pub struct RigidReport {
     pub asleep_from: Option<u32>,
     /// Pieces still awake at the end (moving, or not yet still long enough to sleep).
     pub awake_at_end: usize,
+    /// The deepest overlap at the end between two pieces or a piece and the floor, beyond
+    /// what the handoff allowed, metres.
+    pub deepest_overlap_m: f64,
     /// Handoff bookkeeping (fresh runs only).
     pub conservation: Option<Conservation>,
     /// Wall time, seconds.
@@ -179,6 +182,7 @@ pub fn run_rigid(config: &PipelineConfig, resume: bool, progress: &dyn Progress)
         frames_written: last_frame + 1 - first,
         asleep_from,
         awake_at_end,
+        deepest_overlap_m: world.deepest_penetration_m(),
         conservation,
         wall_s: started.elapsed().as_secs_f64(),
     })
