@@ -123,7 +123,7 @@ fn check_closed_pieces(
 ) {
     use std::collections::HashMap;
     let pieces = fragments.fragment_count();
-    let meshes = shatter_post::surfaces::piece_surfaces(particles, &fragments.fragment_of, pieces);
+    let meshes = shatter_core::surfaces::piece_surfaces(particles, &fragments.fragment_of, pieces);
     let tolerance = 1e-4 * particles.meta.lambda_m;
     let mut volume = 0.0;
     let mut fracture_faces = 0;

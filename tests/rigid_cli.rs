@@ -306,6 +306,40 @@ fn a_dropped_block_flies_the_parabola_and_the_simulation_takes_over_from_there()
     assert!(String::from_utf8_lossy(&inspect.stdout).contains("handoff_time_s"));
 }
 
+/// Where the rest-frame point `c` of fragment `piece` is at `frame`: R c + t.
+fn place(frame: &FragmentFrame, piece: u32, c: [f64; 3]) -> [f64; 3] {
+    let [x, y, z, w] = frame.rotation[piece as usize].map(f64::from);
+    let r = [
+        [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
+        [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
+        [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)],
+    ];
+    let t = frame.translation_m[piece as usize];
+    [0, 1, 2].map(|a| r[a][0] * c[0] + r[a][1] * c[1] + r[a][2] * c[2] + t[a])
+}
+
+/// The shot USD's check, in Python with `pxr`: it opens; frames 1 to N at 24 fps; one mesh per
+/// piece, each sampled at every frame; some mesh's transform at frame 1 and at frame N takes
+/// the rest point given to the positions given (within 1e-5 m, the files' single precision).
+const SHOT_USD_CHECK: &str = r#"
+import sys
+from pxr import Usd, UsdGeom, Gf
+path, pieces, frames = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+rest, first, last = [Gf.Vec3d(*[float(v) for v in sys.argv[4 + 3 * k:7 + 3 * k]]) for k in range(3)]
+stage = Usd.Stage.Open(path)
+assert stage, "the stage does not open"
+assert (stage.GetStartTimeCode(), stage.GetEndTimeCode(), stage.GetTimeCodesPerSecond()) == (1, frames, 24)
+meshes = [p for p in stage.Traverse() if p.IsA(UsdGeom.Mesh)]
+assert len(meshes) == pieces, (len(meshes), pieces)
+for prim in meshes:
+    samples = prim.GetAttribute("xformOp:transform").GetTimeSamples()
+    assert list(samples) == [float(f) for f in range(1, frames + 1)], samples
+for frame, expected in [(1, first), (frames, last)]:
+    error = min((UsdGeom.Xformable(p).GetLocalTransformation(frame).Transform(rest) - expected).GetLength() for p in meshes)
+    assert error < 1e-5, (frame, error)
+print("shot usd ok", len(meshes))
+"#;
+
 #[test]
 fn a_timeline_puts_every_frame_of_the_shot_where_its_speed_curve_says() {
     use shatter_core::PipelineConfig;
@@ -366,6 +400,26 @@ fn a_timeline_puts_every_frame_of_the_shot_where_its_speed_curve_says() {
     }
     // rendered in one numbering: exactly the timeline's frames
     assert!(out.join("render/drop.0018.exr").is_file() && !out.join("render/drop.0019.exr").exists());
+    // and the USD of the whole shot, read by Pixar's usd-core: one mesh per rigid body, every
+    // frame sampled, element 0 where the lead-in's first and the follow-through's last frames
+    // put it; post's USD holds the lead-in and the simulation at their shot time codes
+    let particles = ParticleSet::read(&out.join("particles.shp")).expect("particles");
+    let rest = particles.rest_position_m[0].map(f64::from);
+    let first = FragmentFrame::read(&out.join("rigid/lead_in.0001.shp")).expect("lead-in frame");
+    let last_path = out.join(format!("rigid/fragments.{:04}.shp", meta.last_frame));
+    let last = FragmentFrame::read(&last_path).expect("last frame");
+    let place = |frame: &FragmentFrame| place(frame, frame.fragment_of[0], rest).map(|c| c.to_string());
+    let script = dir.path().join("check_shot_usd.py");
+    std::fs::write(&script, SHOT_USD_CHECK).expect("script");
+    let mut args = vec![script.display().to_string(), out.join("rigid/shot.usda").display().to_string()];
+    args.extend([last.fragment_count().to_string(), "18".to_string()]);
+    args.extend(rest.map(|c| c.to_string()).into_iter().chain(place(&first)).chain(place(&last)));
+    let check = Command::new("python3").args(&args).output().expect("python3 runs");
+    let said = format!("{}{}", String::from_utf8_lossy(&check.stdout), String::from_utf8_lossy(&check.stderr));
+    assert!(check.status.success(), "shot USD check failed (needs usd-core):\n{said}");
+    let post_usd = std::fs::read_to_string(out.join("fragments/fragments.usda")).expect("post's USD");
+    let post_end = lead_in.frames + sim_frames;
+    assert!(post_usd.contains(&format!("endTimeCode = {post_end}\n")), "post's USD ends at frame {post_end}");
 
     // a shot too short to reach the impact is refused by name, before the simulation
     let short = timed.replace("duration_s = 0.75", "duration_s = 0.05");

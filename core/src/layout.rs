@@ -130,6 +130,11 @@ impl OutputLayout {
         self.rigid_dir().join(format!("fragments.{frame:04}.shp"))
     }
 
+    /// The USD of a shot with a follow-through: every frame, lead-in to rest.
+    pub fn rigid_usd(&self) -> PathBuf {
+        self.rigid_dir().join("shot.usda")
+    }
+
     /// The follow-through's checkpoint.
     pub fn rigid_checkpoint(&self) -> PathBuf {
         self.rigid_dir().join("rigid.checkpoint.shp")

@@ -16,6 +16,9 @@
 //!   [`shot`]: which file holds each frame of a shot.
 //! - [`timeline`]: where a `[timeline]` puts each frame in physical time; [`sim_frames`]: the
 //!   simulation's frames that follow.
+//! - [`debris_points`]: post's debris emitter point caches; [`surfaces`] and [`usd`]: the
+//!   pieces' surfaces and the USD export of a shot (written by post, and by rigid for a shot
+//!   with a follow-through).
 //! - [`ply`]: checksummed binary PLY point caches, the public per-frame format.
 //! - [`memory`]: each stage's peak memory, estimated and refused up front when it cannot fit.
 //! - [`progress`]: how library code reports progress to the CLI.
@@ -24,6 +27,7 @@
 pub mod atomic_file;
 pub mod checkpoint;
 pub mod config;
+pub mod debris_points;
 pub mod digest;
 pub mod fragments;
 pub mod frames;
@@ -39,7 +43,9 @@ pub mod rigid_checkpoint;
 pub mod shot;
 pub mod sim_frames;
 pub mod stage_file;
+pub mod surfaces;
 pub mod timeline;
+pub mod usd;
 
 pub use config::{ConfigError, PipelineConfig};
 pub use layout::OutputLayout;

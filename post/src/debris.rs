@@ -6,30 +6,10 @@
 //! emits from both faces.
 
 use std::collections::BTreeMap;
-use std::path::Path;
 
+use shatter_core::debris_points::DebrisFrame;
 use shatter_core::frames::{BreakEvent, PointFrame};
 use shatter_core::particles::Bonds;
-use shatter_core::ply::{Column, PlyError, PointCache};
-
-/// One frame's debris points, in particle order.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct DebrisFrame {
-    /// The frame.
-    pub frame: u32,
-    /// Positions, metres.
-    pub position: Vec<[f32; 3]>,
-    /// Velocities, m/s.
-    pub velocity: Vec<[f32; 3]>,
-    /// When the particle's first bond of the frame broke, seconds of simulated time.
-    pub time_s: Vec<f32>,
-    /// Bonds of the particle that broke during the frame.
-    pub broken_bonds: Vec<i32>,
-    /// The particle's fragment at the frame's end.
-    pub fragment: Vec<i32>,
-    /// The fragment across its first broken bond of the frame.
-    pub other_fragment: Vec<i32>,
-}
 
 /// The debris of `frame`: its break `events` (bond ids of `bonds`, in the order they broke), the
 /// frame's `points` and the `fragment_of` each particle at its end, `dt_s` the time step.
@@ -61,31 +41,6 @@ pub fn debris_frame(
         debris.other_fragment.push(fragment_of[partner] as i32);
     }
     debris
-}
-
-/// Writes `debris` as a PLY point cache (also when it holds no point: a frame without breaks).
-pub fn write_point_cache(path: &Path, debris: &DebrisFrame, step: u64, time_s: f64) -> Result<(), PlyError> {
-    let axis = |values: &[[f32; 3]], k: usize| Column::Float(values.iter().map(|v| v[k]).collect());
-    let cache = PointCache {
-        comments: vec![
-            ("frame".into(), debris.frame.to_string()),
-            ("step".into(), step.to_string()),
-            ("time_s".into(), format!("{time_s:e}")),
-        ],
-        columns: vec![
-            ("x".into(), axis(&debris.position, 0)),
-            ("y".into(), axis(&debris.position, 1)),
-            ("z".into(), axis(&debris.position, 2)),
-            ("vx".into(), axis(&debris.velocity, 0)),
-            ("vy".into(), axis(&debris.velocity, 1)),
-            ("vz".into(), axis(&debris.velocity, 2)),
-            ("break_time_s".into(), Column::Float(debris.time_s.clone())),
-            ("broken_bonds".into(), Column::Int(debris.broken_bonds.clone())),
-            ("fragment".into(), Column::Int(debris.fragment.clone())),
-            ("other_fragment".into(), Column::Int(debris.other_fragment.clone())),
-        ],
-    };
-    cache.write(path)
 }
 
 #[cfg(test)]

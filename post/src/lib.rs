@@ -2,13 +2,13 @@
 //! frame, the fragments (connected components of the element adjacency graph over intact bonds,
 //! by breadth-first search), their stable ids, their mass-weighted rigid motions (Kabsch),
 //! optional smoothing, statistics; and the exports: a fragments file per frame, point caches
-//! with fragment ids, a USD shot.
+//! with fragment ids, debris points, a USD shot (written with `shatter_core::usd`).
 //!
 //! - [`components`]: the adjacency graph, BFS and stable ids.
 //! - [`kabsch`]: the mass-weighted best rigid motion.
 //! - [`smoothing`]: smoothing of sudden transform changes.
 //! - [`tracker`]: all of the above, frame after frame.
-//! - [`surfaces`], [`usd`]: the pieces' surfaces and the USD shot.
+//! - [`debris`]: the break log's events of each frame as debris emitter points.
 //! - [`post_driver`]: the stage's driver.
 
 pub mod components;
@@ -16,9 +16,7 @@ pub mod debris;
 pub mod kabsch;
 pub mod post_driver;
 pub mod smoothing;
-pub mod surfaces;
 pub mod tracker;
-pub mod usd;
 
 pub use post_driver::{PostError, PostReport, run_post};
 pub use tracker::{FragmentTracker, TrackedFrame};

@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use shatter_core::debris_points::{self, DebrisFrame};
 use shatter_core::digest;
 use shatter_core::fragments::{FragmentFrame, FragmentMeta};
 use shatter_core::frames::{BreakEvent, BreakLog, FrameFileError, PointFrame};
@@ -14,14 +15,14 @@ use shatter_core::particles::ParticleSet;
 use shatter_core::ply::{Column, PlyError, PointCache};
 use shatter_core::sim_frames::SimFrames;
 use shatter_core::stage_file::StageFileError;
+use shatter_core::surfaces;
+use shatter_core::usd::{PieceTransform, element_of_pieces, write_usda};
 use shatter_core::{OutputLayout, PipelineConfig, Progress};
 
 use crate::components::size_histogram;
-use crate::debris::{self, DebrisFrame, debris_frame};
+use crate::debris::debris_frame;
 use crate::kabsch::RigidMotion;
-use crate::surfaces;
 use crate::tracker::FragmentTracker;
-use crate::usd::{PieceTransform, write_usda};
 
 /// Why post failed.
 #[derive(Debug, thiserror::Error)]
@@ -150,7 +151,7 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
             debris_frame(frame, &events, &particles.bonds, &points, &tracked.fragment_of, config.sim.dt_s);
         if config.post.point_caches {
             write_point_cache(&layout.fragment_points(frame), &points, &tracked.fragment_of)?;
-            debris::write_point_cache(&layout.debris_points(frame), &frame_debris, points.step, points.time_s)?;
+            debris_points::write_point_cache(&layout.debris_points(frame), &frame_debris, points.step, points.time_s)?;
         }
         debris.push(frame_debris);
         history.push((tracked.motion.len(), tracked.motion.clone()));
@@ -163,23 +164,34 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
     if config.post.usd {
         let pieces = last.motion.len();
         let meshes = surfaces::piece_surfaces(&particles, &last.fragment_of, pieces);
-        let transforms: Vec<Vec<PieceTransform>> = history
-            .iter()
-            .map(|(count, motions)| {
-                (0..pieces as u32)
-                    .map(|piece| {
-                        let m = motions[tracker.ancestor(piece, *count) as usize];
-                        PieceTransform { rotation: m.rotation, translation: m.translation }
-                    })
-                    .collect()
-            })
-            .collect();
+        // the lead-in's frames first (one fragment: every piece moves with the intact body)
+        let lead_in_frames = sim_frames.first_shot_frame - 1;
+        let elements = element_of_pieces(&last.fragment_of, pieces);
+        let mut transforms = Vec::with_capacity((lead_in_frames + total) as usize);
+        for frame in 1..=lead_in_frames {
+            let path = layout.lead_in_fragments(frame);
+            if let Some(message) = missing_input(&path, "lead-in") {
+                return Err(PostError::MissingInput(message));
+            }
+            transforms.push(PieceTransform::of_pieces(&FragmentFrame::read(&path)?, &elements));
+        }
+        transforms.extend(history.iter().map(|(count, motions)| {
+            (0..pieces as u32)
+                .map(|piece| {
+                    let m = motions[tracker.ancestor(piece, *count) as usize];
+                    PieceTransform { rotation: m.rotation, translation: m.translation }
+                })
+                .collect()
+        }));
         let path = layout.usd();
         let width = 0.5 * particles.meta.lambda_m;
         let fps = config.scene.frames_per_second;
-        // the shot's frame numbers, and physical m/s to metres per playback second
-        let first = sim_frames.first_shot_frame;
-        write_usda(&path, &meshes, &transforms, first, fps, &debris, width, &sim_frames.speed)
+        // the shot's frame numbers, and physical m/s to metres per playback second (the lead-in
+        // emits no debris)
+        let quiet = (1..=lead_in_frames).map(|frame| DebrisFrame { frame, ..DebrisFrame::default() });
+        let debris: Vec<DebrisFrame> = quiet.chain(debris).collect();
+        let speed: Vec<f64> = (1..=lead_in_frames).map(|_| 1.0).chain(sim_frames.speed.iter().copied()).collect();
+        write_usda(&path, &meshes, &transforms, 1, fps, &debris, width, &speed)
             .map_err(|source| PostError::Usd { path, source })?;
     }
     Ok(PostReport {

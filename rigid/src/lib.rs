@@ -12,6 +12,7 @@
 //!   contact.
 //! - [`handoff`]: when the fracture has quieted.
 //! - [`rigid_driver`]: the `shatter rigid` stage: handoff, frames, checkpoints, resume.
+//! - [`shot_usd`]: the USD of the whole shot, lead-in to rest.
 
 pub mod contact_rules;
 pub mod handoff;
@@ -19,6 +20,7 @@ pub mod lead_in_driver;
 pub mod mass;
 pub mod rigid_driver;
 pub mod shapes;
+pub mod shot_usd;
 pub mod velocity_fit;
 pub mod world;
 

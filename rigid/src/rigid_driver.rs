@@ -14,6 +14,7 @@ use shatter_core::layout::missing_input;
 use shatter_core::lead_in::LeadIn;
 use shatter_core::memory::{self, MemoryError, SetSize};
 use shatter_core::particles::ParticleSet;
+use shatter_core::ply::PlyError;
 use shatter_core::rigid_checkpoint::{RigidCheckpoint, RigidMeta};
 use shatter_core::sim_frames::SimFrames;
 use shatter_core::stage_file::StageFileError;
@@ -23,6 +24,7 @@ use shatter_core::{OutputLayout, PipelineConfig, Progress};
 use crate::handoff::{cracks_stopped, members_of_pieces, pieces_calm};
 use crate::mass::{element_mass_props, piece_mass_props};
 use crate::shapes::ElementGeometry;
+use crate::shot_usd::write_shot_usd;
 use crate::velocity_fit::{ParticleMotion, fit, momenta};
 use crate::world::{KinematicSphere, PieceBody, RigidWorld, WorldSettings};
 
@@ -41,6 +43,17 @@ pub enum RigidError {
     /// A point cache or the break log could not be read.
     #[error(transparent)]
     FrameFile(#[from] FrameFileError),
+    /// A debris point cache could not be read.
+    #[error(transparent)]
+    Ply(#[from] PlyError),
+    /// The shot's USD could not be written.
+    #[error("{path}: cannot write: {source}")]
+    Usd {
+        /// The USD file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
     /// The rigid world could not be saved or restored.
     #[error("{path}: {what}")]
     Snapshot {
@@ -173,6 +186,9 @@ pub fn run_rigid(config: &PipelineConfig, resume: bool, progress: &dyn Progress)
         write_checkpoint(&layout, &meta, &world)?;
     }
     progress.finish();
+    if config.post.usd {
+        write_shot_usd(config, &layout, &particles, &handoff, &clock.sim_frames)?;
+    }
     Ok(RigidReport {
         handoff_frame: meta.handoff_frame,
         handoff_time_s: meta.handoff_time_s,
@@ -192,6 +208,8 @@ pub fn run_rigid(config: &PipelineConfig, resume: bool, progress: &dyn Progress)
 /// `[timeline]`, where the timeline puts them with it.
 struct Clock {
     /// The simulation's frames.
+    sim_frames: SimFrames,
+    /// How many.
     simulated: u32,
     /// The last frame, in the simulation's numbering.
     last_frame: u32,
@@ -211,13 +229,16 @@ impl Clock {
         let simulated = sim_frames.count();
         let fps = config.scene.frames_per_second;
         Ok(match &config.timeline {
-            None => Clock { simulated, last_frame: simulated + rigid.follow_through_frames(fps), fps, timeline: None },
+            None => {
+                let last_frame = simulated + rigid.follow_through_frames(fps);
+                Clock { sim_frames, simulated, last_frame, fps, timeline: None }
+            }
             Some(timeline) => {
                 let impact_time_s = lead_in.as_ref().map_or(0.0, |lead_in| lead_in.handoff_time_s);
                 let timeline = Timeline::new(timeline, impact_time_s);
                 let offset = sim_frames.first_shot_frame - 1;
                 let last_frame = timeline.frames() - offset;
-                Clock { simulated, last_frame, fps, timeline: Some((timeline, offset)) }
+                Clock { sim_frames, simulated, last_frame, fps, timeline: Some((timeline, offset)) }
             }
         })
     }

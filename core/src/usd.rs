@@ -7,8 +7,9 @@ use std::path::Path;
 
 use glam::{DMat3, DQuat, DVec3};
 
-use super::debris::DebrisFrame;
-use super::surfaces::SurfaceMesh;
+use crate::debris_points::DebrisFrame;
+use crate::fragments::FragmentFrame;
+use crate::surfaces::SurfaceMesh;
 
 /// A piece's rigid motion at one frame: x = R X + t.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -17,6 +18,33 @@ pub struct PieceTransform {
     pub rotation: DQuat,
     /// Translation, metres.
     pub translation: DVec3,
+}
+
+impl PieceTransform {
+    /// The transforms at `frame` (a fragments file) of pieces each given by one of its
+    /// elements: the motion of the fragment that holds that element then (pieces only ever
+    /// split off, so it holds the whole piece).
+    pub fn of_pieces(frame: &FragmentFrame, element_of_piece: &[u32]) -> Vec<PieceTransform> {
+        element_of_piece
+            .iter()
+            .map(|&element| {
+                let fragment = frame.fragment_of[element as usize] as usize;
+                PieceTransform {
+                    rotation: DQuat::from_array(frame.rotation[fragment].map(f64::from)).normalize(),
+                    translation: DVec3::from_array(frame.translation_m[fragment]),
+                }
+            })
+            .collect()
+    }
+}
+
+/// One element of each of `pieces` pieces, `piece_of[element]` in 0..pieces (the first).
+pub fn element_of_pieces(piece_of: &[u32], pieces: usize) -> Vec<u32> {
+    let mut first = vec![u32::MAX; pieces];
+    for (element, &piece) in piece_of.iter().enumerate().rev() {
+        first[piece as usize] = element as u32;
+    }
+    first
 }
 
 /// The USD 4 x 4 matrix (row vectors: the translation is the last row) of a transform.
@@ -89,7 +117,7 @@ pub fn write_usda(
         out.extend_from_slice(debris_prim(debris, first_frame, width_m, velocity_scale).as_bytes());
     }
     out.extend_from_slice(b"}\n");
-    shatter_core::atomic_file::write_atomically(path, &[&out])
+    crate::atomic_file::write_atomically(path, &[&out])
 }
 
 /// The materials the face subsets bind: neutral looks an artist rebinds (documented in

@@ -2,8 +2,8 @@
 //! those it shares with an adjacent element of the same piece, each marked as the body's original
 //! surface or as a fracture face (a face it shares at rest with an element of another piece).
 
+use crate::particles::{Elements, ParticleSet};
 use glam::{Quat, Vec3};
-use shatter_core::particles::{Elements, ParticleSet};
 
 /// A polygon mesh: `face_sizes[f]` corners of face f are the next entries of `indices`.
 #[derive(Debug, Clone, Default, PartialEq)]

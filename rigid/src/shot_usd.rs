@@ -1,0 +1,57 @@
+//! The USD of a shot with a follow-through, `rigid/shot.usda`: every frame of the shot, from
+//! the lead-in's first to the follow-through's last, one mesh per piece of the handoff (the
+//! follow-through's rigid bodies), each with the transform of the fragment that holds it in
+//! each frame's fragments file, so a DCC reads the follow-through exactly as the simulated
+//! frames; with post's debris points at the simulated frames.
+
+use shatter_core::debris_points::{DebrisFrame, read_point_cache};
+use shatter_core::fragments::FragmentFrame;
+use shatter_core::layout::missing_input;
+use shatter_core::shot::{Shot, Source};
+use shatter_core::sim_frames::SimFrames;
+use shatter_core::surfaces::piece_surfaces;
+use shatter_core::usd::{PieceTransform, element_of_pieces, write_usda};
+use shatter_core::{OutputLayout, ParticleSet, PipelineConfig};
+
+use crate::rigid_driver::RigidError;
+
+/// Writes `layout.rigid_usd()` for the finished follow-through whose pieces are `handoff`'s.
+pub(crate) fn write_shot_usd(
+    config: &PipelineConfig,
+    layout: &OutputLayout,
+    particles: &ParticleSet,
+    handoff: &FragmentFrame,
+    sim_frames: &SimFrames,
+) -> Result<(), RigidError> {
+    let shot = Shot::of(config, layout).map_err(RigidError::Input)?;
+    let pieces = handoff.fragment_count();
+    let meshes = piece_surfaces(particles, &handoff.fragment_of, pieces);
+    let elements = element_of_pieces(&handoff.fragment_of, pieces);
+    let mut transforms = Vec::with_capacity(shot.last as usize);
+    let mut debris = Vec::with_capacity(shot.last as usize);
+    // physical m/s to metres per playback second at the simulated frames (the others emit none)
+    let mut speed = Vec::with_capacity(shot.last as usize);
+    for frame in 1..=shot.last {
+        let path = shot.fragments(layout, frame);
+        if let Some(message) = missing_input(&path, shot.locate(frame).0.command()) {
+            return Err(RigidError::Input(message));
+        }
+        transforms.push(PieceTransform::of_pieces(&FragmentFrame::read(&path)?, &elements));
+        let none = DebrisFrame { frame, ..DebrisFrame::default() };
+        match shot.locate(frame) {
+            (Source::Post, local) => {
+                let path = layout.debris_points(local);
+                debris.push(if path.is_file() { read_point_cache(&path)? } else { none });
+                speed.push(sim_frames.speed[local as usize - 1]);
+            }
+            _ => {
+                debris.push(none);
+                speed.push(1.0);
+            }
+        }
+    }
+    let path = layout.rigid_usd();
+    let (fps, width_m) = (config.scene.frames_per_second, 0.5 * particles.meta.lambda_m);
+    write_usda(&path, &meshes, &transforms, 1, fps, &debris, width_m, &speed)
+        .map_err(|source| RigidError::Usd { path, source })
+}
