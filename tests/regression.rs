@@ -45,6 +45,9 @@ const DRAGON: Shot = Shot { scene: "dragon_small", key_frames: &[1, 16, 32], ope
 /// The struck plate played on: intact, breaking (the simulation, in slow motion), its shards at
 /// rest on the floor (the follow-through, at real speed by the shot's end).
 const PLATE_SHOT: Shot = Shot { scene: "glass_plate_shot_small", key_frames: &[1, 24, 72], open_edges: 0.0 };
+/// The dragon dropped from 60 cm on its timeline: falling intact (the lead-in), just after the
+/// impact (the simulation, in slow motion), its pieces at rest (the follow-through).
+const DRAGON_DROP: Shot = Shot { scene: "dragon_drop_small", key_frames: &[8, 20, 96], open_edges: 5e-5 };
 
 fn repository() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -290,6 +293,11 @@ fn dragon_key_frames_match_their_goldens() {
 #[test]
 fn glass_plate_shot_key_frames_match_their_goldens() {
     check(&PLATE_SHOT);
+}
+
+#[test]
+fn dragon_drop_key_frames_match_their_goldens() {
+    check(&DRAGON_DROP);
 }
 
 /// True while SHATTER_BLESS=1 rewrites the goldens: the tests that only read them stand aside.
