@@ -320,7 +320,9 @@ fn place(frame: &FragmentFrame, piece: u32, c: [f64; 3]) -> [f64; 3] {
 
 /// The shot USD's check, in Python with `pxr`: it opens; frames 1 to N at 24 fps; one mesh per
 /// piece, each sampled at every frame; some mesh's transform at frame 1 and at frame N takes
-/// the rest point given to the positions given (within 1e-5 m, the files' single precision).
+/// the rest point given to the positions given (within 1e-5 m, the files' single precision);
+/// `/Shatter.shatter:physicalTime` at frames 1 and N is the physical time given (within half a
+/// simulation step, 6e-8 s).
 const SHOT_USD_CHECK: &str = r#"
 import sys
 from pxr import Usd, UsdGeom, Gf
@@ -337,6 +339,10 @@ for prim in meshes:
 for frame, expected in [(1, first), (frames, last)]:
     error = min((UsdGeom.Xformable(p).GetLocalTransformation(frame).Transform(rest) - expected).GetLength() for p in meshes)
     assert error < 1e-5, (frame, error)
+clock = stage.GetPrimAtPath("/Shatter").GetAttribute("shatter:physicalTime")
+for frame, expected in [(1, float(sys.argv[13])), (frames, float(sys.argv[14]))]:
+    # the follow-through counts from the handoff frame's step, the nearest to the curve's time
+    assert abs(clock.Get(frame) - expected) <= 1e-7, (frame, clock.Get(frame), expected)
 print("shot usd ok", len(meshes))
 "#;
 
@@ -414,6 +420,7 @@ fn a_timeline_puts_every_frame_of_the_shot_where_its_speed_curve_says() {
     let mut args = vec![script.display().to_string(), out.join("rigid/shot.usda").display().to_string()];
     args.extend([last.fragment_count().to_string(), "18".to_string()]);
     args.extend(rest.map(|c| c.to_string()).into_iter().chain(place(&first)).chain(place(&last)));
+    args.extend([timeline.time_s(1), timeline.time_s(18)].map(|t| t.to_string()));
     let check = Command::new("python3").args(&args).output().expect("python3 runs");
     let said = format!("{}{}", String::from_utf8_lossy(&check.stdout), String::from_utf8_lossy(&check.stderr));
     assert!(check.status.success(), "shot USD check failed (needs usd-core):\n{said}");

@@ -60,24 +60,38 @@ fn matrix(transform: &PieceTransform) -> [[f64; 4]; 4] {
     ]
 }
 
-/// Writes `path` (atomically): `meshes[p]` with `transforms[frame index][p]`, frames numbered from
-/// `first_frame`, `fps` time codes per second, and the `debris` emitter points of each frame as a
-/// `Points` prim (`/Shatter/debris`, points of `width_m`, time-sampled: a frame without breaks
-/// holds none) with velocities (the debris' physical velocities times the frame's
-/// `velocity_scale`, physical seconds per playback second, which makes them metres per playback
-/// second as USD defines them) and the primvars `brokenBonds`,
+/// A shot to write as USD.
+#[derive(Debug, Clone, Copy)]
+pub struct UsdShot<'a> {
+    /// One mesh per piece, in the rest frame.
+    pub meshes: &'a [SurfaceMesh],
+    /// `transforms[frame index][piece]`.
+    pub transforms: &'a [Vec<PieceTransform>],
+    /// The time code of the first frame.
+    pub first_frame: u32,
+    /// Time codes per second.
+    pub fps: f64,
+    /// The debris emitter points of each frame.
+    pub debris: &'a [DebrisFrame],
+    /// The debris points' width, metres.
+    pub width_m: f64,
+    /// Physical seconds per playback second at each frame (for the debris velocities).
+    pub velocity_scale: &'a [f64],
+    /// Each frame's physical time since the shot's start, seconds, when the shot has its own
+    /// clock (a lead-in or a timeline): written as `/Shatter.shatter:physicalTime`.
+    pub physical_time_s: Option<&'a [f64]>,
+}
+
+/// Writes `path` (atomically): `shot.meshes[p]` with `shot.transforms[frame index][p]`, frames
+/// numbered from `first_frame`, `fps` time codes per second, each frame's physical time (when
+/// given) as the time-sampled attribute `shatter:physicalTime` of `/Shatter`, and the `debris`
+/// emitter points of each frame as a `Points` prim (`/Shatter/debris`, points of `width_m`,
+/// time-sampled: a frame without breaks holds none) with velocities (the debris' physical
+/// velocities times the frame's `velocity_scale`, physical seconds per playback second, which
+/// makes them metres per playback second as USD defines them) and the primvars `brokenBonds`,
 /// `fragment`, `otherFragment`.
-#[allow(clippy::too_many_arguments)]
-pub fn write_usda(
-    path: &Path,
-    meshes: &[SurfaceMesh],
-    transforms: &[Vec<PieceTransform>],
-    first_frame: u32,
-    fps: f64,
-    debris: &[DebrisFrame],
-    width_m: f64,
-    velocity_scale: &[f64],
-) -> std::io::Result<()> {
+pub fn write_usda(path: &Path, shot: &UsdShot) -> std::io::Result<()> {
+    let UsdShot { meshes, transforms, first_frame, fps, debris, width_m, velocity_scale, physical_time_s } = *shot;
     let last_frame = first_frame + transforms.len().saturating_sub(1) as u32;
     let mut text = String::new();
     let _ = write!(
@@ -87,6 +101,13 @@ pub fn write_usda(
          framesPerSecond = {fps}\n    doc = \"Fragments written by shatter post: one mesh per final piece, rest-frame \
          geometry, time-sampled rigid transforms\"\n)\n\ndef Xform \"Shatter\"\n{{\n"
     );
+    if let Some(times) = physical_time_s {
+        text.push_str("    custom double shatter:physicalTime.timeSamples = {\n");
+        for (index, time) in times.iter().enumerate() {
+            let _ = writeln!(text, "        {}: {time:e},", first_frame + index as u32);
+        }
+        text.push_str("    }\n");
+    }
     let mut out = Vec::with_capacity(1 << 20);
     out.extend_from_slice(text.as_bytes());
     for (piece, mesh) in meshes.iter().enumerate() {

@@ -10,13 +10,14 @@ use shatter_core::digest;
 use shatter_core::fragments::{FragmentFrame, FragmentMeta};
 use shatter_core::frames::{BreakEvent, BreakLog, FrameFileError, PointFrame};
 use shatter_core::layout::missing_input;
+use shatter_core::lead_in::LeadIn;
 use shatter_core::memory::{self, MemoryError, SetSize};
 use shatter_core::particles::ParticleSet;
 use shatter_core::ply::{Column, PlyError, PointCache};
 use shatter_core::sim_frames::SimFrames;
 use shatter_core::stage_file::StageFileError;
 use shatter_core::surfaces;
-use shatter_core::usd::{PieceTransform, element_of_pieces, write_usda};
+use shatter_core::usd::{PieceTransform, UsdShot, element_of_pieces, write_usda};
 use shatter_core::{OutputLayout, PipelineConfig, Progress};
 
 use crate::components::size_histogram;
@@ -102,6 +103,7 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
     let mut tracker = FragmentTracker::new(&particles, mass);
     let smoothing = config.post.smoothing_frames;
     let mut history: Vec<(usize, Vec<RigidMotion>)> = Vec::new();
+    let mut sim_times = Vec::with_capacity(total as usize);
     let mut debris: Vec<DebrisFrame> = Vec::new();
     let mut last = None;
     progress.start("post", u64::from(total));
@@ -155,6 +157,7 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
         }
         debris.push(frame_debris);
         history.push((tracked.motion.len(), tracked.motion.clone()));
+        sim_times.push(points.time_s);
         progress.advance(1);
         progress.message(&format!("frame {frame}/{total}: {} fragments", tracked.motion.len()));
         last = Some(tracked);
@@ -168,13 +171,20 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
         let lead_in_frames = sim_frames.first_shot_frame - 1;
         let elements = element_of_pieces(&last.fragment_of, pieces);
         let mut transforms = Vec::with_capacity((lead_in_frames + total) as usize);
+        let mut lead_in_times = Vec::with_capacity(lead_in_frames as usize);
         for frame in 1..=lead_in_frames {
             let path = layout.lead_in_fragments(frame);
             if let Some(message) = missing_input(&path, "lead-in") {
                 return Err(PostError::MissingInput(message));
             }
-            transforms.push(PieceTransform::of_pieces(&FragmentFrame::read(&path)?, &elements));
+            let frame = FragmentFrame::read(&path)?;
+            lead_in_times.push(frame.meta.time_s);
+            transforms.push(PieceTransform::of_pieces(&frame, &elements));
         }
+        let sim_start_s = match config.lead_in {
+            None => 0.0,
+            Some(_) => LeadIn::read_for(&layout).map_err(PostError::MissingInput)?.handoff_time_s,
+        };
         transforms.extend(history.iter().map(|(count, motions)| {
             (0..pieces as u32)
                 .map(|piece| {
@@ -191,8 +201,20 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
         let quiet = (1..=lead_in_frames).map(|frame| DebrisFrame { frame, ..DebrisFrame::default() });
         let debris: Vec<DebrisFrame> = quiet.chain(debris).collect();
         let speed: Vec<f64> = (1..=lead_in_frames).map(|_| 1.0).chain(sim_frames.speed.iter().copied()).collect();
-        write_usda(&path, &meshes, &transforms, 1, fps, &debris, width, &speed)
-            .map_err(|source| PostError::Usd { path, source })?;
+        // with a lead-in or a timeline the frames have a clock of their own: their physical times
+        let clocked = config.lead_in.is_some() || config.timeline.is_some();
+        let times: Vec<f64> = lead_in_times.into_iter().chain(sim_times.iter().map(|t| sim_start_s + t)).collect();
+        let shot = UsdShot {
+            meshes: &meshes,
+            transforms: &transforms,
+            first_frame: 1,
+            fps,
+            debris: &debris,
+            width_m: width,
+            velocity_scale: &speed,
+            physical_time_s: clocked.then_some(times.as_slice()),
+        };
+        write_usda(&path, &shot).map_err(|source| PostError::Usd { path, source })?;
     }
     Ok(PostReport {
         frames: total,

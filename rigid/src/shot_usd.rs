@@ -2,7 +2,7 @@
 //! the lead-in's first to the follow-through's last, one mesh per piece of the handoff (the
 //! follow-through's rigid bodies), each with the transform of the fragment that holds it in
 //! each frame's fragments file, so a DCC reads the follow-through exactly as the simulated
-//! frames; with post's debris points at the simulated frames.
+//! frames; with post's debris points at the simulated frames and each frame's physical time.
 
 use shatter_core::debris_points::{DebrisFrame, read_point_cache};
 use shatter_core::fragments::FragmentFrame;
@@ -10,7 +10,7 @@ use shatter_core::layout::missing_input;
 use shatter_core::shot::{Shot, Source};
 use shatter_core::sim_frames::SimFrames;
 use shatter_core::surfaces::piece_surfaces;
-use shatter_core::usd::{PieceTransform, element_of_pieces, write_usda};
+use shatter_core::usd::{PieceTransform, UsdShot, element_of_pieces, write_usda};
 use shatter_core::{OutputLayout, ParticleSet, PipelineConfig};
 
 use crate::rigid_driver::RigidError;
@@ -31,12 +31,15 @@ pub(crate) fn write_shot_usd(
     let mut debris = Vec::with_capacity(shot.last as usize);
     // physical m/s to metres per playback second at the simulated frames (the others emit none)
     let mut speed = Vec::with_capacity(shot.last as usize);
+    let mut times = Vec::with_capacity(shot.last as usize);
     for frame in 1..=shot.last {
         let path = shot.fragments(layout, frame);
         if let Some(message) = missing_input(&path, shot.locate(frame).0.command()) {
             return Err(RigidError::Input(message));
         }
-        transforms.push(PieceTransform::of_pieces(&FragmentFrame::read(&path)?, &elements));
+        let fragments = FragmentFrame::read(&path)?;
+        times.push(shot.time_s(frame, fragments.meta.time_s));
+        transforms.push(PieceTransform::of_pieces(&fragments, &elements));
         let none = DebrisFrame { frame, ..DebrisFrame::default() };
         match shot.locate(frame) {
             (Source::Post, local) => {
@@ -51,7 +54,15 @@ pub(crate) fn write_shot_usd(
         }
     }
     let path = layout.rigid_usd();
-    let (fps, width_m) = (config.scene.frames_per_second, 0.5 * particles.meta.lambda_m);
-    write_usda(&path, &meshes, &transforms, 1, fps, &debris, width_m, &speed)
-        .map_err(|source| RigidError::Usd { path, source })
+    let usd = UsdShot {
+        meshes: &meshes,
+        transforms: &transforms,
+        first_frame: 1,
+        fps: config.scene.frames_per_second,
+        debris: &debris,
+        width_m: 0.5 * particles.meta.lambda_m,
+        velocity_scale: &speed,
+        physical_time_s: Some(&times),
+    };
+    write_usda(&path, &usd).map_err(|source| RigidError::Usd { path, source })
 }
