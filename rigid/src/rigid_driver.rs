@@ -142,7 +142,8 @@ pub fn run_rigid(config: &PipelineConfig, resume: bool, progress: &dyn Progress)
             (world, checkpoint.meta, handoff, None, "resumed".to_string())
         }
         _ => {
-            let (frame, reason) = choose_handoff(config, rigid, clock.simulated, &layout, &particles, post_inputs)?;
+            let (frame, reason) =
+                choose_handoff(config, rigid, clock.sim_frames.count(), &layout, &particles, post_inputs)?;
             let handoff = read_fragments(&layout, frame, &particles, post_inputs)?;
             let points = PointFrame::read(&layout.frame_points(frame))?;
             let (world, conservation) = hand_over(config, rigid, &particles, &handoff, &points);
@@ -209,8 +210,6 @@ pub fn run_rigid(config: &PipelineConfig, resume: bool, progress: &dyn Progress)
 struct Clock {
     /// The simulation's frames.
     sim_frames: SimFrames,
-    /// How many.
-    simulated: u32,
     /// The last frame, in the simulation's numbering.
     last_frame: u32,
     /// Frames per second without a timeline.
@@ -231,14 +230,14 @@ impl Clock {
         Ok(match &config.timeline {
             None => {
                 let last_frame = simulated + rigid.follow_through_frames(fps);
-                Clock { sim_frames, simulated, last_frame, fps, timeline: None }
+                Clock { sim_frames, last_frame, fps, timeline: None }
             }
             Some(timeline) => {
                 let impact_time_s = lead_in.as_ref().map_or(0.0, |lead_in| lead_in.handoff_time_s);
                 let timeline = Timeline::new(timeline, impact_time_s);
                 let offset = sim_frames.first_shot_frame - 1;
                 let last_frame = timeline.frames() - offset;
-                Clock { sim_frames, simulated, last_frame, fps, timeline: Some((timeline, offset)) }
+                Clock { sim_frames, last_frame, fps, timeline: Some((timeline, offset)) }
             }
         })
     }
