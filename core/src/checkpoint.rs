@@ -46,6 +46,9 @@ pub struct CheckpointState {
     pub force: [Vec<f32>; 3],
     /// Compression boost of each particle's thresholds for the next step.
     pub boost: Vec<f32>,
+    /// The material model's per-bond state, one value per particle-file bond entry (the
+    /// elastoplastic model's plastic extensions, metres); empty for a model that keeps none.
+    pub bond_state: Vec<f32>,
 }
 
 /// The borrowed per-particle arrays [`write()`] stores: displacement, velocity, force (x, y, z
@@ -60,6 +63,8 @@ pub struct StateRef<'a> {
     pub force: &'a [Vec<f32>; 3],
     /// Compression boost.
     pub boost: &'a [f32],
+    /// The material model's per-bond state (empty: none, and no section is written).
+    pub bond_state: &'a [f32],
 }
 
 const AXES: [&str; 3] = ["x", "y", "z"];
@@ -74,6 +79,9 @@ pub fn write(path: &Path, meta: &CheckpointMeta, state: StateRef<'_>) -> Result<
         }
     }
     out.write_rows("boost", state.boost)?;
+    if !state.bond_state.is_empty() {
+        out.write_rows("bond_state", state.bond_state)?;
+    }
     out.finish()
 }
 
@@ -102,12 +110,13 @@ pub fn read(path: &Path) -> Result<(CheckpointMeta, CheckpointState), StageFileE
     let vel = read_xyz("vel")?;
     let force = read_xyz("force")?;
     let boost: Vec<f32> = input.read_rows("boost")?;
+    let bond_state: Vec<f32> = if input.at_end() { Vec::new() } else { input.read_rows("bond_state")? };
     let n = boost.len();
     if !disp.iter().chain(&vel).chain(&force).all(|a| a.len() == n) {
         return Err(input.malformed(format!("the checkpoint's arrays do not all hold {n} particles")));
     }
     input.finish()?;
-    Ok((meta, CheckpointState { disp, vel, force, boost }))
+    Ok((meta, CheckpointState { disp, vel, force, boost, bond_state }))
 }
 
 /// Reads a checkpoint's scalars and particle count (for `shatter inspect`).
@@ -148,8 +157,16 @@ mod tests {
                 vel: [vec![0.5], vec![0.25], vec![0.125]],
                 force: [vec![0.0], vec![-1.0], vec![1.0]],
                 boost: vec![0.0],
+                // the elastoplastic model's plastic extensions on every other round; none else
+                bond_state: if rng.next_f64() < 0.5 { vec![1e-6, -2e-7, 0.0] } else { Vec::new() },
             };
-            let view = StateRef { disp: &state.disp, vel: &state.vel, force: &state.force, boost: &state.boost };
+            let view = StateRef {
+                disp: &state.disp,
+                vel: &state.vel,
+                force: &state.force,
+                boost: &state.boost,
+                bond_state: &state.bond_state,
+            };
             write(&path, &meta, view).expect("write");
             let (read_meta, read_state) = read(&path).expect("read");
             assert_eq!(read_meta.external_work_j.to_bits(), work_j.to_bits());

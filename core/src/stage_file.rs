@@ -523,6 +523,11 @@ impl StageReader {
         serde_json::from_slice(&bytes).map_err(|error| self.malformed(format!("section {tag:?}: {error}")))
     }
 
+    /// True when every section has been read (a format's optional last section is absent).
+    pub fn at_end(&self) -> bool {
+        self.remaining == 0
+    }
+
     /// Checks that every section has been read.
     pub fn finish(self) -> Result<(), StageFileError> {
         if self.remaining != 0 {

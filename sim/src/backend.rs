@@ -99,6 +99,21 @@ pub trait Backend {
     fn stable_dt_s(&self) -> f64;
     /// Replaces the state with a checkpoint's; `broken_bonds` (sorted ids) are marked broken.
     fn restore(&mut self, dynamics: Dynamics, broken_bonds: &[u64]) -> Result<(), DeviceError>;
+    /// The material model's per-bond state, one value per particle-file bond entry (the
+    /// elastoplastic model's plastic extensions), as of the last frame boundary; empty for a
+    /// model that keeps none.
+    fn bond_state(&self) -> Vec<f32> {
+        Vec::new()
+    }
+    /// Restores [`Backend::bond_state`] (after [`Backend::restore`]); fails, naming what does not
+    /// fit, when `state` is not this model's.
+    fn set_bond_state(&mut self, state: &[f32]) -> Result<(), String> {
+        if state.is_empty() {
+            Ok(())
+        } else {
+            Err(format!("{} per-bond values for a model that keeps none", state.len()))
+        }
+    }
     /// Sets velocities (initial conditions, tests).
     fn set_velocity(&mut self, velocity: &dyn Fn(usize, [f32; 3]) -> [f32; 3]) -> Result<(), DeviceError>;
     /// Sets displacements and recomputes the forces (bonds may break, at the current step).

@@ -3,6 +3,7 @@
 //! `--backend`).
 
 use shatter_core::PipelineConfig;
+use shatter_core::config::material::MaterialModel;
 use shatter_core::config::sim::BackendChoice;
 use shatter_core::particles::ParticleSet;
 use shatter_gpu::{AdapterChoice, GpuContext, GpuError};
@@ -34,6 +35,18 @@ pub fn create_backend(
     particles: &ParticleSet,
     choice: BackendChoice,
 ) -> Result<(Box<dyn Backend>, Option<String>), BackendError> {
+    if config.material.model == MaterialModel::Elastoplastic {
+        // the elastoplastic model's WGSL passes are not written yet (issue #19)
+        if choice == BackendChoice::Gpu {
+            return Err(SimError::BadInput(
+                "material.model = \"elastoplastic\" runs on the CPU backend only for now; set sim.backend = \"cpu\" \
+                 or \"auto\""
+                    .into(),
+            )
+            .into());
+        }
+        return Ok((Box::new(CpuSimulation::from_config(config, particles)?), None));
+    }
     let gpu = match choice {
         BackendChoice::Cpu => None,
         BackendChoice::Gpu => Some(GpuContext::new(AdapterChoice::from_env())?),

@@ -12,9 +12,11 @@ use crate::backend::{Backend, DeviceError};
 use crate::bond_layouts::EntryValues;
 use crate::bond_layouts::lattice_layout::{LatticeTable, NO_PARTICLE, SlotInputs};
 use crate::bond_layouts::layout_choice::{LayoutChoice, SpringTable};
-use crate::bond_layouts::row_layout::{BondBlock, chunk_size};
+use crate::bond_layouts::row_layout::chunk_size;
 use crate::contact::ContactList;
+use crate::elastoplastic::FamilyTable;
 use crate::kernels::{self, BodyForces, BondLookup, ChunkForces, ParticleRecord, PassRules, SphereNow};
+use crate::material_bonds::MaterialBonds;
 use crate::model::{Model, MovingSphere};
 use crate::state::{Dynamics, Energy, kinetic_energy_j};
 use crate::{SimError, art};
@@ -71,7 +73,7 @@ pub struct CpuSimulation {
     volume: Vec<f32>,
     /// Bonds per particle in the particle file (for damage).
     bond_count: Vec<u32>,
-    table: SpringTable,
+    bonds: MaterialBonds,
     /// Particles per chunk of the per-particle passes.
     chunk_size: usize,
     index: BondIndex,
@@ -93,7 +95,7 @@ impl CpuSimulation {
         model: Model,
         factors: Option<&[f32]>,
         correction: StiffnessCorrection,
-    ) -> CpuSimulation {
+    ) -> Result<CpuSimulation, SimError> {
         CpuSimulation::with_layout(particles, model, factors, correction, LayoutChoice::Fastest)
     }
 
@@ -104,17 +106,25 @@ impl CpuSimulation {
         factors: Option<&[f32]>,
         correction: StiffnessCorrection,
         layout: LayoutChoice,
-    ) -> CpuSimulation {
+    ) -> Result<CpuSimulation, SimError> {
         let n = particles.len();
         let (constant, scale) = (model.bond_constant, model.threshold_scale);
         let values = EntryValues::new(particles, constant, scale, factors, correction, model.rules.partial_volumes);
-        // The lattice kernel runs Levine's rules only.
-        let layout = if model.pass_rules() == PassRules::default() { layout } else { LayoutChoice::RowsOnly };
-        let table = SpringTable::new(particles, &values, layout);
+        let bonds = match model.elastoplastic {
+            Some(constants) => {
+                let table = FamilyTable::new(particles, constants, chunk_size(n), |k| values.threshold(k))?;
+                MaterialBonds::Elastoplastic(Box::new(table))
+            }
+            None => {
+                // The lattice kernel runs Levine's rules only.
+                let layout = if model.pass_rules() == PassRules::default() { layout } else { LayoutChoice::RowsOnly };
+                MaterialBonds::Pmb(SpringTable::new(particles, &values, layout))
+            }
+        };
         // The row kernel's gather records (the lattice kernel fills its own slots).
-        let records = match table {
-            SpringTable::Rows(_) => vec![ParticleRecord::default(); n],
-            SpringTable::Lattice(_) => Vec::new(),
+        let records = match bonds {
+            MaterialBonds::Pmb(SpringTable::Rows(_)) => vec![ParticleRecord::default(); n],
+            _ => Vec::new(),
         };
         let rest = [0, 1, 2].map(|axis| particles.rest_position_m.iter().map(|p| p[axis]).collect::<Vec<f32>>());
         let mass: Vec<f32> = particles.volume_m3.iter().map(|v| (f64::from(*v) * model.density_kg_m3) as f32).collect();
@@ -130,7 +140,7 @@ impl CpuSimulation {
             inverse_mass,
             volume,
             bond_count,
-            table,
+            bonds,
             chunk_size: chunk_size(n),
             index: BondIndex::new(&particles.bonds),
             contacts,
@@ -151,7 +161,7 @@ impl CpuSimulation {
         };
         simulation.chunk_power = vec![0.0; n.div_ceil(simulation.chunk_size)];
         simulation.compute_forces();
-        simulation
+        Ok(simulation)
     }
 
     /// The simulation a config describes for a particle set: its model, art direction and
@@ -169,7 +179,7 @@ impl CpuSimulation {
         let model = Model::new(config, particles)?;
         let factors = art::threshold_factors(&config.sim, particles, config.scene.seed)?;
         let correction = config.sim.stiffness_correction;
-        Ok(CpuSimulation::with_layout(particles, model, factors.as_deref(), correction, layout))
+        CpuSimulation::with_layout(particles, model, factors.as_deref(), correction, layout)
     }
 
     /// Number of particles.
@@ -185,12 +195,15 @@ impl CpuSimulation {
     /// Bond entries the force pass computes per step: (internal, stored once and applied to
     /// both ends; external, stored and computed on both sides).
     pub fn bond_entries(&self) -> (usize, usize) {
-        self.table.entries()
+        match &self.bonds {
+            MaterialBonds::Pmb(table) => table.entries(),
+            MaterialBonds::Elastoplastic(table) => (0, table.initial.iter().map(|c| *c as usize).sum()),
+        }
     }
 
     /// True when the force pass runs on the lattice layout ([`crate::bond_layouts::lattice_layout`]).
     pub fn on_lattice(&self) -> bool {
-        matches!(self.table, SpringTable::Lattice(_))
+        matches!(self.bonds, MaterialBonds::Pmb(SpringTable::Lattice(_)))
     }
 
     /// The model.
@@ -244,7 +257,7 @@ impl CpuSimulation {
 
     /// Replaces the state with a checkpoint's; `broken_bonds` (sorted ids) are marked broken.
     pub fn restore(&mut self, dynamics: Dynamics, broken_bonds: &[u64]) {
-        self.table.mark_broken(broken_bonds);
+        self.bonds.mark_broken(broken_bonds);
         self.broken.fill(0);
         for &id in broken_bonds {
             self.index.record_break(id, &mut self.broken);
@@ -274,48 +287,24 @@ impl CpuSimulation {
     /// Kinetic and bond energy, summed per chunk in a fixed order (deterministic).
     pub fn energy(&self) -> Energy {
         let kinetic_j = kinetic_energy_j(&self.mass, &self.dynamics.vel, self.chunk_size);
-        let disp = &self.dynamics.disp;
-        let bond_j = self.table.sum_entries(|i, bond, lane, internal| {
-            // stored once: the partner's half too
-            let ends = if internal { 2.0 } else { 1.0 };
-            ends * half_bond_energy_j(disp, i, bond, lane)
-        });
-        Energy { kinetic_j, bond_j }
+        Energy { kinetic_j, bond_j: self.bonds.energy_j(&self.dynamics.disp) }
     }
 
-    /// Each particle's share of the bond energy 1/2 k s^2 L (half of each of its intact bonds),
-    /// joules.
+    /// Each particle's share of the stored bond energy (for PMB half of each of its intact
+    /// springs' 1/2 k s^2 L), joules.
     pub fn bond_energy_per_particle(&self) -> Vec<f64> {
-        let disp = &self.dynamics.disp;
-        let mut energy = vec![0.0f64; self.len()];
-        self.table.for_each_entry(|i, bond, lane, internal| {
-            let half = half_bond_energy_j(disp, i, bond, lane);
-            energy[i] += half;
-            if internal {
-                // stored once: the partner's half too
-                energy[bond.neighbor[lane] as usize] += half;
-            }
-        });
-        energy
+        self.bonds.energy_per_particle(&self.dynamics.disp)
     }
 
-    /// The largest stable time step of the linearised PMB model (Silling and Askari 2005):
-    /// min over particles of sqrt(2 m_i / sum_j k_ij / L_ij), seconds.
+    /// The largest stable time step of the linearised model (Silling and Askari 2005), seconds.
     pub fn stable_dt_s(&self) -> f64 {
-        let mut stiffness = vec![0.0f64; self.len()];
-        self.table.for_each_entry(|i, bond, lane, internal| {
-            let spring = f64::from(bond.stiffness[lane]) / f64::from(bond.rest_length_m[lane]);
-            stiffness[i] += spring;
-            if internal {
-                stiffness[bond.neighbor[lane] as usize] += spring;
-            }
-        });
-        stiffness
-            .iter()
-            .zip(&self.mass)
-            .filter(|(k, _)| **k > 0.0)
-            .map(|(k, m)| (2.0 * f64::from(*m) / k).sqrt())
-            .fold(f64::INFINITY, f64::min)
+        self.bonds.stable_dt_s(&self.mass, &self.dynamics.disp, self.model.density_kg_m3)
+    }
+
+    /// The material model's per-bond state in the particle file's entry order (plastic
+    /// extensions; empty for PMB).
+    pub fn bond_state(&self) -> Vec<f32> {
+        self.bonds.bond_state()
     }
 
     /// Advances one step of velocity Verlet.
@@ -378,7 +367,7 @@ impl CpuSimulation {
             rest,
             mass,
             volume,
-            table,
+            bonds,
             chunk_size,
             index,
             contacts,
@@ -426,8 +415,12 @@ impl CpuSimulation {
         let rule = model.break_rule;
         let pass_rules = model.pass_rules();
         let [fx, fy, fz] = force;
-        match table {
-            SpringTable::Rows(table) => {
+        match bonds {
+            MaterialBonds::Elastoplastic(table) => {
+                table.evaluate([&disp[0][..], &disp[1][..], &disp[2][..]], [&mut fx[..], &mut fy[..], &mut fz[..]]);
+                next_boost.fill(0.0);
+            }
+            MaterialBonds::Pmb(SpringTable::Rows(table)) => {
                 // The row kernel's gather records.
                 records.par_iter_mut().enumerate().for_each(|(i, record)| {
                     *record = ParticleRecord { disp: [disp[0][i], disp[1][i], disp[2][i]], boost: boost[i] };
@@ -446,7 +439,7 @@ impl CpuSimulation {
                         kernels::spring_forces(chunk, records, rule, pass_rules, &mut out);
                     });
             }
-            SpringTable::Lattice(lattice) => {
+            MaterialBonds::Pmb(SpringTable::Lattice(lattice)) => {
                 lattice_forces(lattice, [&disp[0][..], &disp[1][..], &disp[2][..]], boost, rule);
             }
         }
@@ -460,9 +453,9 @@ impl CpuSimulation {
         let contacts = contacts.as_ref();
         let rest_position = [&rest[0][..], &rest[1][..], &rest[2][..]];
         let lookup = &*index;
-        let lattice_totals = match &*table {
-            SpringTable::Lattice(lattice) => Some((&lattice.slot_of, &lattice.slots)),
-            SpringTable::Rows(_) => None,
+        let lattice_totals = match &*bonds {
+            MaterialBonds::Pmb(SpringTable::Lattice(lattice)) => Some((&lattice.slot_of, &lattice.slots)),
+            _ => None,
         };
         (
             chunk_power.par_iter_mut(),
@@ -526,26 +519,12 @@ impl CpuSimulation {
             });
         std::mem::swap(boost, next_boost);
         // Both kernels log each broken bond once, so the counts per particle are kept here.
-        table.for_each_break(|bond| {
+        bonds.for_each_break(|bond| {
             index.record_break(bond, broken);
             events.push(BreakEvent { step: *step, bond });
         });
         chunk_power.iter().sum()
     }
-}
-
-/// Half the energy 1/2 k s^2 L of particle i's bond in `bond`'s lane `lane` (0 once broken),
-/// joules.
-fn half_bond_energy_j(disp: &[Vec<f32>; 3], i: usize, bond: &BondBlock, lane: usize) -> f64 {
-    if bond.stiffness[lane] == 0.0 {
-        return 0.0;
-    }
-    let j = bond.neighbor[lane] as usize;
-    let xi = [0, 1, 2].map(|a| bond.rest_vector[a][lane]);
-    let eta = [0, 1, 2].map(|a| disp[a][j] - disp[a][i]);
-    let rest_length = bond.rest_length_m[lane];
-    let (s, _, _) = kernels::stretch(xi, eta, rest_length);
-    0.25 * f64::from(bond.stiffness[lane]) * f64::from(s).powi(2) * f64::from(rest_length)
 }
 
 /// The lattice layout's spring pass: the slots' inputs from the particles' displacements and
@@ -646,6 +625,14 @@ impl Backend for CpuSimulation {
     fn restore(&mut self, dynamics: Dynamics, broken_bonds: &[u64]) -> Result<(), DeviceError> {
         CpuSimulation::restore(self, dynamics, broken_bonds);
         Ok(())
+    }
+
+    fn bond_state(&self) -> Vec<f32> {
+        CpuSimulation::bond_state(self)
+    }
+
+    fn set_bond_state(&mut self, state: &[f32]) -> Result<(), String> {
+        self.bonds.set_bond_state(state)
     }
 
     fn set_velocity(&mut self, velocity: &dyn Fn(usize, [f32; 3]) -> [f32; 3]) -> Result<(), DeviceError> {

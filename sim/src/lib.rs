@@ -7,6 +7,8 @@
 //! - [`state`]: the state of a run and its energies, the same for every backend.
 //! - [`bond_layouts`]: how the bonds are stored: the CPU's row and lattice layouts and the choice
 //!   between them, and the GPU's sliced layout.
+//! - [`material_bonds`]: the material-model seam: the run's bonds by model, PMB's spring tables
+//!   or [`elastoplastic`]'s family table (Chen et al.'s state-based elastoplastic model).
 //! - [`kernels`]: the CPU step's kernels (springs, collisions, body forces, Verlet halves).
 //! - [`contact`]: contact between unbonded particles (Verlet lists over a spatial hash).
 //! - [`cpu_simulation`]: the CPU backend, the state and the step.
@@ -23,8 +25,10 @@ pub mod backend_choice;
 pub mod bond_layouts;
 pub mod contact;
 pub mod cpu_simulation;
+pub mod elastoplastic;
 pub mod gpu;
 pub mod kernels;
+pub mod material_bonds;
 pub mod model;
 pub mod previous_run;
 pub mod sim_driver;

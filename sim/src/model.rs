@@ -3,10 +3,12 @@
 
 use glam::DVec3;
 use shatter_core::PipelineConfig;
+use shatter_core::config::material::MaterialModel;
 use shatter_core::config::sim::{BreakRule, BreakingStepForce, CompressionBoost, ContactModel, Rules};
 use shatter_core::particles::ParticleSet;
 
 use crate::SimError;
+use crate::elastoplastic::StateBasedConstants;
 
 /// A sphere on a straight path at constant velocity.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -70,6 +72,8 @@ pub struct Model {
     pub threshold_scale: f64,
     /// Density, kg/m^3.
     pub density_kg_m3: f64,
+    /// The elastoplastic model's constants; None: the PMB model.
+    pub elastoplastic: Option<StateBasedConstants>,
 }
 
 impl Model {
@@ -113,6 +117,8 @@ impl Model {
                 .collect(),
             threshold_scale: material.mean_critical_stretch(delta) / particles.meta.mean_critical_stretch,
             density_kg_m3: material.density_kg_m3,
+            elastoplastic: (material.model == MaterialModel::Elastoplastic)
+                .then(|| StateBasedConstants::of(config, delta)),
         };
         model.check_start(particles)?;
         Ok(model)

@@ -371,9 +371,12 @@ pub fn run_with(
         }
         let mut broken: Vec<u64> = blocks.iter().flat_map(|block| block.events.iter().map(|e| e.bond)).collect();
         broken.sort_unstable();
-        let CheckpointState { disp, vel, force, boost } = state;
+        let CheckpointState { disp, vel, force, boost, bond_state } = state;
         let dynamics = Dynamics { step: meta.step, disp, vel, force, boost, external_work_j: meta.external_work_j };
         simulation.restore(dynamics, &broken)?;
+        simulation
+            .set_bond_state(&bond_state)
+            .map_err(|what| StageFileError::Malformed { path: checkpoint_path.clone(), what })?;
         (log, meta.frame, meta.broken_bonds, meta.initial_energy_j)
     } else {
         previous = PreviousRun::set_aside(&layout)?;
@@ -445,11 +448,13 @@ pub fn run_with(
                     initial_energy_j,
                     backend: simulation.describe(),
                 };
+                let bond_state = simulation.bond_state();
                 let state = StateRef {
                     disp: &dynamics.disp,
                     vel: &dynamics.vel,
                     force: &dynamics.force,
                     boost: &dynamics.boost,
+                    bond_state: &bond_state,
                 };
                 checkpoint::write(&checkpoint_path, &meta, state)?;
                 checkpointed = true;

@@ -17,7 +17,7 @@ pub(super) fn unset() -> f64 {
     UNSET
 }
 
-fn is_unset(value: f64) -> bool {
+pub(super) fn is_unset(value: f64) -> bool {
     value.to_bits() == UNSET.to_bits()
 }
 

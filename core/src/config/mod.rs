@@ -14,6 +14,7 @@ mod array_lengths;
 pub mod derived;
 mod lammps_terms;
 pub mod lead_in;
+pub mod material;
 pub mod post;
 pub mod render;
 pub mod rigid;
@@ -21,6 +22,7 @@ pub mod sim;
 pub mod timeline;
 
 pub use lead_in::LeadInConfig;
+pub use material::{DEFAULT_FRACTURE_ENERGY_J_M2, MaterialConfig};
 pub use post::PostConfig;
 pub use render::RenderConfig;
 pub use rigid::RigidConfig;
@@ -307,60 +309,6 @@ impl Default for MeshRepairConfig {
     }
 }
 
-/// `[material]`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MaterialConfig {
-    /// Mass density rho in kg/m^3.
-    pub density_kg_m3: f64,
-    /// Bulk modulus K in Pa. May be left out for `bond_constant_n_m6`.
-    #[serde(default = "lammps_terms::unset")]
-    pub bulk_modulus_pa: f64,
-    /// LAMMPS's bond constant c (`pair_coeff`'s first value), N/m^6, instead of
-    /// `bulk_modulus_pa`: K = c pi delta^4 / 18.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub bond_constant_n_m6: Option<f64>,
-    /// Fracture energy G in J/m^2; the mean critical stretch is sqrt(5 G / (9 K delta)).
-    /// Default 8 J/m^2 (soda-lime glass) unless `critical_stretch` is given.
-    #[serde(default)]
-    pub fracture_energy_j_m2: Option<f64>,
-    /// The mean critical stretch given directly (the paper's tau: 0.01 ... 0.0002); excludes
-    /// `fracture_energy_j_m2`.
-    #[serde(default)]
-    pub critical_stretch: Option<f64>,
-    /// Standard deviation of the per-bond threshold as a fraction of the mean (the paper: 0.02).
-    #[serde(default = "default_threshold_jitter")]
-    pub threshold_jitter: f64,
-    /// alpha in tau' = tau - alpha min(0, s_min): compression strengthening (the paper: 0.25).
-    #[serde(default = "default_compression_alpha")]
-    pub compression_alpha: f64,
-}
-
-fn default_compression_alpha() -> f64 {
-    0.25
-}
-
-/// The fracture energy used when a scene gives neither it nor a critical stretch: soda-lime glass.
-pub const DEFAULT_FRACTURE_ENERGY_J_M2: f64 = 8.0;
-
-fn default_threshold_jitter() -> f64 {
-    0.02
-}
-
-impl MaterialConfig {
-    /// The mean critical stretch s0 for horizon `delta_m`: the given `critical_stretch`, else
-    /// Silling and Askari's sqrt(5 G / (9 K delta)). (Levine et al.'s eq. 4 omits the 9.)
-    pub fn mean_critical_stretch(&self, delta_m: f64) -> f64 {
-        match self.critical_stretch {
-            Some(stretch) => stretch,
-            None => {
-                let energy = self.fracture_energy_j_m2.unwrap_or(DEFAULT_FRACTURE_ENERGY_J_M2);
-                (5.0 * energy / (9.0 * self.bulk_modulus_pa * delta_m)).sqrt()
-            }
-        }
-    }
-}
-
 impl PipelineConfig {
     /// Reads, parses and validates a config file; relative paths in it are resolved against the
     /// file's folder.
@@ -428,6 +376,7 @@ impl PipelineConfig {
         check.that(!output_dir.contains('\0'), "scene.output_dir", &format!("{output_dir:?}"), || {
             "must not contain a NUL character: no file system names a folder so".to_string()
         })?;
+        material::resolve_moduli(&mut config.material, &check)?;
         lammps_terms::resolve(&mut config, &check)?;
         config.resolve_paths();
         config.validate()?;
@@ -603,6 +552,7 @@ impl PipelineConfig {
             || format!("must be between 0 and {MAX_THRESHOLD_JITTER} (a fraction of the mean threshold)"),
         )?;
         check.non_negative("material.compression_alpha", material.compression_alpha, "dimensionless")?;
+        material.validate_model(&check)?;
         derived::validate(self, &check)?;
         if let Some(lead_in) = &self.lead_in {
             lead_in.validate(&check)?;

@@ -1,0 +1,305 @@
+//! The state-based model's bonds in a fixed-stride layout: every particle's family occupies
+//! `stride` consecutive entries (its file row, then padding), so that a chunk of particles owns
+//! one contiguous run of entries, each pass splits the arrays by plain chunks without any index,
+//! and the same layout serves a GPU kernel. A bond is stored in both its particles' families:
+//! the state-based force scalar t_ij depends on i's dilatation and i's plastic extension of the
+//! bond, so t_ij and t_ji differ.
+
+use rayon::prelude::*;
+use shatter_core::config::material::Normalisation;
+use shatter_core::particles::ParticleSet;
+
+use super::StateBasedConstants;
+use super::passes::{FamilyView, bond_forces, dilatation, energy_j, force_scalars, stiffness_n_m};
+use crate::SimError;
+
+/// The bonds, their state, and the per-particle values the passes share.
+#[derive(Debug, Clone)]
+pub struct FamilyTable {
+    /// Entries per particle: the longest family.
+    pub stride: usize,
+    /// Particles per chunk of every pass (a function of the particle count only).
+    pub chunk_size: usize,
+    /// The horizon delta, metres.
+    pub delta_m: f32,
+    /// The model's constants.
+    pub constants: StateBasedConstants,
+    /// Partner particle of each entry (the particle itself for padding).
+    pub neighbor: Vec<u32>,
+    /// The entry of the same bond in the partner's family.
+    pub reverse: Vec<u32>,
+    /// Rest vector xi = X_j - X_i, metres.
+    pub rest_vector: [Vec<f32>; 3],
+    /// Rest length |xi|, metres (1 for padding).
+    pub rest_length_m: Vec<f32>,
+    /// Influence omega = delta / |xi|; 0 for padding and once the bond has broken.
+    pub influence: Vec<f32>,
+    /// Critical value of the weighted elastic stretch (e - e_p) / delta, art direction included.
+    pub threshold: Vec<f32>,
+    /// Plastic deviatoric extension e_p of each entry, metres: the model's per-bond state.
+    pub plastic_m: Vec<f32>,
+    /// The force scalar t_ij of each entry at the last force evaluation, N/m^6 (scratch).
+    pub scalar: Vec<f32>,
+    /// The particle file's row offsets: the id of bond (i, j), i < j, is `file_offset[i]` plus
+    /// its place in i's row.
+    pub file_offset: Vec<u64>,
+    /// Particle volumes V_i, m^3.
+    pub volume: Vec<f32>,
+    /// Weighted volume m_i = sum of omega |xi|^2 V_j over the family (or pi delta^5), m^5.
+    pub weighted_volume: Vec<f32>,
+    /// Dilatation theta_i at the last force evaluation (scratch).
+    pub dilatation: Vec<f32>,
+    /// Damage phi_i = 1 - intact / initial bonds, as of the step's start (scratch).
+    pub damage: Vec<f32>,
+    /// Intact bonds per particle.
+    pub intact: Vec<u32>,
+    /// Bonds per particle in the particle file.
+    pub initial: Vec<u32>,
+    /// Bonds broken in the last force evaluation, per chunk, logged by the lower particle.
+    pub breaks: Vec<Vec<u64>>,
+}
+
+impl FamilyTable {
+    /// The table of a particle set: `threshold(k)` is the critical stretch of file entry k
+    /// (jitter, material rescale and art direction included).
+    pub fn new(
+        particles: &ParticleSet,
+        constants: StateBasedConstants,
+        chunk_size: usize,
+        threshold: impl Fn(usize) -> f32 + Sync,
+    ) -> Result<FamilyTable, SimError> {
+        let n = particles.len();
+        let bonds = &particles.bonds;
+        let stride = (0..n).map(|i| bonds.row(i).len()).max().unwrap_or(0).max(1);
+        let entries = n.checked_mul(stride).filter(|e| *e <= u32::MAX as usize).ok_or_else(|| {
+            SimError::BadInput(format!(
+                "the elastoplastic model stores {n} families of up to {stride} bonds; that is more than 2^32 entries"
+            ))
+        })?;
+        let delta = particles.meta.delta_m;
+        let position = &particles.rest_position_m;
+        let mut table = FamilyTable {
+            stride,
+            chunk_size,
+            delta_m: delta as f32,
+            constants,
+            neighbor: vec![0; entries],
+            reverse: vec![0; entries],
+            rest_vector: [vec![0.0; entries], vec![0.0; entries], vec![0.0; entries]],
+            rest_length_m: vec![1.0; entries],
+            influence: vec![0.0; entries],
+            threshold: vec![f32::INFINITY; entries],
+            plastic_m: vec![0.0; entries],
+            scalar: vec![0.0; entries],
+            file_offset: bonds.offsets.clone(),
+            volume: particles.volume_m3.clone(),
+            weighted_volume: vec![0.0; n],
+            dilatation: vec![0.0; n],
+            damage: vec![0.0; n],
+            intact: (0..n).map(|i| bonds.row(i).len() as u32).collect(),
+            initial: (0..n).map(|i| bonds.row(i).len() as u32).collect(),
+            breaks: vec![Vec::new(); n.div_ceil(chunk_size)],
+        };
+        for i in 0..n {
+            for (local, k) in bonds.row(i).enumerate() {
+                let e = i * stride + local;
+                let j = bonds.neighbor[k] as usize;
+                table.neighbor[e] = j as u32;
+                for (axis, rest_vector) in table.rest_vector.iter_mut().enumerate() {
+                    rest_vector[e] = position[j][axis] - position[i][axis];
+                }
+                table.rest_length_m[e] = bonds.rest_length_m[k];
+                table.influence[e] = (delta / f64::from(bonds.rest_length_m[k])) as f32;
+                table.threshold[e] = threshold(k);
+                let back = bonds.find(j, i as u32).ok_or_else(|| {
+                    SimError::BadInput(format!("the particle file's bond {i}-{j} is missing from particle {j}'s row"))
+                })?;
+                table.reverse[e] = (j * stride + (back - bonds.row(j).start)) as u32;
+            }
+            for local in bonds.row(i).len()..stride {
+                table.neighbor[i * stride + local] = i as u32;
+            }
+        }
+        let analytic = (std::f64::consts::PI * delta.powi(5)) as f32;
+        let weighted: Vec<f32> = (0..n)
+            .into_par_iter()
+            .map(|i| match constants.normalisation {
+                Normalisation::Analytic => analytic,
+                Normalisation::WeightedVolume => {
+                    let sum: f64 = (i * stride..(i + 1) * stride)
+                        .map(|e| {
+                            let xi = f64::from(table.rest_length_m[e]);
+                            let v = f64::from(table.volume[table.neighbor[e] as usize]);
+                            f64::from(table.influence[e]) * xi * xi * v
+                        })
+                        .sum();
+                    // a particle with no family feels no bond force; any m does
+                    if sum > 0.0 { sum as f32 } else { analytic }
+                }
+            })
+            .collect();
+        table.weighted_volume = weighted;
+        Ok(table)
+    }
+
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.volume.len()
+    }
+
+    /// True without particles.
+    pub fn is_empty(&self) -> bool {
+        self.volume.is_empty()
+    }
+
+    /// Marks bonds broken by id (sorted or not): both entries lose their influence, and the
+    /// intact counts follow.
+    pub fn mark_broken(&mut self, ids: &[u64]) {
+        for &id in ids {
+            let i = self.file_offset.partition_point(|offset| *offset <= id) - 1;
+            let e = i * self.stride + (id - self.file_offset[i]) as usize;
+            for entry in [e, self.reverse[e] as usize] {
+                self.influence[entry] = 0.0;
+            }
+        }
+        let stride = self.stride;
+        let influence = &self.influence;
+        self.intact.par_iter_mut().enumerate().for_each(|(i, intact)| {
+            *intact = influence[i * stride..(i + 1) * stride].iter().filter(|w| **w > 0.0).count() as u32;
+        });
+    }
+
+    /// The plastic extensions in the particle file's entry order (for checkpoints).
+    pub fn plastic_in_file_order(&self) -> Vec<f32> {
+        let n = self.len();
+        let total = self.file_offset[n] as usize;
+        let mut out = Vec::with_capacity(total);
+        for i in 0..n {
+            let count = (self.file_offset[i + 1] - self.file_offset[i]) as usize;
+            out.extend_from_slice(&self.plastic_m[i * self.stride..i * self.stride + count]);
+        }
+        out
+    }
+
+    /// Sets the plastic extensions from the particle file's entry order (a checkpoint's). Fails
+    /// when `plastic` does not hold one value per file entry.
+    pub fn set_plastic_from_file_order(&mut self, plastic: &[f32]) -> Result<(), String> {
+        let n = self.len();
+        let total = self.file_offset[n] as usize;
+        if plastic.len() != total {
+            return Err(format!("{} plastic extensions for {total} bond entries", plastic.len()));
+        }
+        for i in 0..n {
+            let (start, end) = (self.file_offset[i] as usize, self.file_offset[i + 1] as usize);
+            self.plastic_m[i * self.stride..i * self.stride + end - start].copy_from_slice(&plastic[start..end]);
+        }
+        Ok(())
+    }
+}
+
+impl FamilyTable {
+    /// What the passes read, at displacements `disp`.
+    pub fn view<'a>(&'a self, disp: [&'a [f32]; 3]) -> FamilyView<'a> {
+        FamilyView {
+            stride: self.stride,
+            delta_m: self.delta_m,
+            neighbor: &self.neighbor,
+            reverse: &self.reverse,
+            rest_vector: [&self.rest_vector[0], &self.rest_vector[1], &self.rest_vector[2]],
+            rest_length_m: &self.rest_length_m,
+            volume: &self.volume,
+            weighted_volume: &self.weighted_volume,
+            disp,
+        }
+    }
+
+    /// One force evaluation at displacements `disp`: the three passes, each over the chunks in
+    /// parallel. Writes the bond forces into `force` (newtons) and leaves the bonds broken in
+    /// [`FamilyTable::breaks`]; moves the plastic extensions.
+    pub fn evaluate(&mut self, disp: [&[f32]; 3], force: [&mut [f32]; 3]) {
+        let (size, stride) = (self.chunk_size, self.stride);
+        let run = size * stride;
+        // the view borrows the geometry; the passes' outputs are taken out meanwhile
+        let mut theta = std::mem::take(&mut self.dilatation);
+        let mut damage = std::mem::take(&mut self.damage);
+        let mut scalar = std::mem::take(&mut self.scalar);
+        let mut plastic = std::mem::take(&mut self.plastic_m);
+        let mut influence = std::mem::take(&mut self.influence);
+        let mut intact = std::mem::take(&mut self.intact);
+        let mut breaks = std::mem::take(&mut self.breaks);
+        {
+            let view = self.view(disp);
+            let constants = &self.constants;
+            let (influence_all, intact_all, initial) = (&influence[..], &intact[..], &self.initial[..]);
+            (theta.par_chunks_mut(size), damage.par_chunks_mut(size)).into_par_iter().enumerate().for_each(
+                |(c, (theta, damage))| dilatation(&view, influence_all, intact_all, initial, c * size, theta, damage),
+            );
+            let theta_all = &theta[..];
+            (scalar.par_chunks_mut(run), plastic.par_chunks_mut(run)).into_par_iter().enumerate().for_each(
+                |(c, (scalar, plastic))| {
+                    force_scalars(&view, constants, influence_all, theta_all, c * size, scalar, plastic);
+                },
+            );
+            let (scalar, plastic, damage) = (&scalar[..], &plastic[..], &damage[..]);
+            let (threshold, file_offset) = (&self.threshold[..], &self.file_offset[..]);
+            let [fx, fy, fz] = force;
+            (
+                influence.par_chunks_mut(run),
+                intact.par_chunks_mut(size),
+                fx.par_chunks_mut(size),
+                fy.par_chunks_mut(size),
+                fz.par_chunks_mut(size),
+                breaks.par_iter_mut(),
+            )
+                .into_par_iter()
+                .enumerate()
+                .for_each(|(c, (influence, intact, fx, fy, fz, breaks))| {
+                    breaks.clear();
+                    bond_forces(
+                        &view,
+                        constants,
+                        scalar,
+                        plastic,
+                        threshold,
+                        damage,
+                        file_offset,
+                        c * size,
+                        influence,
+                        intact,
+                        [fx, fy, fz],
+                        breaks,
+                    );
+                });
+        }
+        self.dilatation = theta;
+        self.damage = damage;
+        self.scalar = scalar;
+        self.plastic_m = plastic;
+        self.influence = influence;
+        self.intact = intact;
+        self.breaks = breaks;
+    }
+
+    /// The elastic energy stored at each particle, joules.
+    pub fn energy_per_particle(&self, disp: [&[f32]; 3]) -> Vec<f64> {
+        let view = self.view(disp);
+        (0..self.len())
+            .into_par_iter()
+            .map(|i| energy_j(&view, &self.constants, &self.influence, &self.plastic_m, i))
+            .collect()
+    }
+
+    /// The largest stable time step, seconds: min over particles of sqrt(2 m_i / k_i) with
+    /// k_i [`stiffness_n_m`] and m_i the particle's mass at `density_kg_m3`.
+    pub fn stable_dt_s(&self, disp: [&[f32]; 3], density_kg_m3: f64) -> f64 {
+        let view = self.view(disp);
+        (0..self.len())
+            .into_par_iter()
+            .map(|i| {
+                let k = stiffness_n_m(&view, &self.constants, &self.influence, i);
+                let mass = density_kg_m3 * f64::from(self.volume[i]);
+                if k > 0.0 { (2.0 * mass / k).sqrt() } else { f64::INFINITY }
+            })
+            .reduce(|| f64::INFINITY, f64::min)
+    }
+}

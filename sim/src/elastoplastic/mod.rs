@@ -1,0 +1,18 @@
+//! The elastoplastic material model (Chen et al., section 4 and 5.1): an ordinary state-based
+//! peridynamic solid with a dilatation and a deviatoric part, per-bond plasticity and a ductile
+//! fracture criterion. Everything the model keeps and does is in this folder; the simulation
+//! reaches it through [`crate::material_bonds::MaterialBonds`].
+//!
+//! - [`constants`]: the model's constants, from `[material]`.
+//! - [`family_table`]: the bonds in a fixed-stride layout (every particle's family padded to the
+//!   same length), their rest geometry, influence, thresholds, plastic extensions, and each
+//!   particle's weighted volume.
+//! - [`passes`]: the three passes of a force evaluation (dilatation; force scalars with the
+//!   plastic return map; bond forces with the break test) and the stored energy.
+
+pub mod constants;
+pub mod family_table;
+pub mod passes;
+
+pub use constants::StateBasedConstants;
+pub use family_table::FamilyTable;
