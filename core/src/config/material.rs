@@ -95,6 +95,9 @@ pub struct MaterialConfig {
     /// phi of its particles (elastoplastic only; default 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub damage_strengthening: Option<f64>,
+    /// Fibres: a per-particle anisotropy matrix G, omega = delta / |G xi| (elastoplastic only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub anisotropy: Option<AnisotropyConfig>,
     /// Fracture energy G in J/m^2; the mean critical stretch is sqrt(5 G / (9 K delta)).
     /// Default 8 J/m^2 (soda-lime glass) unless `critical_stretch` is given.
     #[serde(default)]
@@ -112,6 +115,77 @@ pub struct MaterialConfig {
     pub compression_alpha: f64,
 }
 
+/// `[material.anisotropy]`: fibres along one direction (wood), or a layered field whose fibre
+/// direction turns from layer to layer (plywood, laminates). Each particle's matrix is
+/// G = I - (1 - 1 / ratio) d d^T for its fibre direction d, so a bond along the fibres has
+/// `ratio` times the influence of one across them: it is stiffer and breaks later.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AnisotropyConfig {
+    /// The fibre direction (any length), in the first layer where there are layers.
+    pub fibre_direction: [f64; 3],
+    /// Influence along the fibres over that across them, > 0 (1: isotropic).
+    pub ratio: f64,
+    /// The layers' normal (any length); absent: the same fibres everywhere.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub layer_normal: Option<[f64; 3]>,
+    /// Layer thickness, metres; layer k holds the points with k <= (x . n) / thickness < k + 1.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub layer_thickness_m: Option<f64>,
+    /// How far the fibres turn about the normal from one layer to the next, degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub layer_rotation_deg: Option<f64>,
+}
+
+impl AnisotropyConfig {
+    /// The unit fibre direction at point `x` (metres, scene space).
+    pub fn fibre_at(&self, x: [f64; 3]) -> [f64; 3] {
+        let unit = |v: [f64; 3]| {
+            // scaled first, so that tiny and huge vectors keep their direction
+            let largest = v.iter().fold(0.0f64, |a, c| a.max(c.abs()));
+            let v = v.map(|c| c / largest);
+            let length = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            v.map(|c| c / length)
+        };
+        let d = unit(self.fibre_direction);
+        let (Some(normal), Some(thickness), Some(rotation)) =
+            (self.layer_normal, self.layer_thickness_m, self.layer_rotation_deg)
+        else {
+            return d;
+        };
+        let n = unit(normal);
+        let layer = ((x[0] * n[0] + x[1] * n[1] + x[2] * n[2]) / thickness).floor();
+        let (sin, cos) = (layer * rotation.to_radians()).sin_cos();
+        // Rodrigues: d cos + (n x d) sin + n (n . d)(1 - cos)
+        let cross = [n[1] * d[2] - n[2] * d[1], n[2] * d[0] - n[0] * d[2], n[0] * d[1] - n[1] * d[0]];
+        let along = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+        unit([0, 1, 2].map(|a| d[a] * cos + cross[a] * sin + n[a] * along * (1.0 - cos)))
+    }
+
+    fn validate(&self, check: &Checker) -> Result<(), ConfigError> {
+        check.direction("material.anisotropy.fibre_direction", &self.fibre_direction)?;
+        check.positive("material.anisotropy.ratio", self.ratio, "dimensionless")?;
+        match (self.layer_normal, self.layer_thickness_m, self.layer_rotation_deg) {
+            (None, None, None) => Ok(()),
+            (Some(normal), Some(thickness), Some(rotation)) => {
+                check.direction("material.anisotropy.layer_normal", &normal)?;
+                check.positive("material.anisotropy.layer_thickness_m", thickness, "metres")?;
+                check.that(
+                    rotation.is_finite(),
+                    "material.anisotropy.layer_rotation_deg",
+                    &rotation.to_string(),
+                    || "must be a finite angle in degrees".into(),
+                )
+            }
+            _ => Err(check.invalid(
+                "material.anisotropy.layer_normal",
+                "(partly given)",
+                "a layered field needs layer_normal, layer_thickness_m and layer_rotation_deg together",
+            )),
+        }
+    }
+}
+
 fn default_compression_alpha() -> f64 {
     0.25
 }
@@ -121,7 +195,7 @@ fn default_threshold_jitter() -> f64 {
 }
 
 /// The keys only the elastoplastic model reads, with whether the scene gives each.
-fn elastoplastic_keys(material: &MaterialConfig) -> [(&'static str, bool); 8] {
+fn elastoplastic_keys(material: &MaterialConfig) -> [(&'static str, bool); 9] {
     [
         ("material.shear_modulus_pa", material.shear_modulus_pa.is_some()),
         ("material.youngs_modulus_pa", material.youngs_modulus_pa.is_some()),
@@ -131,6 +205,7 @@ fn elastoplastic_keys(material: &MaterialConfig) -> [(&'static str, bool); 8] {
         ("material.yield_stress_pa", material.yield_stress_pa.is_some()),
         ("material.plastic_cap_ratio", material.plastic_cap_ratio.is_some()),
         ("material.damage_strengthening", material.damage_strengthening.is_some()),
+        ("material.anisotropy", material.anisotropy.is_some()),
     ]
 }
 
@@ -209,6 +284,18 @@ impl MaterialConfig {
         }
         if let Some(alpha) = self.damage_strengthening {
             check.non_negative("material.damage_strengthening", alpha, "dimensionless")?;
+        }
+        if let Some(anisotropy) = &self.anisotropy {
+            anisotropy.validate(check)?;
+            check.that(
+                self.normalisation == Normalisation::WeightedVolume,
+                "material.normalisation",
+                "\"analytic\"",
+                || {
+                    "the analytic constants hold for omega = delta / |xi| only; anisotropy needs \"weighted_volume\""
+                        .into()
+                },
+            )?;
         }
         Ok(())
     }
@@ -304,11 +391,43 @@ density_kg_m3 = 7800.0
             ("bulk_modulus_pa = 1e9\nplastic_cap_ratio = 0.0\n", "material.plastic_cap_ratio"),
             ("bulk_modulus_pa = 1e9\ndamage_strengthening = -1.0\n", "material.damage_strengthening"),
             ("bulk_modulus_pa = 1e9\nnormalisation = \"sphere\"\n", "material.normalisation"),
+            (
+                "bulk_modulus_pa = 1e9\nnormalisation = \"analytic\"\n[material.anisotropy]\nfibre_direction = [1, 0, 0]\nratio = 2.0\n",
+                "material.normalisation",
+            ),
+            (
+                "bulk_modulus_pa = 1e9\n[material.anisotropy]\nfibre_direction = [0, 0, 0]\nratio = 2.0\n",
+                "fibre_direction",
+            ),
+            ("bulk_modulus_pa = 1e9\n[material.anisotropy]\nfibre_direction = [1, 0, 0]\nratio = 0.0\n", "ratio"),
+            (
+                "bulk_modulus_pa = 1e9\n[material.anisotropy]\nfibre_direction = [1, 0, 0]\nratio = 2.0\nlayer_normal = [0, 1, 0]\n",
+                "material.anisotropy.layer_normal",
+            ),
         ];
         for (keys, key) in cases {
             let error = parse(&format!("model = \"elastoplastic\"\n{keys}")).expect_err(keys);
             assert!(error.to_string().contains(key), "{keys}: {error}");
         }
+    }
+
+    #[test]
+    fn layered_fibres_turn_about_the_normal_from_layer_to_layer() {
+        let anisotropy = AnisotropyConfig {
+            fibre_direction: [2.0, 0.0, 0.0],
+            ratio: 3.0,
+            layer_normal: Some([0.0, 1.0, 0.0]),
+            layer_thickness_m: Some(0.01),
+            layer_rotation_deg: Some(90.0),
+        };
+        let close = |a: [f64; 3], b: [f64; 3]| (0..3).all(|k| (a[k] - b[k]).abs() < 1e-12);
+        assert!(close(anisotropy.fibre_at([0.3, 0.005, 0.0]), [1.0, 0.0, 0.0]));
+        // one layer up: x turned 90 degrees about y is -z
+        assert!(close(anisotropy.fibre_at([0.3, 0.015, 0.0]), [0.0, 0.0, -1.0]));
+        assert!(close(anisotropy.fibre_at([0.3, -0.005, 0.0]), [0.0, 0.0, 1.0]));
+        let uniform =
+            AnisotropyConfig { layer_normal: None, layer_thickness_m: None, layer_rotation_deg: None, ..anisotropy };
+        assert!(close(uniform.fibre_at([0.3, 0.015, 0.0]), [1.0, 0.0, 0.0]));
     }
 
     #[test]

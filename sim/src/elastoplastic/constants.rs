@@ -1,7 +1,7 @@
 //! The elastoplastic model's constants.
 
 use shatter_core::PipelineConfig;
-use shatter_core::config::material::Normalisation;
+use shatter_core::config::material::{AnisotropyConfig, Normalisation};
 
 /// What the state-based passes need of the material besides the bonds.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -19,9 +19,27 @@ pub struct StateBasedConstants {
     pub damage_strengthening: f64,
     /// How the family sums are normalised.
     pub normalisation: Normalisation,
+    /// Fibres, if any: each particle's anisotropy matrix G.
+    pub anisotropy: Option<AnisotropyConfig>,
 }
 
 impl StateBasedConstants {
+    /// The influence omega = delta / |G xi| of a bond with rest vector `xi` from a particle at
+    /// `x` (delta / |xi| without anisotropy).
+    pub fn influence(&self, delta_m: f64, x: [f32; 3], xi: [f32; 3]) -> f32 {
+        let xi = xi.map(f64::from);
+        let g_xi = match &self.anisotropy {
+            None => xi,
+            Some(anisotropy) => {
+                // G = I - (1 - 1 / ratio) d d^T
+                let d = anisotropy.fibre_at(x.map(f64::from));
+                let along = (1.0 - 1.0 / anisotropy.ratio) * (d[0] * xi[0] + d[1] * xi[1] + d[2] * xi[2]);
+                [0, 1, 2].map(|a| xi[a] - along * d[a])
+            }
+        };
+        (delta_m / (g_xi[0] * g_xi[0] + g_xi[1] * g_xi[1] + g_xi[2] * g_xi[2]).sqrt()) as f32
+    }
+
     /// The constants a config gives for horizon `delta_m`.
     pub fn of(config: &PipelineConfig, delta_m: f64) -> StateBasedConstants {
         let material = &config.material;
@@ -32,6 +50,7 @@ impl StateBasedConstants {
             plastic_cap_ratio: material.plastic_cap_ratio.unwrap_or(f64::INFINITY),
             damage_strengthening: material.damage_strengthening.unwrap_or(0.0),
             normalisation: material.normalisation,
+            anisotropy: material.anisotropy,
         }
     }
 }

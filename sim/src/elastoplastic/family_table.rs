@@ -34,8 +34,12 @@ pub struct FamilyTable {
     pub rest_length_m: Vec<f32>,
     /// Influence omega = delta / |xi|; 0 for padding and once the bond has broken.
     pub influence: Vec<f32>,
-    /// Critical value of the weighted elastic stretch (e - e_p) / delta, art direction included.
+    /// Critical value of the weighted elastic stretch (e - e_p) / (omega |xi|), art direction
+    /// included.
     pub threshold: Vec<f32>,
+    /// 1 / (omega_mean |xi|), omega_mean the mean of both ends' influences (1 / delta without
+    /// anisotropy): (e - e_p) times it is the paper's weighted elastic stretch s_e / omega.
+    pub break_scale: Vec<f32>,
     /// Plastic deviatoric extension e_p of each entry, metres: the model's per-bond state.
     pub plastic_m: Vec<f32>,
     /// The force scalar t_ij of each entry at the last force evaluation, N/m^6 (scratch).
@@ -89,6 +93,7 @@ impl FamilyTable {
             rest_length_m: vec![1.0; entries],
             influence: vec![0.0; entries],
             threshold: vec![f32::INFINITY; entries],
+            break_scale: vec![0.0; entries],
             plastic_m: vec![0.0; entries],
             scalar: vec![0.0; entries],
             file_offset: bonds.offsets.clone(),
@@ -109,7 +114,8 @@ impl FamilyTable {
                     rest_vector[e] = position[j][axis] - position[i][axis];
                 }
                 table.rest_length_m[e] = bonds.rest_length_m[k];
-                table.influence[e] = (delta / f64::from(bonds.rest_length_m[k])) as f32;
+                let xi = [0, 1, 2].map(|a| table.rest_vector[a][e]);
+                table.influence[e] = constants.influence(delta, position[i], xi);
                 table.threshold[e] = threshold(k);
                 let back = bonds.find(j, i as u32).ok_or_else(|| {
                     SimError::BadInput(format!("the particle file's bond {i}-{j} is missing from particle {j}'s row"))
@@ -118,6 +124,13 @@ impl FamilyTable {
             }
             for local in bonds.row(i).len()..stride {
                 table.neighbor[i * stride + local] = i as u32;
+            }
+        }
+        for e in 0..entries {
+            if table.neighbor[e] as usize != e / stride {
+                let mean =
+                    0.5 * (f64::from(table.influence[e]) + f64::from(table.influence[table.reverse[e] as usize]));
+                table.break_scale[e] = (1.0 / (mean * f64::from(table.rest_length_m[e]))) as f32;
             }
         }
         let analytic = (std::f64::consts::PI * delta.powi(5)) as f32;
@@ -241,7 +254,8 @@ impl FamilyTable {
                 },
             );
             let (scalar, plastic, damage) = (&scalar[..], &plastic[..], &damage[..]);
-            let (threshold, file_offset) = (&self.threshold[..], &self.file_offset[..]);
+            let (threshold, break_scale, file_offset) =
+                (&self.threshold[..], &self.break_scale[..], &self.file_offset[..]);
             let [fx, fy, fz] = force;
             (
                 influence.par_chunks_mut(run),
@@ -261,6 +275,7 @@ impl FamilyTable {
                         scalar,
                         plastic,
                         threshold,
+                        break_scale,
                         damage,
                         file_offset,
                         c * size,

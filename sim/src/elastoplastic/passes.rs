@@ -1,6 +1,6 @@
 //! The passes of one force evaluation of the state-based model, each over one chunk of
 //! particles (and the chunk's run of entries), writing only the chunk's outputs. With
-//! omega = delta / |xi|, m_i the weighted volume, e = |y| - |xi| a bond's extension and e_p its
+//! omega = delta / |G xi| (G = I without anisotropy), m_i the weighted volume, e = |y| - |xi| a bond's extension and e_p its
 //! plastic part:
 //!
 //! 1. [`dilatation`]: theta_i = 3 / m_i sum_j omega |xi| e V_j, and the damage phi_i.
@@ -9,8 +9,9 @@
 //!    |t_dev| = t_y pi delta^5 / m_i (the paper's yield force where the family is whole, scaled as
 //!    the force is where it is cut) by moving e_p, which is then capped at gamma;
 //!    t_ij = 3 K theta_i omega |xi| / m_i + t_dev.
-//! 3. [`bond_forces`]: the break test (e - e_p) / delta > (1 + alpha phi) s_c, with e_p and phi
-//!    the means over both ends, so that both ends decide alike; the force
+//! 3. [`bond_forces`]: the break test (e - e_p) / (omega |xi|) > (1 + alpha phi) s_c, which is
+//!    (e - e_p) / delta without anisotropy, with e_p, phi and omega the means over both ends, so
+//!    that both ends decide alike; the force
 //!    f_i = sum_j (t_ij + t_ji) V_i V_j (y_j - y_i) / |y_j - y_i| over the intact bonds.
 //!
 //! This is the linear peridynamic solid of Silling et al. (2007) with Mitchell's per-bond
@@ -149,6 +150,7 @@ pub fn bond_forces(
     scalar: &[f32],
     plastic: &[f32],
     threshold: &[f32],
+    break_scale: &[f32],
     damage: &[f32],
     file_offset: &[u64],
     first: usize,
@@ -174,7 +176,7 @@ pub fn bond_forces(
             let (extension, y, length) = view.extension(i, e);
             let plastic_mean = 0.5 * (plastic[e] + plastic[back]);
             let damage_mean = 0.5 * (damage[i] + damage[j]);
-            if (extension - plastic_mean) / view.delta_m > threshold[e] * (1.0 + strengthening * damage_mean) {
+            if (extension - plastic_mean) * break_scale[e] > threshold[e] * (1.0 + strengthening * damage_mean) {
                 influence[slot] = 0.0;
                 intact[local] -= 1;
                 if i < j {
