@@ -398,7 +398,7 @@ fn fibres_make_the_body_stiffer_and_stronger_along_them() {
 /// Pulls a bar along x by a homogeneous stretch (no lateral strain) in steps of 2e-4 of the
 /// predicted first-break strain; returns the strain of the first break and the prediction.
 fn strain_at_first_break(config: &PipelineConfig, particles: &ParticleSet) -> (f64, f64) {
-    let c = centre(&particles);
+    let c = centre(particles);
     let bonds = &particles.bonds;
     let delta = particles.meta.delta_m;
     let x = |i: usize| particles.rest_position_m[i].map(f64::from);
