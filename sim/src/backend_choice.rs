@@ -35,14 +35,19 @@ pub fn create_backend(
     particles: &ParticleSet,
     choice: BackendChoice,
 ) -> Result<(Box<dyn Backend>, Option<String>), BackendError> {
-    if config.material.model == MaterialModel::Elastoplastic {
-        // the elastoplastic model's WGSL passes are not written yet (issue #19)
+    // the elastoplastic model's WGSL passes and grips on the GPU are not written yet (issue #19)
+    let cpu_only = if config.material.model == MaterialModel::Elastoplastic {
+        Some("material.model = \"elastoplastic\"")
+    } else if !config.sim.grip.is_empty() {
+        Some("[[sim.grip]]")
+    } else {
+        None
+    };
+    if let Some(what) = cpu_only {
         if choice == BackendChoice::Gpu {
-            return Err(SimError::BadInput(
-                "material.model = \"elastoplastic\" runs on the CPU backend only for now; set sim.backend = \"cpu\" \
-                 or \"auto\""
-                    .into(),
-            )
+            return Err(SimError::BadInput(format!(
+                "{what} runs on the CPU backend only for now; set sim.backend = \"cpu\" or \"auto\""
+            ))
             .into());
         }
         return Ok((Box::new(CpuSimulation::from_config(config, particles)?), None));

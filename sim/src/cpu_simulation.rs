@@ -17,7 +17,7 @@ use crate::contact::ContactList;
 use crate::elastoplastic::FamilyTable;
 use crate::kernels::{self, BodyForces, BondLookup, ChunkForces, ParticleRecord, PassRules, SphereNow};
 use crate::material_bonds::MaterialBonds;
-use crate::model::{Model, MovingSphere};
+use crate::model::{Grip, Model, MovingSphere};
 use crate::state::{Dynamics, Energy, kinetic_energy_j};
 use crate::{SimError, art};
 
@@ -231,7 +231,7 @@ impl CpuSimulation {
         [&self.rest[0], &self.rest[1], &self.rest[2]]
     }
 
-    /// Sets velocities (initial conditions; tests).
+    /// Sets velocities (initial conditions; tests); gripped particles keep their grip's.
     pub fn set_velocity(&mut self, velocity: impl Fn(usize, [f32; 3]) -> [f32; 3]) {
         for i in 0..self.len() {
             let x = [0, 1, 2].map(|a| self.rest[a][i]);
@@ -240,6 +240,7 @@ impl CpuSimulation {
                 self.dynamics.vel[axis][i] = value;
             }
         }
+        hold_grips(&self.model.grips, self.time_s(), &mut self.dynamics.vel);
     }
 
     /// Sets displacements (initial conditions; tests) and recomputes forces without breaking
@@ -518,12 +519,37 @@ impl CpuSimulation {
                 };
             });
         std::mem::swap(boost, next_boost);
+        // Grips: their particles keep their velocity; the grip takes up the force on them, and
+        // its work, -F . v, counts as external work.
+        let mut grip_power = 0.0f64;
+        for grip in model.grips.iter().filter(|grip| t < grip.release_s) {
+            for &i in &grip.particles {
+                let i = i as usize;
+                for (axis, v) in grip.velocity_m_s.into_iter().enumerate() {
+                    let f = [&mut fx[i], &mut fy[i], &mut fz[i]];
+                    grip_power -= f64::from(*f[axis]) * f64::from(v);
+                    *f[axis] = 0.0;
+                }
+            }
+        }
+        hold_grips(&model.grips, t, vel);
         // Both kernels log each broken bond once, so the counts per particle are kept here.
         bonds.for_each_break(|bond| {
             index.record_break(bond, broken);
             events.push(BreakEvent { step: *step, bond });
         });
-        chunk_power.iter().sum()
+        chunk_power.iter().sum::<f64>() + grip_power
+    }
+}
+
+/// Sets the velocity of every particle a grip holds at time `t` to the grip's.
+fn hold_grips(grips: &[Grip], t: f64, vel: &mut [Vec<f32>; 3]) {
+    for grip in grips.iter().filter(|grip| t < grip.release_s) {
+        for &i in &grip.particles {
+            for (axis, v) in grip.velocity_m_s.into_iter().enumerate() {
+                vel[axis][i as usize] = v;
+            }
+        }
     }
 }
 

@@ -39,6 +39,17 @@ pub struct Floor {
     pub restitution: f32,
 }
 
+/// A grip: particles held at a set velocity until a release time.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Grip {
+    /// The particles it holds, in index order.
+    pub particles: Vec<u32>,
+    /// Their velocity, m/s.
+    pub velocity_m_s: [f32; 3],
+    /// When it lets go, seconds (infinite: never).
+    pub release_s: f64,
+}
+
 /// Everything the step needs besides the state.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Model {
@@ -68,6 +79,8 @@ pub struct Model {
     pub projectiles: Vec<MovingSphere>,
     /// Spherical indenters, F = K (R - r)^2.
     pub indenters: Vec<MovingSphere>,
+    /// Grips (CPU backend).
+    pub grips: Vec<Grip>,
     /// Multiplier from the file's thresholds to this run's (the material may have changed).
     pub threshold_scale: f64,
     /// Density, kg/m^3.
@@ -115,6 +128,7 @@ impl Model {
                 .iter()
                 .map(|p| sphere(p.center_m, p.velocity_m_s, p.radius_m, p.stiffness_n_m2))
                 .collect(),
+            grips: grips(config, particles)?,
             threshold_scale: material.mean_critical_stretch(delta) / particles.meta.mean_critical_stretch,
             density_kg_m3: material.density_kg_m3,
             elastoplastic: (material.model == MaterialModel::Elastoplastic)
@@ -187,6 +201,34 @@ impl Model {
         }
         Ok(())
     }
+}
+
+/// The grips of a config: each holds the particles whose rest positions lie in its box, and must
+/// hold at least one.
+fn grips(config: &PipelineConfig, particles: &ParticleSet) -> Result<Vec<Grip>, SimError> {
+    config
+        .sim
+        .grip
+        .iter()
+        .enumerate()
+        .map(|(index, grip)| {
+            let inside = |p: &[f32; 3]| (0..3).all(|a| (grip.box_min_m[a]..=grip.box_max_m[a]).contains(&f64::from(p[a])));
+            let held: Vec<u32> =
+                (0..particles.len()).filter(|&i| inside(&particles.rest_position_m[i])).map(|i| i as u32).collect();
+            if held.is_empty() {
+                return Err(SimError::BadStart(format!(
+                    "sim.grip[{index}] holds no particle: no rest position lies between box_min_m = {:?} and box_max_m = \
+                     {:?}; place the box over the part of the body to hold",
+                    grip.box_min_m, grip.box_max_m
+                )));
+            }
+            Ok(Grip {
+                particles: held,
+                velocity_m_s: grip.velocity_m_s.map(|v| v as f32),
+                release_s: grip.release_s.unwrap_or(f64::INFINITY),
+            })
+        })
+        .collect()
 }
 
 /// The particle file must come from the config's geometry (else `shatter preprocess` is due).

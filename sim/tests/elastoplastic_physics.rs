@@ -556,3 +556,50 @@ fn the_weighted_volume_keeps_free_surfaces_exact_where_the_analytic_constants_do
         assert!(error.abs() < 0.1, "{normalisation}: bar wave off by {:.2}%", error * 100.0);
     }
 }
+
+/// Grips pulling a beam's ends apart slowly (the paper's Fig. 9): the middle of the beam thins by
+/// Poisson's ratio times its stretch, the grips keep their speed, and their work is what the beam
+/// stores and carries.
+#[test]
+fn a_beam_stretched_by_grips_thins_by_its_poisson_ratio() {
+    for nu in [0.1, 0.4] {
+        let speed = 0.5;
+        let grips = format!(
+            "dt_s = 4e-8\n[[sim.grip]]\nbox_min_m = [-0.02, -0.01, -0.01]\nbox_max_m = [-0.0125, 0.01, 0.01]\n\
+             velocity_m_s = [-{speed}, 0.0, 0.0]\n[[sim.grip]]\nbox_min_m = [0.0125, -0.01, -0.01]\n\
+             box_max_m = [0.02, 0.01, 0.01]\nvelocity_m_s = [{speed}, 0.0, 0.0]"
+        );
+        let (config, particles) = block([30, 6, 6], nu, "critical_stretch = 0.05", &grips);
+        let mut sim = simulation(&config, &particles);
+        let steps = 2000;
+        for _ in 0..steps {
+            sim.step();
+        }
+        assert!(sim.take_breaks().is_empty());
+        let x = |i: usize, a: usize| f64::from(particles.rest_position_m[i][a]);
+        let u = |i: usize, a: usize| f64::from(sim.dynamics().disp[a][i]);
+        // the grips kept their speed
+        let end = (0..particles.len()).max_by(|a, b| x(*a, 0).total_cmp(&x(*b, 0))).expect("particles");
+        let travelled = u(end, 0);
+        let expected = speed * steps as f64 * sim.model().dt_s;
+        assert!((travelled / expected - 1.0).abs() < 1e-3, "the grip moved {travelled:e} m, not {expected:e}");
+        // strains of the middle third, by least squares of u_x on x and u_y on y
+        let middle: Vec<usize> = (0..particles.len()).filter(|&i| x(i, 0).abs() < 0.005).collect();
+        let slope = |a: usize| {
+            let n = middle.len() as f64;
+            let (mx, mu) = middle.iter().fold((0.0, 0.0), |(sx, su), &i| (sx + x(i, a) / n, su + u(i, a) / n));
+            let (num, den) = middle
+                .iter()
+                .fold((0.0, 0.0), |(nu_, de), &i| (nu_ + (x(i, a) - mx) * (u(i, a) - mu), de + (x(i, a) - mx).powi(2)));
+            num / den
+        };
+        let (axial, lateral) = (slope(0), 0.5 * (slope(1) + slope(2)));
+        let measured = -lateral / axial;
+        eprintln!("nu = {nu}: the middle stretched {axial:.3e} and thinned {lateral:.3e}: ratio {measured:.3}");
+        assert!(axial > 0.0 && (measured - nu).abs() < 0.06, "nu = {nu}: measured {measured}");
+        let energy = sim.energy().total_j();
+        let work = sim.dynamics().external_work_j;
+        eprintln!("grip work {work:.4e} J, energy {energy:.4e} J");
+        assert!((energy / work - 1.0).abs() < 0.02, "energy {energy:e} J against the grips' work {work:e} J");
+    }
+}

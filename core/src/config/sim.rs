@@ -64,6 +64,10 @@ pub struct SimConfig {
     pub projectile: Vec<ProjectileConfig>,
     /// `[[sim.indenter]]`: spheres on a straight path pushing with F = K (R - r)^2.
     pub indenter: Vec<IndenterConfig>,
+    /// `[[sim.grip]]`: boxes whose particles move at a set velocity, whatever pulls on them
+    /// (a beam stretched, a sheet torn).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub grip: Vec<GripConfig>,
     /// `[[sim.weakened_path]]`: random-walk crack paths with weaker bonds.
     pub weakened_path: Vec<WeakenedPathConfig>,
     /// `[[sim.seam]]`: pre-scored surfaces (a plane or a mesh) with weaker bonds across them.
@@ -94,6 +98,7 @@ impl Default for SimConfig {
             floor: None,
             projectile: Vec::new(),
             indenter: Vec::new(),
+            grip: Vec::new(),
             weakened_path: Vec::new(),
             seam: Vec::new(),
             shards: None,
@@ -313,6 +318,23 @@ pub struct IndenterConfig {
     pub lammps_stiffness_n_m5: Option<f64>,
 }
 
+/// `[[sim.grip]]`: the particles whose rest positions lie in a box move at a set velocity until
+/// `release_s`: the grip takes up whatever force their bonds exert (and its work counts as
+/// external work).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GripConfig {
+    /// The box's lower corner, metres (scene space, rest positions).
+    pub box_min_m: [f64; 3],
+    /// The box's upper corner, metres.
+    pub box_max_m: [f64; 3],
+    /// The velocity the gripped particles keep, m/s.
+    pub velocity_m_s: [f64; 3],
+    /// When the grip lets go, seconds of simulated time; absent: never.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub release_s: Option<f64>,
+}
+
 /// `[[sim.weakened_path]]`: a persistent random walk; bonds whose midpoint lies within `radius_m`
 /// of the walk get their thresholds multiplied by `threshold_factor` (the paper's glass plate).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -466,6 +488,21 @@ impl SimConfig {
             check.finite_array(&key("velocity_m_s"), &projectile.velocity_m_s)?;
             check.positive(&key("radius_m"), projectile.radius_m, "metres")?;
             check.positive(&key("stiffness_pa"), projectile.stiffness_pa, "Pa")?;
+        }
+        for (index, grip) in self.grip.iter().enumerate() {
+            let key = |name: &str| format!("sim.grip[{index}].{name}");
+            check.finite_array(&key("box_min_m"), &grip.box_min_m)?;
+            check.finite_array(&key("box_max_m"), &grip.box_max_m)?;
+            check.that(
+                (0..3).all(|a| grip.box_min_m[a] < grip.box_max_m[a]),
+                &key("box_max_m"),
+                &format!("{:?}", grip.box_max_m),
+                || format!("must exceed box_min_m = {:?} on every axis", grip.box_min_m),
+            )?;
+            check.finite_array(&key("velocity_m_s"), &grip.velocity_m_s)?;
+            if let Some(release) = grip.release_s {
+                check.positive(&key("release_s"), release, "seconds")?;
+            }
         }
         for (index, indenter) in self.indenter.iter().enumerate() {
             let key = |name: &str| format!("sim.indenter[{index}].{name}");
