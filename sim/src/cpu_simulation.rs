@@ -299,7 +299,7 @@ impl CpuSimulation {
 
     /// The largest stable time step of the linearised model (Silling and Askari 2005), seconds.
     pub fn stable_dt_s(&self) -> f64 {
-        self.bonds.stable_dt_s(&self.mass, &self.dynamics.disp, self.model.density_kg_m3)
+        self.bonds.stable_dt_s(&self.mass, self.model.density_kg_m3)
     }
 
     /// The material model's per-bond state in the particle file's entry order (plastic

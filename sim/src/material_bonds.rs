@@ -70,7 +70,7 @@ impl MaterialBonds {
     }
 
     /// The largest stable time step, seconds, for particle masses `mass` (kg).
-    pub fn stable_dt_s(&self, mass: &[f32], disp: &[Vec<f32>; 3], density_kg_m3: f64) -> f64 {
+    pub fn stable_dt_s(&self, mass: &[f32], density_kg_m3: f64) -> f64 {
         match self {
             MaterialBonds::Pmb(table) => {
                 // Silling and Askari (2005): min over particles of sqrt(2 m_i / sum_j k_ij / L_ij)
@@ -89,7 +89,7 @@ impl MaterialBonds {
                     .map(|(k, m)| (2.0 * f64::from(*m) / k).sqrt())
                     .fold(f64::INFINITY, f64::min)
             }
-            MaterialBonds::Elastoplastic(table) => table.stable_dt_s([&disp[0], &disp[1], &disp[2]], density_kg_m3),
+            MaterialBonds::Elastoplastic(table) => table.stable_dt_s(density_kg_m3),
         }
     }
 

@@ -10,7 +10,7 @@ use shatter_core::config::material::Normalisation;
 use shatter_core::particles::ParticleSet;
 
 use super::StateBasedConstants;
-use super::passes::{FamilyView, bond_forces, dilatation, energy_j, force_scalars, stiffness_n_m};
+use super::passes::{ChunkOutputs, FamilyView, ForceInputs, bond_forces, dilatation, energy_j, stiffness_n_m};
 use crate::SimError;
 
 /// The bonds, their state, and the per-particle values the passes share.
@@ -20,8 +20,6 @@ pub struct FamilyTable {
     pub stride: usize,
     /// Particles per chunk of every pass (a function of the particle count only).
     pub chunk_size: usize,
-    /// The horizon delta, metres.
-    pub delta_m: f32,
     /// The model's constants.
     pub constants: StateBasedConstants,
     /// Partner particle of each entry (the particle itself for padding).
@@ -40,10 +38,12 @@ pub struct FamilyTable {
     /// 1 / (omega_mean |xi|), omega_mean the mean of both ends' influences (1 / delta without
     /// anisotropy): (e - e_p) times it is the paper's weighted elastic stretch s_e / omega.
     pub break_scale: Vec<f32>,
+    /// The partner's influence omega_ji of each entry (0 for padding).
+    pub reverse_influence: Vec<f32>,
     /// Plastic deviatoric extension e_p of each entry, metres: the model's per-bond state.
     pub plastic_m: Vec<f32>,
-    /// The force scalar t_ij of each entry at the last force evaluation, N/m^6 (scratch).
-    pub scalar: Vec<f32>,
+    /// The next evaluation's plastic extensions (scratch: the buffers swap after each).
+    pub plastic_next: Vec<f32>,
     /// The particle file's row offsets: the id of bond (i, j), i < j, is `file_offset[i]` plus
     /// its place in i's row.
     pub file_offset: Vec<u64>,
@@ -51,6 +51,10 @@ pub struct FamilyTable {
     pub volume: Vec<f32>,
     /// Weighted volume m_i = sum of omega |xi|^2 V_j over the family (or pi delta^5), m^5.
     pub weighted_volume: Vec<f32>,
+    /// Each particle's [V, 15 mu / m, 3 K / m, yield force] (see [`FamilyView::particle`]).
+    pub particle: Vec<[f32; 4]>,
+    /// Each particle's displacement and dilatation for the force pass (scratch).
+    pub record: Vec<[f32; 4]>,
     /// Dilatation theta_i at the last force evaluation (scratch).
     pub dilatation: Vec<f32>,
     /// Damage phi_i = 1 - intact / initial bonds, as of the step's start (scratch).
@@ -85,7 +89,6 @@ impl FamilyTable {
         let mut table = FamilyTable {
             stride,
             chunk_size,
-            delta_m: delta as f32,
             constants,
             neighbor: vec![0; entries],
             reverse: vec![0; entries],
@@ -94,11 +97,14 @@ impl FamilyTable {
             influence: vec![0.0; entries],
             threshold: vec![f32::INFINITY; entries],
             break_scale: vec![0.0; entries],
+            reverse_influence: vec![0.0; entries],
             plastic_m: vec![0.0; entries],
-            scalar: vec![0.0; entries],
+            plastic_next: vec![0.0; entries],
             file_offset: bonds.offsets.clone(),
             volume: particles.volume_m3.clone(),
             weighted_volume: vec![0.0; n],
+            particle: vec![[0.0; 4]; n],
+            record: vec![[0.0; 4]; n],
             dilatation: vec![0.0; n],
             damage: vec![0.0; n],
             intact: (0..n).map(|i| bonds.row(i).len() as u32).collect(),
@@ -131,6 +137,7 @@ impl FamilyTable {
                 let mean =
                     0.5 * (f64::from(table.influence[e]) + f64::from(table.influence[table.reverse[e] as usize]));
                 table.break_scale[e] = (1.0 / (mean * f64::from(table.rest_length_m[e]))) as f32;
+                table.reverse_influence[e] = table.influence[table.reverse[e] as usize];
             }
         }
         let analytic = (std::f64::consts::PI * delta.powi(5)) as f32;
@@ -149,6 +156,20 @@ impl FamilyTable {
                     // a particle with no family feels no bond force; any m does
                     if sum > 0.0 { sum as f32 } else { analytic }
                 }
+            })
+            .collect();
+        let sphere = std::f64::consts::PI * delta.powi(5);
+        table.particle = (0..n)
+            .map(|i| {
+                let m = f64::from(weighted[i]);
+                [
+                    table.volume[i],
+                    (15.0 * constants.shear_modulus_pa / m) as f32,
+                    (3.0 * constants.bulk_modulus_pa / m) as f32,
+                    // the yield force scales as the force does, so a cut family yields at the
+                    // same stress
+                    (constants.yield_force_n_m6 * sphere / m) as f32,
+                ]
             })
             .collect();
         table.weighted_volume = weighted;
@@ -211,54 +232,61 @@ impl FamilyTable {
 }
 
 impl FamilyTable {
-    /// What the passes read, at displacements `disp`.
-    pub fn view<'a>(&'a self, disp: [&'a [f32]; 3]) -> FamilyView<'a> {
+    /// What the passes read of the bonds and particles.
+    pub fn view(&self) -> FamilyView<'_> {
         FamilyView {
             stride: self.stride,
-            delta_m: self.delta_m,
             neighbor: &self.neighbor,
             reverse: &self.reverse,
             rest_vector: [&self.rest_vector[0], &self.rest_vector[1], &self.rest_vector[2]],
             rest_length_m: &self.rest_length_m,
-            volume: &self.volume,
+            reverse_influence: &self.reverse_influence,
+            particle: &self.particle,
             weighted_volume: &self.weighted_volume,
-            disp,
         }
     }
 
-    /// One force evaluation at displacements `disp`: the three passes, each over the chunks in
+    /// One force evaluation at displacements `disp`: the two passes, each over the chunks in
     /// parallel. Writes the bond forces into `force` (newtons) and leaves the bonds broken in
     /// [`FamilyTable::breaks`]; moves the plastic extensions.
     pub fn evaluate(&mut self, disp: [&[f32]; 3], force: [&mut [f32]; 3]) {
         let (size, stride) = (self.chunk_size, self.stride);
         let run = size * stride;
+        self.record.par_chunks_mut(size).enumerate().for_each(|(c, record)| {
+            for (local, r) in record.iter_mut().enumerate() {
+                let i = c * size + local;
+                *r = [disp[0][i], disp[1][i], disp[2][i], 0.0];
+            }
+        });
         // the view borrows the geometry; the passes' outputs are taken out meanwhile
         let mut theta = std::mem::take(&mut self.dilatation);
         let mut damage = std::mem::take(&mut self.damage);
-        let mut scalar = std::mem::take(&mut self.scalar);
-        let mut plastic = std::mem::take(&mut self.plastic_m);
+        let mut record = std::mem::take(&mut self.record);
+        let mut plastic_next = std::mem::take(&mut self.plastic_next);
         let mut influence = std::mem::take(&mut self.influence);
         let mut intact = std::mem::take(&mut self.intact);
         let mut breaks = std::mem::take(&mut self.breaks);
         {
-            let view = self.view(disp);
-            let constants = &self.constants;
-            let (influence_all, intact_all, initial) = (&influence[..], &intact[..], &self.initial[..]);
+            let view = self.view();
+            let counts = (&intact[..], &self.initial[..]);
+            let (influence_all, record_all) = (&influence[..], &record[..]);
             (theta.par_chunks_mut(size), damage.par_chunks_mut(size)).into_par_iter().enumerate().for_each(
-                |(c, (theta, damage))| dilatation(&view, influence_all, intact_all, initial, c * size, theta, damage),
+                |(c, (theta, damage))| dilatation(&view, influence_all, record_all, counts, c * size, theta, damage),
             );
-            let theta_all = &theta[..];
-            (scalar.par_chunks_mut(run), plastic.par_chunks_mut(run)).into_par_iter().enumerate().for_each(
-                |(c, (scalar, plastic))| {
-                    force_scalars(&view, constants, influence_all, theta_all, c * size, scalar, plastic);
-                },
-            );
-            let (scalar, plastic, damage) = (&scalar[..], &plastic[..], &damage[..]);
-            let (threshold, break_scale, file_offset) =
-                (&self.threshold[..], &self.break_scale[..], &self.file_offset[..]);
+            record.par_iter_mut().zip(theta.par_iter()).for_each(|(r, theta)| r[3] = *theta);
+            let inputs = ForceInputs {
+                record: &record,
+                damage: &damage,
+                plastic: &self.plastic_m,
+                threshold: &self.threshold,
+                break_scale: &self.break_scale,
+                file_offset: &self.file_offset,
+            };
+            let constants = &self.constants;
             let [fx, fy, fz] = force;
             (
                 influence.par_chunks_mut(run),
+                plastic_next.par_chunks_mut(run),
                 intact.par_chunks_mut(size),
                 fx.par_chunks_mut(size),
                 fy.par_chunks_mut(size),
@@ -267,29 +295,17 @@ impl FamilyTable {
             )
                 .into_par_iter()
                 .enumerate()
-                .for_each(|(c, (influence, intact, fx, fy, fz, breaks))| {
+                .for_each(|(c, (influence, plastic, intact, fx, fy, fz, breaks))| {
                     breaks.clear();
-                    bond_forces(
-                        &view,
-                        constants,
-                        scalar,
-                        plastic,
-                        threshold,
-                        break_scale,
-                        damage,
-                        file_offset,
-                        c * size,
-                        influence,
-                        intact,
-                        [fx, fy, fz],
-                        breaks,
-                    );
+                    let mut out = ChunkOutputs { influence, plastic, intact, force: [fx, fy, fz], breaks };
+                    bond_forces(&view, constants, &inputs, c * size, &mut out);
                 });
         }
+        std::mem::swap(&mut self.plastic_m, &mut plastic_next);
+        self.plastic_next = plastic_next;
         self.dilatation = theta;
         self.damage = damage;
-        self.scalar = scalar;
-        self.plastic_m = plastic;
+        self.record = record;
         self.influence = influence;
         self.intact = intact;
         self.breaks = breaks;
@@ -297,17 +313,17 @@ impl FamilyTable {
 
     /// The elastic energy stored at each particle, joules.
     pub fn energy_per_particle(&self, disp: [&[f32]; 3]) -> Vec<f64> {
-        let view = self.view(disp);
+        let view = self.view();
         (0..self.len())
             .into_par_iter()
-            .map(|i| energy_j(&view, &self.constants, &self.influence, &self.plastic_m, i))
+            .map(|i| energy_j(&view, &self.constants, &self.influence, &self.plastic_m, disp, i))
             .collect()
     }
 
     /// The largest stable time step, seconds: min over particles of sqrt(2 m_i / k_i) with
     /// k_i [`stiffness_n_m`] and m_i the particle's mass at `density_kg_m3`.
-    pub fn stable_dt_s(&self, disp: [&[f32]; 3], density_kg_m3: f64) -> f64 {
-        let view = self.view(disp);
+    pub fn stable_dt_s(&self, density_kg_m3: f64) -> f64 {
+        let view = self.view();
         (0..self.len())
             .into_par_iter()
             .map(|i| {
