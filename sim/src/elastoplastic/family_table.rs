@@ -44,6 +44,8 @@ pub struct FamilyTable {
     pub plastic_m: Vec<f32>,
     /// The next evaluation's plastic extensions (scratch: the buffers swap after each).
     pub plastic_next: Vec<f32>,
+    /// Each entry's extension at the last evaluation, metres (scratch).
+    pub extension: Vec<f32>,
     /// The particle file's row offsets: the id of bond (i, j), i < j, is `file_offset[i]` plus
     /// its place in i's row.
     pub file_offset: Vec<u64>,
@@ -100,6 +102,7 @@ impl FamilyTable {
             reverse_influence: vec![0.0; entries],
             plastic_m: vec![0.0; entries],
             plastic_next: vec![0.0; entries],
+            extension: vec![0.0; entries],
             file_offset: bonds.offsets.clone(),
             volume: particles.volume_m3.clone(),
             weighted_volume: vec![0.0; n],
@@ -263,6 +266,7 @@ impl FamilyTable {
         let mut damage = std::mem::take(&mut self.damage);
         let mut record = std::mem::take(&mut self.record);
         let mut plastic_next = std::mem::take(&mut self.plastic_next);
+        let mut extension = std::mem::take(&mut self.extension);
         let mut influence = std::mem::take(&mut self.influence);
         let mut intact = std::mem::take(&mut self.intact);
         let mut breaks = std::mem::take(&mut self.breaks);
@@ -270,13 +274,17 @@ impl FamilyTable {
             let view = self.view();
             let counts = (&intact[..], &self.initial[..]);
             let (influence_all, record_all) = (&influence[..], &record[..]);
-            (theta.par_chunks_mut(size), damage.par_chunks_mut(size)).into_par_iter().enumerate().for_each(
-                |(c, (theta, damage))| dilatation(&view, influence_all, record_all, counts, c * size, theta, damage),
-            );
+            (theta.par_chunks_mut(size), damage.par_chunks_mut(size), extension.par_chunks_mut(run))
+                .into_par_iter()
+                .enumerate()
+                .for_each(|(c, (theta, damage, extension))| {
+                    dilatation(&view, influence_all, record_all, counts, c * size, theta, damage, extension);
+                });
             record.par_iter_mut().zip(theta.par_iter()).for_each(|(r, theta)| r[3] = *theta);
             let inputs = ForceInputs {
                 record: &record,
                 damage: &damage,
+                extension: &extension,
                 plastic: &self.plastic_m,
                 threshold: &self.threshold,
                 break_scale: &self.break_scale,
@@ -303,6 +311,7 @@ impl FamilyTable {
         }
         std::mem::swap(&mut self.plastic_m, &mut plastic_next);
         self.plastic_next = plastic_next;
+        self.extension = extension;
         self.dilatation = theta;
         self.damage = damage;
         self.record = record;

@@ -61,8 +61,10 @@ fn extension(view: &FamilyView, e: usize, u_i: [f32; 3], u_j: [f32; 3]) -> (f32,
     (s * rest, y, length)
 }
 
-/// Pass 1 over particles `first..first + theta.len()`: dilatation theta_i and damage phi_i.
-/// `record` holds each particle's displacement in its first three lanes.
+/// Pass 1 over particles `first..first + theta.len()`: dilatation theta_i and damage phi_i, and
+/// each intact entry's extension (into `extension_out`, the chunk's run of entries; the force
+/// pass reuses it). `record` holds each particle's displacement in its first three lanes.
+#[allow(clippy::too_many_arguments)]
 pub fn dilatation(
     view: &FamilyView,
     influence: &[f32],
@@ -71,6 +73,7 @@ pub fn dilatation(
     first: usize,
     theta: &mut [f32],
     damage: &mut [f32],
+    extension_out: &mut [f32],
 ) {
     let (intact, initial) = counts;
     let stride = view.stride;
@@ -85,6 +88,7 @@ pub fn dilatation(
             }
             let j = view.neighbor[e] as usize;
             let (extension, _, _) = extension(view, e, u_i, [record[j][0], record[j][1], record[j][2]]);
+            extension_out[e - first * stride] = extension;
             sum += omega * view.rest_length_m[e] * extension * view.particle[j][0];
         }
         theta[local] = 3.0 * sum / view.weighted_volume[i];
@@ -127,6 +131,8 @@ pub struct ForceInputs<'a> {
     pub record: &'a [[f32; 4]],
     /// Each particle's damage phi.
     pub damage: &'a [f32],
+    /// Each intact entry's extension, metres, from [`dilatation`].
+    pub extension: &'a [f32],
     /// Plastic extensions of the previous evaluation, every entry.
     pub plastic: &'a [f32],
     /// Thresholds, every entry.
@@ -178,8 +184,11 @@ pub fn bond_forces(
             let back = view.reverse[e] as usize;
             let j = view.neighbor[e] as usize;
             let (u_j, theta_j) = ([record[j][0], record[j][1], record[j][2]], record[j][3]);
-            let (extension, y, length) = extension(view, e, u_i, u_j);
             let rest = view.rest_length_m[e];
+            // the deformed bond y = xi + u_j - u_i, whose length is |xi| + e
+            let extension = inputs.extension[e];
+            let y = [0, 1, 2].map(|a| view.rest_vector[a][e] + (u_j[a] - u_i[a]));
+            let length = rest + extension;
             let cap = cap_ratio * rest;
             let (t_ij, plastic_ij) = force_scalar(constants_i, theta_i, omega, rest, extension, inputs.plastic[e], cap);
             let omega_ji = view.reverse_influence[e];
