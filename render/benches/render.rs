@@ -77,6 +77,7 @@ fn main() {
         floor: None,
         max_bounces: 1,
         glass_split_events: 2,
+        opaque_cubes: false,
     };
     let eye = DVec3::new(0.09, 0.12, 0.11);
     let target = DVec3::new(0.0, 0.05, 0.0);

@@ -32,7 +32,7 @@ struct Params {
     sh: array<vec4<f32>, 9>,
     // opaque albedo of fracture faces; w unused
     fracture_albedo: vec4<f32>,
-    // glass split events, 0, 0, 0
+    // glass split events, opaque cubes (1) or glass (0), 0, 0
     look_flags: vec4<u32>,
 }
 
@@ -627,7 +627,7 @@ fn trace_ray(origin: vec3<f32>, direction: vec3<f32>, pixel: u32, sample: u32) -
     var result = Traced(vec3<f32>(0.0), 0.0, infinity(), vec3<f32>(0.0), 0u, NONE, SURFACE_NONE);
     let eps = 4.0 * params.scene_min.w;
     let ior = params.scene_max.w;
-    let glass = params.counts.y == 0u;
+    let glass = params.counts.y == 0u && params.look_flags.y == 0u;
     pending = 0u;
     var path = Branch(origin, direction, vec3<f32>(1.0), NONE, 0u);
     var branch = 0u;

@@ -140,7 +140,7 @@ impl GpuTracer {
             key_irradiance: vec4(look.key.irradiance, 0.0),
             sh: look.sh.map(|c| vec4(c, 0.0)),
             fracture_albedo: vec4(look.fracture_albedo, 0.0),
-            look_flags: [look.glass_split_events, 0, 0, 0],
+            look_flags: [look.glass_split_events, u32::from(look.opaque_cubes), 0, 0],
         };
         let uniform = ctx.create_uniform_buffer("trace params", &params)?;
         let pixel_bytes = std::mem::size_of::<PixelOut>() as u64;

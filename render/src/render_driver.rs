@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use glam::DVec3;
-use shatter_core::config::render::RenderConfig;
+use shatter_core::config::render::{CubeSurface, RenderConfig};
 use shatter_core::config::sim::BackendChoice;
 use shatter_core::digest;
 use shatter_core::fragments::FragmentFrame;
@@ -182,6 +182,7 @@ pub fn look(render: &RenderConfig) -> Result<Look, RenderError> {
         floor,
         max_bounces: render.max_bounces,
         glass_split_events: render.glass_split_events,
+        opaque_cubes: material.cubes == CubeSurface::Opaque,
     })
 }
 

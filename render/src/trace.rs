@@ -153,6 +153,8 @@ pub struct Look {
     /// Glass interface events (counted along a path from the camera) at which both the reflected
     /// and the refracted branch are followed, weighted by Fresnel; later events pick one at random.
     pub glass_split_events: u32,
+    /// Cubes are opaque (as tetrahedra and trimtopes are) instead of glass.
+    pub opaque_cubes: bool,
 }
 
 /// A floor plane with a tiled albedo texture.
@@ -335,7 +337,7 @@ pub fn trace_ray(
 ) -> Pixel {
     let mut result = Pixel::EMPTY;
     let eps = 4.0 * scene.slack;
-    let glass = scene.element_type == ElementType::Cube;
+    let glass = scene.element_type == ElementType::Cube && !look.opaque_cubes;
     let mut stack = [Branch { origin, direction, throughput: [0.0; 3], inside: NONE, event: 0 }; SPLIT_STACK];
     let mut pending = 0usize;
     let mut path = Branch { origin, direction, throughput: [1.0; 3], inside: NONE, event: 0 };
@@ -565,6 +567,7 @@ mod tests {
             floor: None,
             max_bounces: 8,
             glass_split_events: 2,
+            opaque_cubes: false,
         }
     }
 

@@ -45,6 +45,7 @@ fn look() -> Look {
         floor: Some(FloorLook { height: FLOOR_Y, tile: 1.0, size: [1, 1], texels: vec![[0.5; 3]] }),
         max_bounces: 2,
         glass_split_events: 0,
+        opaque_cubes: false,
     }
 }
 

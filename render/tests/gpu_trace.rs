@@ -60,6 +60,7 @@ fn look(floor: bool) -> Look {
         }),
         max_bounces: 6,
         glass_split_events: 2,
+        opaque_cubes: false,
     }
 }
 
@@ -150,6 +151,15 @@ fn gpu_and_cpu_agree_on_random_glass_cube_scenes() {
         fractures += compare(&scene, &look(seed % 2 == 0), &camera, 1);
     }
     assert!(fractures > 0, "faces resting on neighbours show as fracture faces");
+}
+
+/// `render.material.cubes = "opaque"` (clay, metal): the cubes shade as tetrahedra do.
+#[test]
+fn gpu_and_cpu_agree_on_random_opaque_cube_scenes() {
+    let scene = random_scene(5, false);
+    let camera = Camera::look_at(DVec3::new(0.4, 0.5, 1.3), DVec3::ZERO, DVec3::Y, 45.0, 48, 36);
+    let look = Look { opaque_cubes: true, ..look(true) };
+    assert!(compare(&scene, &look, &camera, 2) > 0, "faces resting on neighbours show as fracture faces");
 }
 
 #[test]

@@ -89,10 +89,31 @@ impl Default for CameraConfig {
     }
 }
 
-/// `[render.material]`: how elements look. Cubes are glass; tetrahedra and trimtopes are opaque.
+/// What cubes are made of (`render.material.cubes`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CubeSurface {
+    /// Glass: refracting, tinted by `glass_absorption_per_m` (the paper's glass plate).
+    #[default]
+    Glass,
+    /// Opaque, as tetrahedra and trimtopes are: `albedo`, `fracture_albedo` (clay, metal).
+    Opaque,
+}
+
+impl CubeSurface {
+    fn is_glass(&self) -> bool {
+        *self == CubeSurface::Glass
+    }
+}
+
+/// `[render.material]`: how elements look. Cubes are glass unless `cubes = "opaque"`; tetrahedra
+/// and trimtopes are opaque.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct LookConfig {
+    /// What cubes are made of.
+    #[serde(skip_serializing_if = "CubeSurface::is_glass")]
+    pub cubes: CubeSurface,
     /// Index of refraction of glass.
     pub glass_ior: f64,
     /// Absorption of light inside glass per metre travelled, RGB (a tint: 0 is clear).
@@ -111,6 +132,7 @@ pub struct LookConfig {
 impl Default for LookConfig {
     fn default() -> Self {
         LookConfig {
+            cubes: CubeSurface::Glass,
             glass_ior: 1.5,
             glass_absorption_per_m: [1.0, 0.3, 0.6],
             albedo: [0.8, 0.75, 0.7],
