@@ -7,8 +7,10 @@
 //! bond update is one bond's force (stretch, break test, force) in one step; both codes are
 //! credited with unique bonds x steps, whatever their internal layout.
 
+#[path = "support/lammps_run.rs"]
+mod lammps_run;
+
 use std::path::Path;
-use std::process::Command;
 use std::time::Instant;
 
 use shatter_core::NoProgress;
@@ -72,24 +74,9 @@ fn time_ours(config: &PipelineConfig, particles: &shatter_core::ParticleSet, ste
 
 /// LAMMPS's loop time for the same block, if `lmp` runs.
 fn time_lammps(side: usize, steps: usize) -> Option<f64> {
-    let dir = std::env::temp_dir().join(format!("shatter-lammps-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).ok()?;
     let c = 18.0 * 14.9e9 / (std::f64::consts::PI * 0.003f64.powi(4));
-    let input = format!(
-        "units si\nboundary s s s\natom_style peri\natom_modify map array\nneighbor 0.0005 bin\n\
-         lattice sc 0.001\nregion block block 0 {last} 0 {last} 0 {last}\ncreate_box 1 block\n\
-         create_atoms 1 region block\npair_style peri/pmb\npair_coeff * * {c:e} 0.0030001 0.0003153 0.25\n\
-         set group all density 2200\nset group all volume 1.0e-9\n\
-         velocity all create 1.0e-3 12345 dist gaussian\nfix 1 all nve\ntimestep 1.1920928955078125e-07\n\
-         thermo {steps}\nrun {steps}\n",
-        last = side - 1
-    );
-    std::fs::write(dir.join("in.bench"), input).ok()?;
-    let output = Command::new("lmp").args(["-in", "in.bench", "-log", "none"]).current_dir(&dir).output().ok()?;
-    let _ = std::fs::remove_dir_all(&dir);
-    let text = String::from_utf8_lossy(&output.stdout);
-    let line = text.lines().find(|line| line.starts_with("Loop time of"))?;
-    line.split_whitespace().nth(3)?.parse().ok()
+    let pair = format!("pair_style peri/pmb\npair_coeff * * {c:e} 0.0030001 0.0003153 0.25");
+    lammps_run::loop_time_s(&lammps_run::block_input(side, &pair, 1.1920928955078125e-07, steps), "pmb")
 }
 
 fn main() {

@@ -7,8 +7,10 @@
 //! 47). A bond update is one bond's work in one step (both its families' force scalars, the break
 //! test, the force); both codes are credited with unique bonds x steps.
 
+#[path = "support/lammps_run.rs"]
+mod lammps_run;
+
 use std::path::Path;
-use std::process::Command;
 use std::time::Instant;
 
 use shatter_core::NoProgress;
@@ -76,25 +78,10 @@ fn time_ours(config: &PipelineConfig, particles: &shatter_core::ParticleSet, ste
 /// LAMMPS's loop time for the same block with `pair_style` `style` (`peri/lps` or `peri/eps`), if
 /// `lmp` runs.
 fn time_lammps(side: usize, steps: usize, style: &str) -> Option<f64> {
-    let dir = std::env::temp_dir().join(format!("shatter-lammps-{}-{}", std::process::id(), style.replace('/', "-")));
-    std::fs::create_dir_all(&dir).ok()?;
     // pair_coeff: bulk, shear, horizon, s00, alpha (and, for eps, the yield stress)
     let yield_stress = if style == "peri/eps" { format!(" {YIELD_PA:e}") } else { String::new() };
-    let input = format!(
-        "units si\nboundary s s s\natom_style peri\natom_modify map array\nneighbor 0.0005 bin\n\
-         lattice sc 0.001\nregion block block 0 {last} 0 {last} 0 {last}\ncreate_box 1 block\n\
-         create_atoms 1 region block\npair_style {style}\npair_coeff * * {BULK_PA:e} {SHEAR_PA:e} 0.0025001 0.01 0.0{yield_stress}\n\
-         set group all density 2200\nset group all volume 1.0e-9\n\
-         velocity all create 1.0e-3 12345 dist gaussian\nfix 1 all nve\ntimestep 4e-8\n\
-         thermo {steps}\nrun {steps}\n",
-        last = side - 1
-    );
-    std::fs::write(dir.join("in.bench"), input).ok()?;
-    let output = Command::new("lmp").args(["-in", "in.bench", "-log", "none"]).current_dir(&dir).output().ok()?;
-    let _ = std::fs::remove_dir_all(&dir);
-    let text = String::from_utf8_lossy(&output.stdout);
-    let line = text.lines().find(|line| line.starts_with("Loop time of"))?;
-    line.split_whitespace().nth(3)?.parse().ok()
+    let pair = format!("pair_style {style}\npair_coeff * * {BULK_PA:e} {SHEAR_PA:e} 0.0025001 0.01 0.0{yield_stress}");
+    lammps_run::loop_time_s(&lammps_run::block_input(side, &pair, 4e-8, steps), &style.replace('/', "-"))
 }
 
 fn main() {

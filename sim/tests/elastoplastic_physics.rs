@@ -18,11 +18,20 @@ const HORIZON_FACTOR: f64 = 2.5;
 /// Glass's Young's modulus, Pa.
 const E: f64 = 72e9;
 
-/// A box of `counts` cubes of 1 mm at horizon factor 3 in the elastoplastic model with Poisson's
-/// ratio `nu`, with extra `[material]` and `[sim]` keys.
+/// A box of `counts` cubes of 1 mm at [`HORIZON_FACTOR`] in the elastoplastic model with
+/// Poisson's ratio `nu`, with extra `[material]` and `[sim]` keys.
 fn block(counts: [usize; 3], nu: f64, material: &str, sim: &str) -> (PipelineConfig, ParticleSet) {
+    let material = format!("model = \"elastoplastic\"\nyoungs_modulus_pa = {E}\npoisson_ratio = {nu}\n{material}");
+    let config = load(&block_text(counts, &material, sim));
+    let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
+    (config, particles)
+}
+
+/// The scene text of a box of `counts` cubes of 1 mm (no gravity) with `[material]` keys
+/// `material` besides the density and `[sim]` keys `sim`.
+fn block_text(counts: [usize; 3], material: &str, sim: &str) -> String {
     let size = counts.map(|c| c as f64 * LAMBDA);
-    let text = format!(
+    format!(
         r#"
 [scene]
 name = "t"
@@ -35,19 +44,17 @@ sampler = "grid"
 spacing_m = {LAMBDA}
 horizon_factor = {HORIZON_FACTOR}
 [material]
-model = "elastoplastic"
 density_kg_m3 = {RHO}
-youngs_modulus_pa = {E}
-poisson_ratio = {nu}
 {material}
 [sim]
 gravity_m_s2 = [0.0, 0.0, 0.0]
 {sim}
 "#
-    );
-    let config = PipelineConfig::from_toml_str(&text, Path::new("/nonexistent/pipeline.toml")).expect("valid config");
-    let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
-    (config, particles)
+    )
+}
+
+fn load(text: &str) -> PipelineConfig {
+    PipelineConfig::from_toml_str(text, Path::new("/nonexistent/pipeline.toml")).expect("valid config")
 }
 
 fn simulation(config: &PipelineConfig, particles: &ParticleSet) -> CpuSimulation {
@@ -228,8 +235,8 @@ fn at_nu_one_quarter_the_elastic_response_matches_pmb() {
     // The same particles (PMB's file), the same K, mu = 3 K / 5: the interior's response to
     // plane waves of both polarisations, and the whole body's to a random small displacement.
     let (config, particles) = block([15, 15, 15], 0.25, "", "");
-    let pmb_text = config_text_as_pmb(&config);
-    let pmb_config = PipelineConfig::from_toml_str(&pmb_text, Path::new("/nonexistent/pipeline.toml")).expect("valid");
+    let pmb_config =
+        load(&block_text([15, 15, 15], &format!("bulk_modulus_pa = {}", config.material.bulk_modulus_pa), ""));
     let mut state_based = simulation(&config, &particles);
     let mut pmb = simulation(&pmb_config, &particles);
     for polarisation in [0, 1] {
@@ -238,31 +245,6 @@ fn at_nu_one_quarter_the_elastic_response_matches_pmb() {
         eprintln!("polarisation {polarisation}: state-based c^2 {a:.5e}, PMB {b:.5e} ({:+.2}%)", (a / b - 1.0) * 100.0);
         assert!((a / b - 1.0).abs() < 0.05, "polarisation {polarisation}: {a:e} against PMB's {b:e}");
     }
-}
-
-/// The scene of `config` with the PMB model and the same bulk modulus.
-fn config_text_as_pmb(config: &PipelineConfig) -> String {
-    let size = config.geometry.box_size_m.expect("a box");
-    format!(
-        r#"
-[scene]
-name = "t"
-output_dir = "out"
-seed = 4
-[geometry]
-source = "box"
-box_size_m = {size:?}
-sampler = "grid"
-spacing_m = {LAMBDA}
-horizon_factor = {HORIZON_FACTOR}
-[material]
-density_kg_m3 = {RHO}
-bulk_modulus_pa = {}
-[sim]
-gravity_m_s2 = [0.0, 0.0, 0.0]
-"#,
-        config.material.bulk_modulus_pa
-    )
 }
 
 /// Thresholds far beyond the plasticity tests' strains.
