@@ -35,19 +35,14 @@ pub fn create_backend(
     particles: &ParticleSet,
     choice: BackendChoice,
 ) -> Result<(Box<dyn Backend>, Option<String>), BackendError> {
-    // the elastoplastic model's WGSL passes and grips on the GPU are not written yet (issue #19)
-    let cpu_only = if config.material.model == MaterialModel::Elastoplastic {
-        Some("material.model = \"elastoplastic\"")
-    } else if !config.sim.grip.is_empty() {
-        Some("[[sim.grip]]")
-    } else {
-        None
-    };
-    if let Some(what) = cpu_only {
+    // grips on the GPU are written for the elastoplastic model's force pass only
+    if !config.sim.grip.is_empty() && config.material.model == MaterialModel::Pmb {
         if choice == BackendChoice::Gpu {
-            return Err(SimError::BadInput(format!(
-                "{what} runs on the CPU backend only for now; set sim.backend = \"cpu\" or \"auto\""
-            ))
+            return Err(SimError::BadInput(
+                "[[sim.grip]] with material.model = \"pmb\" runs on the CPU backend only; set sim.backend = \"cpu\" \
+                 or \"auto\""
+                    .into(),
+            )
             .into());
         }
         return Ok((Box::new(CpuSimulation::from_config(config, particles)?), None));

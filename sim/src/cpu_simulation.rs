@@ -17,7 +17,7 @@ use crate::contact::ContactList;
 use crate::elastoplastic::FamilyTable;
 use crate::kernels::{self, BodyForces, BondLookup, ChunkForces, ParticleRecord, PassRules, SphereNow};
 use crate::material_bonds::MaterialBonds;
-use crate::model::{Grip, Model, MovingSphere};
+use crate::model::{Model, MovingSphere, hold_grips};
 use crate::state::{Dynamics, Energy, kinetic_energy_j};
 use crate::{SimError, art};
 
@@ -539,17 +539,6 @@ impl CpuSimulation {
             events.push(BreakEvent { step: *step, bond });
         });
         chunk_power.iter().sum::<f64>() + grip_power
-    }
-}
-
-/// Sets the velocity of every particle a grip holds at time `t` to the grip's.
-fn hold_grips(grips: &[Grip], t: f64, vel: &mut [Vec<f32>; 3]) {
-    for grip in grips.iter().filter(|grip| t < grip.release_s) {
-        for &i in &grip.particles {
-            for (axis, v) in grip.velocity_m_s.into_iter().enumerate() {
-                vel[axis][i as usize] = v;
-            }
-        }
     }
 }
 

@@ -50,6 +50,17 @@ pub struct Grip {
     pub release_s: f64,
 }
 
+/// Sets the velocity of every particle a grip holds at time `t` to the grip's.
+pub(crate) fn hold_grips(grips: &[Grip], t: f64, vel: &mut [Vec<f32>; 3]) {
+    for grip in grips.iter().filter(|grip| t < grip.release_s) {
+        for &i in &grip.particles {
+            for (axis, v) in grip.velocity_m_s.into_iter().enumerate() {
+                vel[axis][i as usize] = v;
+            }
+        }
+    }
+}
+
 /// Everything the step needs besides the state.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Model {

@@ -2,6 +2,7 @@
 
 use shatter_gpu::{GpuContext, GpuError, wgpu};
 
+use super::family::FamilyBuffers;
 use super::shaders::Kernels;
 use super::sim_buffers::{Buffers, RangeBuffers};
 
@@ -16,6 +17,14 @@ pub(super) struct BindGroups {
     pub(super) spring_forces: Vec<wgpu::BindGroup>,
     pub(super) bond_energy: Vec<wgpu::BindGroup>,
     pub(super) power_sum: wgpu::BindGroup,
+    pub(super) family: Option<FamilyGroups>,
+}
+
+/// The bind groups of the elastoplastic model's passes (only with that model).
+#[derive(Debug)]
+pub(super) struct FamilyGroups {
+    pub(super) dilatation: wgpu::BindGroup,
+    pub(super) forces: wgpu::BindGroup,
 }
 
 /// The bind groups of the contact kernels (only when contact is on).
@@ -34,14 +43,78 @@ pub(super) struct ContactGroups {
 
 impl BindGroups {
     /// Binds `b` and the bond ranges' buffers to each kernel of `kernels` (the contact kernels
-    /// only when `contact`), in the order of the kernels' bindings.
+    /// only when `contact`, the elastoplastic passes only with `family`), in the order of the
+    /// kernels' bindings.
     pub(super) fn new(
         ctx: &GpuContext,
         kernels: &Kernels,
         b: &Buffers,
         ranges: &[RangeBuffers],
         contact: bool,
+        family: Option<&FamilyBuffers>,
     ) -> Result<BindGroups, GpuError> {
+        let family_groups = match (family, ranges) {
+            (Some(f), [r]) => Some(FamilyGroups {
+                dilatation: kernels.family_dilatation.bind_buffers(
+                    ctx,
+                    0,
+                    &[
+                        &b.params,
+                        &b.body,
+                        &b.rows,
+                        &b.broken_count,
+                        &r.neighbor,
+                        &r.bits,
+                        &f.entry,
+                        &f.particle,
+                        &f.weighted_volume,
+                        &f.plastic,
+                        &f.extension,
+                        &f.record,
+                        &f.damage,
+                    ],
+                )?,
+                forces: kernels.family_forces.bind_buffers(
+                    ctx,
+                    0,
+                    &[
+                        &b.params,
+                        &f.params,
+                        &b.body,
+                        &b.vel,
+                        &b.force,
+                        &b.rows,
+                        &b.broken_count,
+                        &b.contact_count,
+                        &b.contact_force,
+                        &r.neighbor,
+                        &r.bits,
+                        &f.entry,
+                        &f.particle,
+                        &f.reverse,
+                        &f.threshold,
+                        &f.plastic,
+                        &f.extension,
+                        &f.record,
+                        &f.damage,
+                        &b.power,
+                        &b.status,
+                        &b.spheres,
+                        &b.events,
+                        &f.hold,
+                    ],
+                )?,
+            }),
+            (Some(_), _) => {
+                return Err(GpuError::Split {
+                    message: format!(
+                        "the elastoplastic model keeps its bonds in one range on the GPU; this scene's need {}",
+                        ranges.len()
+                    ),
+                });
+            }
+            (None, _) => None,
+        };
         let contact_groups = if contact {
             Some(ContactGroups {
                 plan: kernels.contact_plan.bind_buffers(ctx, 0, &[&b.params, &b.status, &b.indirect])?,
@@ -156,6 +229,7 @@ impl BindGroups {
                 })
                 .collect::<Result<_, _>>()?,
             power_sum: kernels.power_sum.bind_buffers(ctx, 0, &[&b.params, &b.power, &b.status])?,
+            family: family_groups,
         })
     }
 }

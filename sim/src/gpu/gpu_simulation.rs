@@ -11,15 +11,18 @@ use shatter_core::particles::ParticleSet;
 use shatter_gpu::{DispatchGrid, GpuContext, GpuError};
 
 use super::bind_groups::BindGroups;
+use super::family::GpuFamily;
 use super::shaders::Kernels;
 use super::sim_buffers::{Buffers, RangeBuffers};
 use super::snapshot::Replay;
 use super::wgsl_structs::{Params, RULE_BREAKING_FORCE, RULE_LAMMPS_CONTACT, RULE_SIGNED_BOOST, SCAN_BLOCK, SLICE, WG};
 use crate::backend::{Backend, DeviceError};
+use crate::bond_layouts::EntryValues;
 use crate::bond_layouts::gpu_layout::{GpuBondLayout, GpuLayoutError};
 use crate::bond_layouts::row_layout::chunk_size;
 use crate::contact::SKIN_FRACTION;
-use crate::model::{Model, MovingSphere};
+use crate::elastoplastic::FamilyTable;
+use crate::model::{Model, MovingSphere, hold_grips};
 use crate::state::{Dynamics, Energy, kinetic_energy_j};
 
 /// The GPU context a simulation runs on: its own, or one shared for the life of the process
@@ -86,6 +89,8 @@ pub struct GpuSimulation {
     pub(super) ranges: Vec<RangeBuffers>,
     pub(super) groups: BindGroups,
     pub(super) params: Params,
+    /// The elastoplastic model (None: PMB springs).
+    pub(super) family: Option<GpuFamily>,
     pub(super) particle_grid: DispatchGrid,
     /// Static sphere data (heading and radius; stiffness), projectiles then indenters.
     pub(super) spheres: Vec<MovingSphere>,
@@ -156,7 +161,41 @@ impl GpuSimulation {
         let mass: Vec<f32> = particles.volume_m3.iter().map(|v| (f64::from(*v) * model.density_kg_m3) as f32).collect();
         let inverse_mass: Vec<f32> = mass.iter().map(|m| 1.0 / m).collect();
         let bond_count: Vec<u32> = (0..n).map(|i| particles.bonds.row(i).len() as u32).collect();
-        let stable_dt_s = stable_dt(&layout, &particles.bonds.rest_length_m, &mass);
+        let family_table = match model.elastoplastic {
+            Some(constants) => {
+                if layout.ranges.len() != 1 {
+                    return Err(GpuError::Split {
+                        message: format!(
+                            "the elastoplastic model keeps its bonds in one storage binding on the GPU, and this \
+                             scene's need {} (its bond arrays are larger than one binding of {} holds)",
+                            layout.ranges.len(),
+                            ctx.describe()
+                        ),
+                    });
+                }
+                let values = EntryValues::new(
+                    particles,
+                    model.bond_constant,
+                    model.threshold_scale,
+                    factors,
+                    correction,
+                    model.rules.partial_volumes,
+                );
+                let table = FamilyTable::new(particles, constants, chunk_size(n), |k| values.threshold(k))
+                    .map_err(|error| GpuError::Split { message: error.to_string() })?;
+                Some(table)
+            }
+            None => None,
+        };
+        if !model.grips.is_empty() && family_table.is_none() {
+            return Err(GpuError::Split {
+                message: "grips ([[sim.grip]]) hold particles on the GPU with the elastoplastic model only".into(),
+            });
+        }
+        let stable_dt_s = match &family_table {
+            Some(table) => table.stable_dt_s(model.density_kg_m3),
+            None => stable_dt(&layout, &particles.bonds.rest_length_m, &mass),
+        };
         let spheres: Vec<MovingSphere> = model.projectiles.iter().chain(&model.indenters).copied().collect();
 
         let contact = model.has_contact();
@@ -227,7 +266,11 @@ impl GpuSimulation {
         let range_words = ranges.iter().map(|r| r.words).collect();
         let stored_entries = layout.stored_entries();
         let zero3 = || [vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]];
-        let groups = BindGroups::new(&ctx, &kernels, &buffers, &ranges, contact)?;
+        let family = match family_table {
+            Some(table) => Some(GpuFamily::new(&ctx, table, &layout.rows, stored_entries, &model.grips, model.dt_s)?),
+            None => None,
+        };
+        let groups = BindGroups::new(&ctx, &kernels, &buffers, &ranges, contact, family.as_ref().map(|f| &f.buffers))?;
         let mut simulation = GpuSimulation {
             model,
             kernels,
@@ -235,6 +278,7 @@ impl GpuSimulation {
             ranges,
             groups,
             params,
+            family,
             particle_grid,
             spheres,
             rest,
@@ -394,8 +438,33 @@ impl Backend for GpuSimulation {
     fn restore(&mut self, dynamics: Dynamics, broken_bonds: &[u64]) -> Result<(), DeviceError> {
         self.dynamics = dynamics;
         self.events.clear();
+        if let Some(family) = &mut self.family {
+            family.table.mark_broken(broken_bonds);
+        }
         self.upload(Some(broken_bonds))?;
         Ok(self.sync()?)
+    }
+
+    fn bond_state(&self) -> Vec<f32> {
+        self.family.as_ref().map_or_else(Vec::new, |family| family.table.plastic_in_file_order())
+    }
+
+    fn set_bond_state(&mut self, state: &[f32]) -> Result<(), String> {
+        let Some(family) = &mut self.family else {
+            return if state.is_empty() {
+                Ok(())
+            } else {
+                Err(format!("{} per-bond values for the PMB model, which keeps none", state.len()))
+            };
+        };
+        family.table.set_plastic_from_file_order(state)?;
+        let uploaded =
+            family.upload_plastic(&self.ctx, &self.rows, self.stored_entries).and_then(|()| self.copy_snapshot(false));
+        uploaded.map_err(|error| error.to_string())?;
+        if let Some(family) = &self.family {
+            self.bond_energy = family.energy_per_particle(&self.dynamics.disp);
+        }
+        Ok(())
     }
 
     fn set_velocity(&mut self, velocity: &dyn Fn(usize, [f32; 3]) -> [f32; 3]) -> Result<(), DeviceError> {
@@ -406,6 +475,7 @@ impl Backend for GpuSimulation {
                 self.dynamics.vel[axis][i] = value;
             }
         }
+        hold_grips(&self.model.grips, self.dynamics.step as f64 * self.model.dt_s, &mut self.dynamics.vel);
         self.upload(None)?;
         Ok(self.sync()?)
     }

@@ -51,6 +51,7 @@
 //! - The bond layout is [`crate::bond_layouts::gpu_layout`].
 
 mod bind_groups;
+mod family;
 mod gpu_simulation;
 pub mod shaders;
 mod sim_buffers;

@@ -5,8 +5,14 @@ use shatter_gpu::{ComputeKernel, GpuContext, GpuError};
 /// Declarations shared by every kernel (no entry point), prepended to each kernel file.
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
 
+/// The body forces (no entry point), prepended after [`COMMON`] to the kernels that apply them.
+pub const BODY_FORCES: &str = include_str!("../../shaders/body_forces.wgsl");
+
+/// The kernels that apply the body forces (and get [`BODY_FORCES`]).
+const WITH_BODY_FORCES: [&str; 2] = ["spring_forces.wgsl", "family_forces.wgsl"];
+
 /// Every kernel: (file name, source). One `@compute` entry point per file, named like the file.
-pub const KERNELS: [(&str, &str); 14] = [
+pub const KERNELS: [(&str, &str); 16] = [
     ("kick_drift.wgsl", include_str!("../../shaders/kick_drift.wgsl")),
     ("kick_floor.wgsl", include_str!("../../shaders/kick_floor.wgsl")),
     ("contact_plan.wgsl", include_str!("../../shaders/contact_plan.wgsl")),
@@ -21,11 +27,15 @@ pub const KERNELS: [(&str, &str); 14] = [
     ("spring_forces.wgsl", include_str!("../../shaders/spring_forces.wgsl")),
     ("power_sum.wgsl", include_str!("../../shaders/power_sum.wgsl")),
     ("bond_energy.wgsl", include_str!("../../shaders/bond_energy.wgsl")),
+    ("family_dilatation.wgsl", include_str!("../../shaders/family_dilatation.wgsl")),
+    ("family_forces.wgsl", include_str!("../../shaders/family_forces.wgsl")),
 ];
 
-/// The full source of kernel `name` (common declarations first).
+/// The full source of kernel `name` (common declarations first, then the body forces where it
+/// applies them).
 pub fn source(name: &str) -> Option<String> {
-    KERNELS.iter().find(|(file, _)| *file == name).map(|(_, text)| format!("{COMMON}\n{text}"))
+    let includes = if WITH_BODY_FORCES.contains(&name) { BODY_FORCES } else { "" };
+    KERNELS.iter().find(|(file, _)| *file == name).map(|(_, text)| format!("{COMMON}\n{includes}\n{text}"))
 }
 
 /// Compiles kernel `name`.
@@ -75,6 +85,10 @@ pub struct Kernels {
     pub power_sum: ComputeKernel,
     /// `bond_energy.wgsl`.
     pub bond_energy: ComputeKernel,
+    /// `family_dilatation.wgsl` (the elastoplastic model's first pass).
+    pub family_dilatation: ComputeKernel,
+    /// `family_forces.wgsl` (the elastoplastic model's second pass, with the body forces).
+    pub family_forces: ComputeKernel,
 }
 
 impl Kernels {
@@ -96,6 +110,8 @@ impl Kernels {
             spring_forces: compile(ctx, "spring_forces.wgsl")?,
             power_sum: compile(ctx, "power_sum.wgsl")?,
             bond_energy: compile(ctx, "bond_energy.wgsl")?,
+            family_dilatation: compile(ctx, "family_dilatation.wgsl")?,
+            family_forces: compile(ctx, "family_forces.wgsl")?,
         })
     }
 }

@@ -40,6 +40,9 @@ impl GpuSimulation {
         for range in &self.ranges {
             pairs.push((&range.bits, &range.bits_snapshot));
         }
+        if let Some(family) = &self.family {
+            pairs.push((&family.buffers.plastic, &family.buffers.plastic_snapshot));
+        }
         let ctx = &self.ctx;
         ctx.with_error_scope(
             || "copy the snapshot".to_string(),
@@ -77,8 +80,14 @@ impl GpuSimulation {
             self.buffers.contact_list = ctx.create_zeroed_storage_buffer("contact_list", bytes)?;
             self.params.contact_cap = cap;
         }
-        self.groups =
-            BindGroups::new(ctx, &self.kernels, &self.buffers, &self.ranges, self.params.contact_enabled != 0)?;
+        self.groups = BindGroups::new(
+            ctx,
+            &self.kernels,
+            &self.buffers,
+            &self.ranges,
+            self.params.contact_enabled != 0,
+            self.family.as_ref().map(|f| &f.buffers),
+        )?;
         self.copy_snapshot(true)?;
         // The lists were built for states after the snapshot: rebuild. (Forces do not depend on
         // when the lists were built.)
@@ -103,24 +112,26 @@ impl GpuSimulation {
         }
         let ctx = &self.ctx;
         let n = self.len();
-        // Bond energies.
-        ctx.with_error_scope(
-            || "bond energy".to_string(),
-            || {
-                let mut encoder =
-                    ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("energy") });
-                {
-                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                        label: Some("energy"),
-                        timestamp_writes: None,
-                    });
-                    for (range, group) in self.ranges.iter().zip(&self.groups.bond_energy) {
-                        self.kernels.bond_energy.record(&mut pass, &[group], range.grid);
+        // Bond energies (the elastoplastic model's are summed on the host below).
+        if self.family.is_none() {
+            ctx.with_error_scope(
+                || "bond energy".to_string(),
+                || {
+                    let mut encoder =
+                        ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("energy") });
+                    {
+                        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                            label: Some("energy"),
+                            timestamp_writes: None,
+                        });
+                        for (range, group) in self.ranges.iter().zip(&self.groups.bond_energy) {
+                            self.kernels.bond_energy.record(&mut pass, &[group], range.grid);
+                        }
                     }
-                }
-                ctx.queue.submit([encoder.finish()]);
-            },
-        )?;
+                    ctx.queue.submit([encoder.finish()]);
+                },
+            )?;
+        }
         let mut events: Vec<[u32; 2]> = ctx.read_buffer(&self.buffers.events, status.events as usize)?;
         events.sort_unstable();
         self.events.extend(events.iter().map(|e| BreakEvent { step: u64::from(e[0]), bond: u64::from(e[1]) }));
@@ -129,7 +140,8 @@ impl GpuSimulation {
         let force: Vec<[f32; 4]> = ctx.read_buffer(&self.buffers.force, n)?;
         let boost: Vec<f32> = ctx.read_buffer(&self.buffers.boost_next, n)?;
         let broken: Vec<u32> = ctx.read_buffer(&self.buffers.broken_count, n)?;
-        let energy: Vec<f32> = ctx.read_buffer(&self.buffers.energy, n)?;
+        let energy: Vec<f32> =
+            if self.family.is_none() { ctx.read_buffer(&self.buffers.energy, n)? } else { Vec::new() };
         for axis in 0..3 {
             for i in 0..n {
                 self.dynamics.disp[axis][i] = body[2 * i + 1][axis];
@@ -142,6 +154,11 @@ impl GpuSimulation {
         self.dynamics.external_work_j = status.work_j();
         self.broken = broken;
         self.bond_energy = energy.iter().map(|e| f64::from(*e)).collect();
+        if let Some(family) = &mut self.family {
+            let broken: Vec<u64> = events.iter().map(|e| u64::from(e[1])).collect();
+            family.read_back(ctx, &self.rows, self.stored_entries, &broken)?;
+            self.bond_energy = family.energy_per_particle(&self.dynamics.disp);
+        }
         debug_assert_eq!(u64::from(status.step), self.step);
         // Events consumed; the snapshot starts here.
         ctx.write_buffer(&self.buffers.status, STATUS_EVENTS_OFFSET, &[0u32])?;

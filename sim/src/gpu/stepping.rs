@@ -4,6 +4,7 @@
 
 use shatter_gpu::{ComputeKernel, DispatchGrid, GpuError, wgpu};
 
+use super::family::GpuFamily;
 use super::gpu_simulation::GpuSimulation;
 use super::snapshot::Replay;
 use super::wgsl_structs::STATUS_REBUILD_OFFSET;
@@ -34,6 +35,13 @@ impl GpuSimulation {
         // spring_forces: rest and record 32, row 16, velocity 16, force 16, boost 4;
         // with contact, the candidate count in collisions and spring_forces, 4 + 4.
         let contact = if self.params.contact_enabled != 0 { 8 } else { 0 };
+        if self.family.is_some() {
+            // the neighbour and bit streams, the model's own arrays; the passes read the body
+            // records (32) and write velocity and force besides the kick's 116
+            let (per_entry, per_particle) = GpuFamily::bytes_per_entry_and_particle();
+            let bonds = (4 + per_entry) * entries + 4 * words;
+            return (bonds, n * (116 + 32 + 32 + per_particle + contact));
+        }
         let particles = n * (116 + 84 + contact);
         (bonds, particles)
     }
@@ -81,6 +89,11 @@ impl GpuSimulation {
             for (range, group) in self.ranges.iter().zip(&contact.collisions) {
                 k.collisions.record(pass, &[group], range.grid);
             }
+        }
+        if let Some(family) = &self.groups.family {
+            k.family_dilatation.record(pass, &[&family.dilatation], self.particle_grid);
+            k.family_forces.record(pass, &[&family.forces], self.particle_grid);
+            return;
         }
         for (range, group) in self.ranges.iter().zip(&self.groups.spring_forces) {
             k.spring_forces.record(pass, &[group], range.grid);

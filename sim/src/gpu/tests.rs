@@ -596,3 +596,236 @@ fn every_shader_file_has_one_entry_point_named_like_the_file() {
         assert_eq!(format!("{}.wgsl", kernel.entry_point()), file);
     }
 }
+
+/// The elastoplastic passes against their twins on the parity scene's block and displacements,
+/// with random plastic extensions, broken bonds, damage, thresholds (about a third of the intact
+/// bonds break), yield forces (some bonds yield), a cap, contact, body forces and grips.
+#[test]
+fn elastoplastic_kernels_match_their_twins() {
+    use super::family::FamilyArrays;
+    use super::wgsl_structs::FamilyParams;
+    use crate::elastoplastic::{FamilyTable, StateBasedConstants};
+    use shatter_core::config::material::Normalisation;
+
+    let scene = Scene::new(5, u64::MAX);
+    assert_eq!(scene.layout.ranges.len(), 1);
+    let (n, p) = (scene.n, scene.params);
+    let particles = {
+        let text = r#"
+[scene]
+name = "parity"
+output_dir = "out"
+seed = 3
+[geometry]
+source = "box"
+box_size_m = [0.009, 0.008, 0.007]
+sampler = "grid"
+spacing_m = 0.001
+horizon_factor = 3.0
+[material]
+density_kg_m3 = 2200.0
+bulk_modulus_pa = 14.9e9
+"#;
+        let config = PipelineConfig::from_toml_str(text, Path::new("/nonexistent/pipeline.toml")).expect("config");
+        shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles
+    };
+    let constants = StateBasedConstants {
+        bulk_modulus_pa: 14.9e9,
+        shear_modulus_pa: 8.0e9,
+        yield_force_n_m6: 0.0,
+        plastic_cap_ratio: 0.05,
+        damage_strengthening: 1.5,
+        normalisation: Normalisation::WeightedVolume,
+        anisotropy: None,
+    };
+    let mut rng = SplitMix64::new(11);
+    let mut random = |lo: f64, hi: f64| (lo + (hi - lo) * rng.next_f64()) as f32;
+    let table = FamilyTable::new(&particles, constants, 1024, |_| 0.0).expect("table");
+    let part = &scene.layout.ranges[0];
+    let entries = part.neighbor.len();
+    let mut arrays = FamilyArrays::new(&table, &scene.rows, entries);
+    for t in &mut arrays.threshold {
+        *t = random(0.02, 0.6);
+    }
+    let mut particle_constants = table.particle.clone();
+    for c in &mut particle_constants {
+        // a yield force about that of a tenth of the bonds' deviatoric scalars
+        c[3] = c[1] * random(1e-7, 2e-5) / 3e-3;
+    }
+    let plastic: Vec<[f32; 2]> = (0..entries).map(|_| [random(-1e-5, 1e-5), random(-2e-5, 2e-5)]).collect();
+    let broken: Vec<u32> = (0..n).map(|i| scene.rows[i][2] / 2 - (i as u32 % 5)).collect();
+    let hold: Vec<V4> = (0..n)
+        .map(|i| match i % 7 {
+            0 => [0.5, -1.0, 0.25, f32::from_bits(9)],
+            1 => [1.0, 0.0, 0.0, f32::from_bits(3)],
+            _ => [0.0; 4],
+        })
+        .collect();
+    let family = FamilyParams { damage_strengthening: 1.5, plastic_cap_ratio: 0.05, grips: 1, pad: 0 };
+    let bits = &scene.bits[0];
+
+    // family_dilatation
+    let mut twin_plastic = plastic.clone();
+    let mut extension = vec![0.0f32; entries];
+    let mut record = vec![[0.0f32; 4]; n];
+    let mut damage = vec![0.0f32; n];
+    twins::family_dilatation(
+        &p,
+        &scene.body,
+        &scene.rows,
+        &broken,
+        &part.neighbor,
+        bits,
+        &arrays.entry,
+        &particle_constants,
+        &table.weighted_volume,
+        &mut twin_plastic,
+        &mut extension,
+        &mut record,
+        &mut damage,
+    );
+    let pb = uniform(&p);
+    let (bodyb, rowsb, brokenb, nb, bb) =
+        (upload(&scene.body), upload(&scene.rows), upload(&broken), upload(&part.neighbor), upload(bits));
+    let (entryb, particleb, weightb) =
+        (upload(&arrays.entry), upload(&particle_constants), upload(&table.weighted_volume));
+    let (plasticb, extensionb, recordb, damageb) =
+        (upload(&plastic), upload(&vec![0.0f32; entries]), upload(&vec![[0.0f32; 4]; n]), upload(&vec![0.0f32; n]));
+    dispatch(
+        "family_dilatation.wgsl",
+        &[
+            &pb,
+            &bodyb,
+            &rowsb,
+            &brokenb,
+            &nb,
+            &bb,
+            &entryb,
+            &particleb,
+            &weightb,
+            &plasticb,
+            &extensionb,
+            &recordb,
+            &damageb,
+        ],
+        groups(n),
+    );
+    let gpu_record: Vec<V4> = read(&recordb, n);
+    let theta = |r: &[V4]| r.iter().map(|x| x[3]).collect::<Vec<f32>>();
+    let theta_error = relative_error(&theta(&gpu_record), &theta(&record));
+    let extension_error = relative_error(&read::<f32>(&extensionb, entries), &extension);
+    eprintln!("family_dilatation: relative error of theta {theta_error:e}, of extensions {extension_error:e}");
+    assert!(theta_error <= 1e-5 && extension_error <= 1e-5);
+    assert_eq!(read::<f32>(&damageb, n), damage);
+    assert_eq!(read::<[f32; 2]>(&plasticb, entries), twin_plastic);
+    assert!(damage.iter().any(|d| *d > 0.3));
+
+    // family_forces, from the twin's first-pass outputs
+    let (count, list) = contact_lists(&scene);
+    let mut contact = vec![[0.0f32; 4]; n];
+    twins::collisions(&p, &part.range, &scene.body, &scene.rows, &count, &list, &mut contact, &part.neighbor, bits);
+    let mut vel = scene.vel.clone();
+    let mut force = vec![[0.0f32; 4]; n];
+    let mut broken_after = broken.clone();
+    let mut twin_bits = bits.clone();
+    let mut plastic_after = twin_plastic.clone();
+    let mut power = vec![0.0f32; p.power_count as usize];
+    let mut status = scene.status;
+    let mut events = vec![[0u32; 2]; p.event_capacity as usize];
+    let family_b = uniform(&family);
+    let (velb, forceb, brokenb, countb, contactb) =
+        (upload(&vel), upload(&force), upload(&broken), upload(&count), upload(&contact));
+    let (reverseb, thresholdb, plasticb, extensionb, recordb, damageb) = (
+        upload(&arrays.reverse),
+        upload(&arrays.threshold),
+        upload(&twin_plastic),
+        upload(&extension),
+        upload(&record),
+        upload(&damage),
+    );
+    let (powerb, statusb, spheresb, eventsb, holdb) =
+        (upload(&power), upload(&[status]), upload(&scene.spheres), upload(&events), upload(&hold));
+    let bb = upload(bits);
+    twins::family_forces(
+        &p,
+        &family,
+        &scene.body,
+        &mut vel,
+        &mut force,
+        &scene.rows,
+        &mut broken_after,
+        &count,
+        &contact,
+        &part.neighbor,
+        &mut twin_bits,
+        &arrays.entry,
+        &particle_constants,
+        &arrays.reverse,
+        &arrays.threshold,
+        &mut plastic_after,
+        &extension,
+        &record,
+        &damage,
+        &mut power,
+        &mut status,
+        &scene.spheres,
+        &mut events,
+        &hold,
+    );
+    dispatch(
+        "family_forces.wgsl",
+        &[
+            &pb,
+            &family_b,
+            &bodyb,
+            &velb,
+            &forceb,
+            &rowsb,
+            &brokenb,
+            &countb,
+            &contactb,
+            &nb,
+            &bb,
+            &entryb,
+            &particleb,
+            &reverseb,
+            &thresholdb,
+            &plasticb,
+            &extensionb,
+            &recordb,
+            &damageb,
+            &powerb,
+            &statusb,
+            &spheresb,
+            &eventsb,
+            &holdb,
+        ],
+        groups(n),
+    );
+    let force_error = relative_error(&flat(&read::<V4>(&forceb, n)), &flat(&force));
+    let velocity_error = relative_error(&flat(&read::<V4>(&velb, n)), &flat(&vel));
+    let power_error = relative_error(&read::<f32>(&powerb, power.len()), &power);
+    let gpu_plastic: Vec<[f32; 2]> = read(&plasticb, entries);
+    let plastic_error = relative_error(
+        &gpu_plastic.iter().map(|x| x[1]).collect::<Vec<_>>(),
+        &plastic_after.iter().map(|x| x[1]).collect::<Vec<_>>(),
+    );
+    let yielded = plastic_after.iter().zip(&twin_plastic).filter(|(a, b)| a[1] != b[0]).count();
+    let capped = plastic_after.iter().filter(|x| x[1].abs() >= 0.05 * 1e-3 * 0.999).count();
+    let breaks = status.events as usize;
+    eprintln!(
+        "family_forces: {breaks} bonds broke, {yielded} entries flowed ({capped} at the cap), relative error of \
+         forces {force_error:e}, velocities {velocity_error:e}, power {power_error:e}, plastic {plastic_error:e}"
+    );
+    assert!(breaks > 100, "the scene breaks bonds");
+    assert!(yielded > 100, "bonds flow");
+    assert!(force_error <= 1e-5 && velocity_error == 0.0 && power_error <= 1e-5 && plastic_error <= 1e-5);
+    assert_eq!(read::<u32>(&bb, twin_bits.len()), twin_bits, "the same bonds broke");
+    assert_eq!(read::<u32>(&brokenb, n), broken_after);
+    assert_eq!(read::<Status>(&statusb, 1)[0], status);
+    let mut gpu_events: Vec<[u32; 2]> = read(&eventsb, breaks);
+    let mut twin_events = events[..breaks].to_vec();
+    gpu_events.sort_unstable();
+    twin_events.sort_unstable();
+    assert_eq!(gpu_events, twin_events);
+}

@@ -143,3 +143,17 @@ impl Status {
 pub const STATUS_REBUILD_OFFSET: u64 = 12;
 /// Byte offset of `Status::events`.
 pub const STATUS_EVENTS_OFFSET: u64 = 16;
+
+/// `FamilyParams` of `family_forces.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
+pub struct FamilyParams {
+    /// alpha of eq. 18: thresholds grow by (1 + alpha phi).
+    pub damage_strengthening: f32,
+    /// gamma / |xi|, the cap on the plastic extension (infinite: none).
+    pub plastic_cap_ratio: f32,
+    /// 1 when some particle is held by a grip.
+    pub grips: u32,
+    /// Padding to 16 bytes.
+    pub pad: u32,
+}
