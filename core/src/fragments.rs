@@ -1,5 +1,6 @@
 //! The fragments file of one frame (`fragments.####.shp`): which fragment each element belongs
-//! to and each fragment's rigid motion from the rest frame, x = R X + t.
+//! to and each fragment's rigid motion from the rest frame, x = R X + t; and, when elements are
+//! drawn deformed (`post.element_shapes`), each element's affine map x = A X + b.
 
 use std::path::Path;
 
@@ -41,6 +42,48 @@ pub struct FragmentFrame {
     pub elements: Vec<u32>,
     /// Mass of each fragment, kg.
     pub mass_kg: Vec<f64>,
+    /// With deformed elements: each element's affine map from the rest frame, x = A X + b, as
+    /// the rows of [A | b] ([`AFFINE_RIGID`] where the element moves with its fragment's rigid
+    /// motion); None when elements are drawn rigid (the file then has no such section).
+    pub element_affine: Option<Vec<[f32; 12]>>,
+}
+
+/// The affine map of an element that moves exactly as its fragment ([`FragmentFrame::rotation`],
+/// [`FragmentFrame::translation_m`]): all zeros (no affine map has a zero matrix).
+pub const AFFINE_RIGID: [f32; 12] = [0.0; 12];
+
+/// Whether `affine` is [`AFFINE_RIGID`].
+pub fn is_affine_rigid(affine: &[f32; 12]) -> bool {
+    affine.iter().all(|v| *v == 0.0)
+}
+
+/// `affine` (an element's map at a frame where its fragment moved by `from`: rotation [x, y, z,
+/// w], translation) followed by the rigid motion that takes the fragment from `from` to `to`:
+/// x = R_to R_from^-1 (A X + b - t_from) + t_to. [`AFFINE_RIGID`] stays as it is (the element
+/// still moves with its fragment).
+pub fn compose_affine_with_motion(
+    affine: &[f32; 12],
+    from: ([f32; 4], [f64; 3]),
+    to: ([f32; 4], [f64; 3]),
+) -> [f32; 12] {
+    if is_affine_rigid(affine) {
+        return AFFINE_RIGID;
+    }
+    let quat = |q: [f32; 4]| glam::DQuat::from_array(q.map(f64::from)).normalize();
+    let relative = glam::DMat3::from_quat(quat(to.0) * quat(from.0).inverse());
+    let (t_from, t_to) = (glam::DVec3::from_array(from.1), glam::DVec3::from_array(to.1));
+    let column = |c: usize| glam::DVec3::new(f64::from(affine[c]), f64::from(affine[4 + c]), f64::from(affine[8 + c]));
+    let a = glam::DMat3::from_cols(column(0), column(1), column(2));
+    let b = glam::DVec3::new(f64::from(affine[3]), f64::from(affine[7]), f64::from(affine[11]));
+    let (a, b) = (relative * a, relative * (b - t_from) + t_to);
+    let mut out = [0.0f32; 12];
+    for r in 0..3 {
+        for c in 0..3 {
+            out[4 * r + c] = a.col(c)[r] as f32;
+        }
+        out[4 * r + 3] = b[r] as f32;
+    }
+    out
 }
 
 impl FragmentFrame {
@@ -59,6 +102,9 @@ impl FragmentFrame {
         out.write_rows("translation", &translation)?;
         out.write_rows("elements", &self.elements)?;
         out.write_rows("mass", &self.mass_kg)?;
+        if let Some(affine) = &self.element_affine {
+            out.write_rows("element_affine", affine.as_flattened())?;
+        }
         out.finish()
     }
 
@@ -71,11 +117,17 @@ impl FragmentFrame {
         let translation: Vec<f64> = input.read_rows("translation")?;
         let elements = input.read_rows("elements")?;
         let mass_kg = input.read_rows("mass")?;
+        let affine: Option<Vec<f32>> = if input.at_end() { None } else { Some(input.read_rows("element_affine")?) };
         let translation_m = translation.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
-        let frame = FragmentFrame { meta, fragment_of, rotation, translation_m, elements, mass_kg };
         if !translation.len().is_multiple_of(3) {
             return Err(input.malformed("translations are not triples".into()));
         }
+        if affine.as_ref().is_some_and(|a| !a.len().is_multiple_of(12)) {
+            return Err(input.malformed("element affine maps are not rows of 12 values".into()));
+        }
+        let element_affine =
+            affine.map(|a| a.chunks_exact(12).map(|m| std::array::from_fn(|k| m[k])).collect::<Vec<[f32; 12]>>());
+        let frame = FragmentFrame { meta, fragment_of, rotation, translation_m, elements, mass_kg, element_affine };
         frame.validate().map_err(|what| input.malformed(what))?;
         input.finish()?;
         Ok(frame)
@@ -108,6 +160,14 @@ impl FragmentFrame {
         if self.translation_m.iter().flatten().any(|c| !c.is_finite()) {
             return Err("a translation is not finite".into());
         }
+        if let Some(affine) = &self.element_affine {
+            if affine.len() != self.fragment_of.len() {
+                return Err(format!("{} element affine maps for {} elements", affine.len(), self.fragment_of.len()));
+            }
+            if let Some(element) = affine.iter().position(|m| m.iter().any(|v| !v.is_finite())) {
+                return Err(format!("element {element}'s affine map is not finite"));
+            }
+        }
         Ok(())
     }
 }
@@ -125,6 +185,7 @@ mod tests {
             translation_m: vec![[0.0; 3], [1.0, 2.0, 3.0]],
             elements: vec![2, 1],
             mass_kg: vec![2.0, 1.0],
+            element_affine: None,
         };
         let dir = tempfile::tempdir().expect("tempdir");
         let path = dir.path().join("f.shp");
@@ -133,5 +194,40 @@ mod tests {
         let mut wrong = frame.clone();
         wrong.fragment_of[2] = 5;
         assert!(wrong.validate().expect_err("range").contains("of only 2"));
+        // with deformed elements: the optional last section, checked for length and finiteness
+        let mut deformed = frame.clone();
+        let stretch = [1.1, 0.0, 0.0, 0.5, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.9, -0.25];
+        deformed.element_affine = Some(vec![stretch, AFFINE_RIGID, stretch]);
+        deformed.write(&path).expect("write");
+        assert_eq!(FragmentFrame::read(&path).expect("read"), deformed);
+        let mut short = deformed.clone();
+        short.element_affine = Some(vec![stretch]);
+        assert!(short.validate().expect_err("length").contains("1 element affine maps for 3 elements"));
+        let mut infinite = deformed.clone();
+        infinite.element_affine = Some(vec![stretch, stretch, [f32::NAN; 12]]);
+        assert!(infinite.validate().expect_err("finite").contains("element 2"));
+        assert!(is_affine_rigid(&AFFINE_RIGID) && !is_affine_rigid(&stretch));
+    }
+
+    /// A rigid frame is written exactly as before the optional section existed.
+    #[test]
+    fn a_rigid_frame_has_no_affine_section() {
+        let frame = FragmentFrame {
+            meta: FragmentMeta { frame: 1, step: 0, time_s: 0.0, smoothed: false, inputs: None },
+            fragment_of: vec![0],
+            rotation: vec![[0.0, 0.0, 0.0, 1.0]],
+            translation_m: vec![[0.0; 3]],
+            elements: vec![1],
+            mass_kg: vec![1.0],
+            element_affine: None,
+        };
+        let dir = tempfile::tempdir().expect("tempdir");
+        let (rigid, deformed) = (dir.path().join("r.shp"), dir.path().join("d.shp"));
+        frame.write(&rigid).expect("write");
+        FragmentFrame { element_affine: Some(vec![AFFINE_RIGID]), ..frame.clone() }.write(&deformed).expect("write");
+        let (rigid, deformed) = (std::fs::read(rigid).expect("read"), std::fs::read(deformed).expect("read"));
+        assert!(!String::from_utf8_lossy(&rigid).contains("element_affine"));
+        assert!(String::from_utf8_lossy(&deformed).contains("element_affine"));
+        assert!(deformed.len() > rigid.len());
     }
 }

@@ -79,6 +79,7 @@ bulk_modulus_pa = 14.9e9
         translation_m: frame.motion.iter().map(|m| m.translation.to_array()).collect(),
         elements: frame.elements.clone(),
         mass_kg: frame.mass_kg.clone(),
+        element_affine: None,
     };
     fragments.write(&dir.path().join("fragments.0002.shp")).expect("write");
     PointCache {

@@ -13,6 +13,7 @@
 
 pub mod components;
 pub mod debris;
+pub mod deformation;
 pub mod kabsch;
 pub mod post_driver;
 pub mod smoothing;

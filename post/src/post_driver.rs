@@ -22,6 +22,7 @@ use shatter_core::{OutputLayout, PipelineConfig, Progress};
 
 use crate::components::size_histogram;
 use crate::debris::debris_frame;
+use crate::deformation::ElementDeformation;
 use crate::kabsch::RigidMotion;
 use crate::tracker::FragmentTracker;
 
@@ -101,6 +102,9 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
     std::fs::create_dir_all(&out_dir).map_err(|source| PostError::Usd { path: out_dir.clone(), source })?;
     let mass: Vec<f64> = particles.volume_m3.iter().map(|v| f64::from(*v) * config.material.density_kg_m3).collect();
     let mut tracker = FragmentTracker::new(&particles, mass);
+    // with deformed elements, the bonds' state and each element's affine map per frame
+    let mut deformation =
+        config.post.deformed_elements(config.material.model).then(|| ElementDeformation::new(&particles));
     let smoothing = config.post.smoothing_frames;
     let mut history: Vec<(usize, Vec<RigidMotion>)> = Vec::new();
     let mut sim_times = Vec::with_capacity(total as usize);
@@ -112,6 +116,9 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
             blocks.iter().filter(|b| b.frame == frame).flat_map(|b| b.events.iter().copied()).collect();
         for event in &events {
             tracker.break_bond(event.bond);
+            if let Some(deformation) = &mut deformation {
+                deformation.break_bond(&particles, event.bond);
+            }
         }
         let points = PointFrame::read(&layout.frame_points(frame))?;
         if points.inputs != Some(sim_inputs) {
@@ -147,6 +154,9 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
             translation_m: tracked.motion.iter().map(|m| m.translation.to_array()).collect(),
             elements: tracked.elements.clone(),
             mass_kg: tracked.mass_kg.clone(),
+            element_affine: deformation
+                .as_ref()
+                .map(|d| d.element_affine(&particles, position, &tracked.fragment_of, &tracked.motion)),
         };
         fragments.write(&layout.fragments(frame))?;
         let frame_debris =

@@ -83,6 +83,7 @@ mod tests {
             translation_m: vec![translation],
             elements: vec![1],
             mass_kg: vec![1.0],
+            element_affine: None,
         }
     }
 

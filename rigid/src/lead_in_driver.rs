@@ -114,6 +114,7 @@ pub fn run_lead_in(config: &PipelineConfig, progress: &dyn Progress) -> Result<L
             translation_m: vec![t.to_array()],
             elements: vec![particles.len() as u32],
             mass_kg: mass_kg.clone(),
+            element_affine: None,
         }
         .write(&layout.lead_in_fragments(frame))
     };

@@ -8,7 +8,7 @@ use std::time::Instant;
 use rapier3d_f64::math::{Matrix, Rotation, Vector};
 use shatter_core::config::RigidConfig;
 use shatter_core::digest;
-use shatter_core::fragments::{FragmentFrame, FragmentMeta};
+use shatter_core::fragments::{FragmentFrame, FragmentMeta, compose_affine_with_motion};
 use shatter_core::frames::{BreakLog, FrameFileError, PointFrame};
 use shatter_core::layout::missing_input;
 use shatter_core::lead_in::LeadIn;
@@ -460,5 +460,18 @@ fn rigid_frame(handoff: &FragmentFrame, world: &RigidWorld, frame: u32, time_s: 
         translation_m: poses.iter().map(|(_, t)| t.to_array()).collect(),
         elements: handoff.elements.clone(),
         mass_kg: handoff.mass_kg.clone(),
+        // deformed elements keep the handoff's shapes and move with their bodies since then
+        element_affine: handoff.element_affine.as_ref().map(|affine| {
+            affine
+                .iter()
+                .zip(&handoff.fragment_of)
+                .map(|(map, &f)| {
+                    let f = f as usize;
+                    let (r, t) = &poses[f];
+                    let to = ([r.x as f32, r.y as f32, r.z as f32, r.w as f32], t.to_array());
+                    compose_affine_with_motion(map, (handoff.rotation[f], handoff.translation_m[f]), to)
+                })
+                .collect()
+        }),
     }
 }
