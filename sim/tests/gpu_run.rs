@@ -20,8 +20,21 @@ fn gpu() -> &'static GpuContext {
     GpuContext::shared_for_tests().unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"))
 }
 
+/// PMB glass.
+const GLASS: &str = "density_kg_m3 = 2200.0\nbulk_modulus_pa = 14.9e9";
+
+/// An elastoplastic metal that dents, yields and tears (the CLI tests').
+const METAL: &str = "model = \"elastoplastic\"\ndensity_kg_m3 = 2700.0\nyoungs_modulus_pa = 7e9\npoisson_ratio = 0.33\n\
+                     yield_stress_pa = 2e7\nplastic_cap_ratio = 0.05\ncritical_stretch = 0.004";
+
 fn scene(dir: &Path) -> PipelineConfig {
-    let text = r#"
+    scene_of(dir, GLASS)
+}
+
+/// A plate struck by a projectile, of the `[material]` keys `material`, preprocessed in `dir`.
+fn scene_of(dir: &Path, material: &str) -> PipelineConfig {
+    let text = format!(
+        r#"
 [scene]
 name = "struck"
 output_dir = "out"
@@ -33,8 +46,7 @@ sampler = "grid"
 spacing_m = 0.001
 horizon_factor = 3.0
 [material]
-density_kg_m3 = 2200.0
-bulk_modulus_pa = 14.9e9
+{material}
 [sim]
 frames = 12
 steps_per_frame = 60
@@ -44,7 +56,8 @@ center_m = [0.0, 0.0, 0.0067]
 velocity_m_s = [0.0, 0.0, -150.0]
 radius_m = 0.003
 stiffness_pa = 3e7
-"#;
+"#
+    );
     let path = dir.join("pipeline.toml");
     std::fs::write(&path, text).expect("write config");
     let config = PipelineConfig::load(&path).expect("config");
@@ -96,8 +109,24 @@ impl Progress for Killer {
 
 #[test]
 fn a_gpu_run_killed_and_resumed_writes_the_same_frames() {
+    killed_and_resumed_on_the_gpu(GLASS);
+}
+
+/// The elastoplastic model's plastic extensions travel in the checkpoint on the GPU too.
+#[test]
+fn an_elastoplastic_gpu_run_killed_and_resumed_writes_the_same_frames() {
+    let reference = killed_and_resumed_on_the_gpu(METAL);
+    let checkpoint = reference.path().join("out/sim.checkpoint.shp");
+    let (_, state) = shatter_core::checkpoint::read(&checkpoint).expect("checkpoint");
+    let yielded = state.bond_state.iter().filter(|p| **p != 0.0).count();
+    assert!(yielded > 100, "the plate should yield: {yielded} plastic bond entries");
+}
+
+/// Runs the struck plate of `material` on the GPU whole, then again killed mid-way and resumed:
+/// the frames must be the same. Returns the folder of the uninterrupted run.
+fn killed_and_resumed_on_the_gpu(material: &str) -> tempfile::TempDir {
     let reference = tempfile::tempdir().expect("tempdir");
-    let config = scene(reference.path());
+    let config = scene_of(reference.path(), material);
     let report = run_with(&config, RunOptions::default(), &NoProgress, &on_gpu).expect("run");
     assert!(report.backend.starts_with("GPU"), "{}", report.backend);
     assert!(report.broken_bonds > 1000, "the plate breaks");
@@ -105,7 +134,7 @@ fn a_gpu_run_killed_and_resumed_writes_the_same_frames() {
     assert_eq!(expected.len(), 13, "12 point caches and the break log");
 
     let killed = tempfile::tempdir().expect("tempdir");
-    let config = scene(killed.path());
+    let config = scene_of(killed.path(), material);
     let killer = Killer { steps: AtomicU64::new(0), limit: 5 * 60 + 30 };
     let result = std::panic::catch_unwind(AssertUnwindSafe(|| {
         run_with(&config, RunOptions::default(), &killer, &on_gpu).map(|_| ())
@@ -122,6 +151,7 @@ fn a_gpu_run_killed_and_resumed_writes_the_same_frames() {
         assert_eq!(name, expected_name);
         assert!(bytes == expected_bytes, "{} differs after resume", name.display());
     }
+    reference
 }
 
 #[test]
