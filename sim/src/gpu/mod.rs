@@ -16,9 +16,12 @@
 //!    `scan_blocks`, `scan_block_sums`, `scan_add`, `contact_scatter`, `contact_rank`,
 //!    `contact_candidates` bins the particles by a deterministic counting sort and lists each
 //!    particle's candidates in increasing index; `collisions` sums eq. 6 over them.
-//! 3. `spring_forces` (fused with the body forces): the bonds (stretch, break, force), the
-//!    contact force, gravity, projectiles and indenters; the next boost; break events; the
-//!    workgroup's external power.
+//! 3. `spring_forces` (fused with the body forces of `body_forces.wgsl`): the bonds (stretch,
+//!    break, force), the contact force, gravity, projectiles and indenters; the next boost; break
+//!    events; the workgroup's external power. With the elastoplastic model instead
+//!    `family_dilatation` (extensions, dilatation, damage) then `family_forces` (both ends' force
+//!    scalars, the plastic return map, the break test, contact, body forces, grips), over the same
+//!    sliced bond layout (`family.rs`).
 //! 4. `power_sum`: the step's external power into the work done (two-float sum).
 //! 5. `kick_floor` (velocity update, at the end of a batch).
 //!
@@ -46,6 +49,7 @@
 //! - `bind_groups.rs`: which buffers each kernel binds.
 //! - `stepping.rs`: batches of steps and the force pass, recorded as dispatches.
 //! - `snapshot.rs`: readback at frame boundaries, the snapshot and the replay after an overflow.
+//! - `family.rs`: the elastoplastic model's buffers and the host's copy of its state.
 //! - [`shaders`]: the WGSL sources and their compilation; [`wgsl_structs`]: host mirrors of the
 //!   WGSL structs.
 //! - The bond layout is [`crate::bond_layouts::gpu_layout`].
