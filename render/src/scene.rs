@@ -1,10 +1,12 @@
 //! One frame's scene in world space: every element as the planes of its convex polytope (and a
-//! trimtope's site and surface triangles), moved by its fragment's rigid motion, with a k-d tree
-//! over the elements' bounds; and the camera.
+//! trimtope's site and surface triangles), moved by its fragment's rigid motion or, where the
+//! fragments file carries them (deformed elements), mapped by its own affine map x = A X + b
+//! (an affine image of a convex polytope is convex: the tracers need nothing else), with a k-d
+//! tree over the elements' bounds; and the camera.
 
-use glam::{DQuat, DVec3, Quat, Vec3};
+use glam::{DMat3, DQuat, DVec3, Quat, Vec3};
 use rayon::prelude::*;
-use shatter_core::fragments::FragmentFrame;
+use shatter_core::fragments::{FragmentFrame, is_affine_rigid};
 use shatter_core::particles::{ElementType, Elements, ParticleSet};
 
 use crate::element_kdtree::{Aabb, KdTree};
@@ -94,47 +96,14 @@ impl SceneGeometry {
             None => vec![0; n],
         };
         // Per element: planes, triangles, site, bounds.
+        let affine = fragments.and_then(|frame| frame.element_affine.as_ref());
         let per_element: Vec<ElementParts> = (0..n)
             .into_par_iter()
-            .map(|e| {
-                let (q, t) = motion(e);
-                let place = |p: [f32; 3]| (q * Vec3::from_array(p) + t).to_array();
-                let site = place(particles.rest_position_m[e]);
-                match &particles.elements {
-                    Elements::Cubes { half_size_m, orientation } => {
-                        let axes_rotation = q * Quat::from_array(*orientation);
-                        let axes = [Vec3::X, Vec3::Y, Vec3::Z].map(|a| (axes_rotation * a).to_array());
-                        let h = half_size_m[e];
-                        let reach = [0, 1, 2].map(|k| h * (axes[0][k].abs() + axes[1][k].abs() + axes[2][k].abs()));
-                        let bounds = Aabb {
-                            min: [0, 1, 2].map(|k| site[k] - reach[k]),
-                            max: [0, 1, 2].map(|k| site[k] + reach[k]),
-                        };
-                        (cube_planes(site, h, axes).to_vec(), Vec::new(), site, bounds)
-                    }
-                    Elements::Tets { vertices_m } => {
-                        let vertices = vertices_m[e].map(place);
-                        let bounds = vertices.iter().fold(Aabb::EMPTY, |b, v| b.union(&Aabb { min: *v, max: *v }));
-                        (tet_planes(vertices).to_vec(), Vec::new(), site, bounds)
-                    }
-                    Elements::Trimtopes { plane_offsets, planes, triangle_offsets, triangles_m, .. } => {
-                        let range = plane_offsets[e] as usize..plane_offsets[e + 1] as usize;
-                        let moved_planes: Vec<Plane> = planes[range.clone()]
-                            .iter()
-                            .map(|p| {
-                                let n = q * Vec3::new(p[0], p[1], p[2]);
-                                [n.x, n.y, n.z, p[3] + n.dot(t)]
-                            })
-                            .collect();
-                        let mut triangles: Vec<[[f32; 3]; 3]> = triangles_m
-                            [triangle_offsets[e] as usize..triangle_offsets[e + 1] as usize]
-                            .iter()
-                            .map(|tri| tri.map(place))
-                            .collect();
-                        sort_triangles_spatially(&mut triangles);
-                        let bounds = polytope_bounds(&moved_planes, site);
-                        (moved_planes, triangles, site, bounds)
-                    }
+            .map(|e| match affine.map(|maps| &maps[e]).filter(|map| !is_affine_rigid(map)) {
+                Some(map) => deformed_element(particles, e, &Affine::of(map)),
+                None => {
+                    let (q, t) = motion(e);
+                    rigid_element(particles, e, q, t)
                 }
             })
             .collect();
@@ -170,6 +139,121 @@ impl SceneGeometry {
         }
         scene.tree = KdTree::build(&bounds);
         scene
+    }
+}
+
+/// Element `e` of `particles` moved rigidly: x = q X + t.
+fn rigid_element(particles: &ParticleSet, e: usize, q: Quat, t: Vec3) -> ElementParts {
+    let place = |p: [f32; 3]| (q * Vec3::from_array(p) + t).to_array();
+    let site = place(particles.rest_position_m[e]);
+    match &particles.elements {
+        Elements::Cubes { half_size_m, orientation } => {
+            let axes_rotation = q * Quat::from_array(*orientation);
+            let axes = [Vec3::X, Vec3::Y, Vec3::Z].map(|a| (axes_rotation * a).to_array());
+            let h = half_size_m[e];
+            let reach = [0, 1, 2].map(|k| h * (axes[0][k].abs() + axes[1][k].abs() + axes[2][k].abs()));
+            let bounds =
+                Aabb { min: [0, 1, 2].map(|k| site[k] - reach[k]), max: [0, 1, 2].map(|k| site[k] + reach[k]) };
+            (cube_planes(site, h, axes).to_vec(), Vec::new(), site, bounds)
+        }
+        Elements::Tets { vertices_m } => {
+            let vertices = vertices_m[e].map(place);
+            let bounds = vertices.iter().fold(Aabb::EMPTY, |b, v| b.union(&Aabb { min: *v, max: *v }));
+            (tet_planes(vertices).to_vec(), Vec::new(), site, bounds)
+        }
+        Elements::Trimtopes { plane_offsets, planes, triangle_offsets, triangles_m, .. } => {
+            let range = plane_offsets[e] as usize..plane_offsets[e + 1] as usize;
+            let moved_planes: Vec<Plane> = planes[range]
+                .iter()
+                .map(|p| {
+                    let n = q * Vec3::new(p[0], p[1], p[2]);
+                    [n.x, n.y, n.z, p[3] + n.dot(t)]
+                })
+                .collect();
+            let mut triangles: Vec<[[f32; 3]; 3]> = triangles_m
+                [triangle_offsets[e] as usize..triangle_offsets[e + 1] as usize]
+                .iter()
+                .map(|tri| tri.map(place))
+                .collect();
+            sort_triangles_spatially(&mut triangles);
+            let bounds = polytope_bounds(&moved_planes, site);
+            (moved_planes, triangles, site, bounds)
+        }
+    }
+}
+
+/// An element's affine map x = A X + b, in double precision.
+struct Affine {
+    a: DMat3,
+    b: DVec3,
+    /// A^-T, which takes a plane's normal to the moved plane's (before normalising).
+    inverse_transpose: DMat3,
+}
+
+impl Affine {
+    /// The map stored as the rows of [A | b].
+    fn of(rows: &[f32; 12]) -> Affine {
+        let column = |c: usize| DVec3::new(f64::from(rows[c]), f64::from(rows[4 + c]), f64::from(rows[8 + c]));
+        let a = DMat3::from_cols(column(0), column(1), column(2));
+        let b = column(3);
+        Affine { a, b, inverse_transpose: a.inverse().transpose() }
+    }
+
+    fn point(&self, p: [f32; 3]) -> DVec3 {
+        self.a * DVec3::from_array(p.map(f64::from)) + self.b
+    }
+
+    /// The image of the plane n . X <= d (n unit): unit normal and offset.
+    fn plane(&self, p: &Plane) -> Plane {
+        let n = DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]));
+        let m = self.inverse_transpose * n;
+        // n . X <= d with X = A^-1 (x - b): (A^-T n) . x <= d + (A^-T n) . b
+        let d = f64::from(p[3]) + m.dot(self.b);
+        let length = m.length();
+        [(m.x / length) as f32, (m.y / length) as f32, (m.z / length) as f32, (d / length) as f32]
+    }
+}
+
+/// Element `e` of `particles` in its deformed shape: the image of its rest polytope under `map`
+/// (convex still: planes go to planes, a trimtope's triangles vertex by vertex).
+fn deformed_element(particles: &ParticleSet, e: usize, map: &Affine) -> ElementParts {
+    let site = map.point(particles.rest_position_m[e]).as_vec3().to_array();
+    let point = |p: [f32; 3]| map.point(p).as_vec3().to_array();
+    match &particles.elements {
+        Elements::Cubes { half_size_m, orientation } => {
+            let rest_axes = [Vec3::X, Vec3::Y, Vec3::Z].map(|a| (Quat::from_array(*orientation) * a).to_array());
+            let h = half_size_m[e];
+            // the rest cube's planes, in cube_planes' order (+axis k, then -axis k), moved
+            let planes: Vec<Plane> =
+                cube_planes(particles.rest_position_m[e], h, rest_axes).iter().map(|p| map.plane(p)).collect();
+            let mut bounds = Aabb::EMPTY;
+            for corner in 0..8 {
+                let offset = |k: usize| if corner >> k & 1 == 1 { h } else { -h };
+                let rest = [0, 1, 2].map(|c| {
+                    particles.rest_position_m[e][c] + (0..3).map(|k| offset(k) * rest_axes[k][c]).sum::<f32>()
+                });
+                let v = point(rest);
+                bounds = bounds.union(&Aabb { min: v, max: v });
+            }
+            (planes, Vec::new(), site, bounds)
+        }
+        Elements::Tets { vertices_m } => {
+            let vertices = vertices_m[e].map(point);
+            let bounds = vertices.iter().fold(Aabb::EMPTY, |b, v| b.union(&Aabb { min: *v, max: *v }));
+            (tet_planes(vertices).to_vec(), Vec::new(), site, bounds)
+        }
+        Elements::Trimtopes { plane_offsets, planes, triangle_offsets, triangles_m, .. } => {
+            let range = plane_offsets[e] as usize..plane_offsets[e + 1] as usize;
+            let moved_planes: Vec<Plane> = planes[range].iter().map(|p| map.plane(p)).collect();
+            let mut triangles: Vec<[[f32; 3]; 3]> = triangles_m
+                [triangle_offsets[e] as usize..triangle_offsets[e + 1] as usize]
+                .iter()
+                .map(|tri| tri.map(point))
+                .collect();
+            sort_triangles_spatially(&mut triangles);
+            let bounds = polytope_bounds(&moved_planes, site);
+            (moved_planes, triangles, site, bounds)
+        }
     }
 }
 
@@ -327,6 +411,76 @@ impl Camera {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::primitives::polytope_contains;
+    use shatter_core::fragments::{AFFINE_RIGID, FragmentMeta};
+    use shatter_core::particles::{Bonds, ParticleMeta};
+
+    fn cubes(positions: Vec<[f32; 3]>) -> ParticleSet {
+        let n = positions.len();
+        ParticleSet {
+            meta: ParticleMeta {
+                scene_name: "t".into(),
+                source: "box".into(),
+                sampler: "grid".into(),
+                lambda_m: 0.1,
+                horizon_factor: 1.0,
+                delta_m: 0.1,
+                density_kg_m3: 1.0,
+                bulk_modulus_pa: 1.0,
+                mean_critical_stretch: 0.01,
+                threshold_jitter: 0.0,
+                seed: 0,
+            },
+            rest_position_m: positions,
+            volume_m3: vec![1.0; n],
+            mass_kg: vec![1.0; n],
+            elements: Elements::Cubes { half_size_m: vec![0.05; n], orientation: [0.0, 0.0, 0.0, 1.0] },
+            bonds: Bonds { offsets: vec![0; n + 1], ..Bonds::default() },
+            adjacency: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_deformed_cube_is_the_image_of_its_rest_cube() {
+        let particles = cubes(vec![[0.0, 0.0, 0.0], [0.1, 0.0, 0.0]]);
+        // a shear and stretch, and a translation
+        let a = [[1.2, 0.3, 0.0], [0.0, 0.9, 0.1], [0.05, 0.0, 1.1]];
+        let b = [0.5, -0.2, 0.1];
+        let rows = [a[0][0], a[0][1], a[0][2], b[0], a[1][0], a[1][1], a[1][2], b[1], a[2][0], a[2][1], a[2][2], b[2]];
+        let frame = FragmentFrame {
+            meta: FragmentMeta { frame: 2, step: 1, time_s: 0.0, smoothed: false, inputs: None },
+            fragment_of: vec![0, 0],
+            rotation: vec![[0.0, 0.0, 0.0, 1.0]],
+            translation_m: vec![[0.0; 3]],
+            elements: vec![2],
+            mass_kg: vec![2.0],
+            element_affine: Some(vec![rows, AFFINE_RIGID]),
+        };
+        let scene = SceneGeometry::build(&particles, Some(&frame));
+        let map = |p: [f32; 3]| [0, 1, 2].map(|r| (0..3).map(|c| a[r][c] * p[c]).sum::<f32>() + b[r]);
+        for corner in 0..8 {
+            let rest = [0, 1, 2].map(|k| if corner >> k & 1 == 1 { 0.05 } else { -0.05 });
+            let v = map(rest);
+            // on three of the planes, inside all
+            let on =
+                scene.planes_of(0).iter().filter(|p| (p[0] * v[0] + p[1] * v[1] + p[2] * v[2] - p[3]).abs() < 1e-6);
+            assert_eq!(on.count(), 3, "corner {corner}");
+            assert!(polytope_contains(scene.planes_of(0), 1e-6, v));
+            let bounds = &scene.tree.bounds;
+            assert!((0..3).all(|k| bounds.min[k] <= v[k] && v[k] <= bounds.max[k]));
+        }
+        // plane k of the deformed cube is the image of the rest cube's plane k (face numbering kept)
+        for k in 0..3 {
+            let axis = map([0, 1, 2].map(|c| if c == k { 1.0 } else { 0.0 }));
+            let axis = [0, 1, 2].map(|c| axis[c] - b[c]);
+            let [plus, minus] = [scene.planes_of(0)[2 * k], scene.planes_of(0)[2 * k + 1]];
+            assert!(plus[0] * axis[0] + plus[1] * axis[1] + plus[2] * axis[2] > 0.0, "plane {} faces +axis {k}", 2 * k);
+            assert!(minus[0] * axis[0] + minus[1] * axis[1] + minus[2] * axis[2] < 0.0);
+        }
+        assert_eq!(scene.sites[0], map([0.0; 3]));
+        // the other element moves with its fragment (at rest)
+        assert_eq!(scene.planes_of(1), SceneGeometry::build(&particles, None).planes_of(1));
+    }
 
     /// Projects `p` with a row-vector matrix and divides: (x / w, y / w).
     fn project(m: &[f32; 16], p: DVec3) -> (f64, f64) {
