@@ -5,6 +5,7 @@
 mod support;
 
 use glam::{DQuat, DVec3};
+use shatter_core::fragments::{FragmentFrame, FragmentMeta};
 use shatter_core::particles::{Elements, ParticleSet};
 use shatter_core::random::SplitMix64;
 use shatter_gpu::GpuContext;
@@ -64,8 +65,8 @@ fn look(floor: bool) -> Look {
     }
 }
 
-/// Random cubes on a jittered lattice (some touching), random tets, or both kinds' scenes.
-fn random_scene(seed: u64, tets: bool) -> SceneGeometry {
+/// The particles of [`random_scene`].
+fn random_particles(seed: u64, tets: bool) -> ParticleSet {
     let mut rng = SplitMix64::new(seed);
     let mut r = move || rng.next_f64() as f32;
     let mut positions = Vec::new();
@@ -96,10 +97,55 @@ fn random_scene(seed: u64, tets: bool) -> SceneGeometry {
         let q = DQuat::from_axis_angle(DVec3::new(0.3, 1.0, 0.2).normalize(), 0.4).as_quat();
         Elements::Cubes { half_size_m: vec![0.05; n], orientation: q.to_array() }
     };
-    let mut scene = SceneGeometry::build(&set(positions, elements), None);
+    set(positions, elements)
+}
+
+/// Random cubes on a jittered lattice (some touching), random tets, or both kinds' scenes.
+fn random_scene(seed: u64, tets: bool) -> SceneGeometry {
+    let mut scene = SceneGeometry::build(&random_particles(seed, tets), None);
     // three fragments, so the mattes count several ids
     scene.fragment = (0..scene.len() as u32).map(|e| e % 3).collect();
     scene
+}
+
+/// `particles` bent about the z axis (a circle of radius 0.5 through the origin, the body's x
+/// along it) and stretched by 20 % across the bend per metre: each element drawn deformed by the
+/// field's gradient at its particle (deformed elements, `post.element_shapes = "deformed"`).
+fn bent_scene(particles: &ParticleSet) -> SceneGeometry {
+    let radius = 0.5f64;
+    let n = particles.len();
+    let maps = particles
+        .rest_position_m
+        .iter()
+        .map(|p| {
+            let [x, y, z] = p.map(f64::from);
+            let theta = x / radius;
+            let (sin, cos) = theta.sin_cos();
+            let arm = radius - y * 1.2;
+            // phi(X) = (arm sin(theta), radius - arm cos(theta), z)
+            let phi = [arm * sin, radius - arm * cos, z];
+            let dx = [arm / radius * cos, arm / radius * sin, 0.0];
+            let dy = [-1.2 * sin, 1.2 * cos, 0.0];
+            let dz = [0.0, 0.0, 1.0];
+            let mut rows = [0.0f32; 12];
+            for r in 0..3 {
+                let column = [dx[r], dy[r], dz[r]];
+                rows[4 * r..4 * r + 3].copy_from_slice(&column.map(|v| v as f32));
+                rows[4 * r + 3] = (phi[r] - (column[0] * x + column[1] * y + column[2] * z)) as f32;
+            }
+            rows
+        })
+        .collect();
+    let fragments = FragmentFrame {
+        meta: FragmentMeta { frame: 2, step: 1, time_s: 0.0, smoothed: false, inputs: None },
+        fragment_of: (0..n as u32).map(|e| e % 3).collect(),
+        rotation: vec![[0.0, 0.0, 0.0, 1.0]; 3],
+        translation_m: vec![[0.0; 3]; 3],
+        elements: (0..3u32).map(|f| (0..n as u32).filter(|e| e % 3 == f).count() as u32).collect(),
+        mass_kg: vec![1.0; 3],
+        element_affine: Some(maps),
+    };
+    SceneGeometry::build(particles, Some(&fragments))
 }
 
 /// Compares the tracers; returns how many pixels see a fracture face first.
@@ -160,6 +206,23 @@ fn gpu_and_cpu_agree_on_random_opaque_cube_scenes() {
     let camera = Camera::look_at(DVec3::new(0.4, 0.5, 1.3), DVec3::ZERO, DVec3::Y, 45.0, 48, 36);
     let look = Look { opaque_cubes: true, ..look(true) };
     assert!(compare(&scene, &look, &camera, 2) > 0, "faces resting on neighbours show as fracture faces");
+}
+
+/// Deformed elements: each element mapped by its own affine map (sheared, stretched cubes and
+/// tetrahedra): the tracers agree as on rigid scenes.
+#[test]
+fn gpu_and_cpu_agree_on_deformed_scenes() {
+    let camera = Camera::look_at(DVec3::new(0.4, 0.5, 1.3), DVec3::new(0.0, 0.05, 0.0), DVec3::Y, 45.0, 48, 36);
+    let particles = random_particles(3, false);
+    let glass = bent_scene(&particles);
+    let rigid = SceneGeometry::build(&particles, None);
+    let turned = glass.planes.iter().zip(&rigid.planes).filter(|(a, b)| (a[0] - b[0]).abs() > 0.05).count();
+    assert!(turned * 2 > rigid.planes.len(), "the elements are bent: {turned} of {} planes turned", rigid.planes.len());
+    assert!(compare(&glass, &look(true), &camera, 1) > 0, "faces resting on neighbours show as fracture faces");
+    let opaque = Look { opaque_cubes: true, ..look(false) };
+    compare(&glass, &opaque, &camera, 2);
+    let camera = Camera::look_at(DVec3::new(-0.3, 0.25, 0.5), DVec3::ZERO, DVec3::Y, 50.0, 48, 36);
+    compare(&bent_scene(&random_particles(11, true)), &look(true), &camera, 2);
 }
 
 #[test]
