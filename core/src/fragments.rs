@@ -209,6 +209,33 @@ mod tests {
         assert!(is_affine_rigid(&AFFINE_RIGID) && !is_affine_rigid(&stretch));
     }
 
+    /// The follow-through moves a deformed element with its body: the map composed with the
+    /// body's motion since the handoff.
+    #[test]
+    fn an_affine_map_follows_its_fragments_motion() {
+        let map = [1.1, 0.2, 0.0, 0.5, 0.0, 0.9, 0.1, -0.2, 0.05, 0.0, 1.2, 0.3];
+        let apply = |m: &[f32; 12], x: [f64; 3]| {
+            [0, 1, 2].map(|r| (0..3).map(|c| f64::from(m[4 * r + c]) * x[c]).sum::<f64>() + f64::from(m[4 * r + 3]))
+        };
+        let from = (glam::Quat::from_rotation_y(0.3).to_array(), [0.1, 0.0, 0.0]);
+        let to = (glam::Quat::from_rotation_x(1.2).to_array(), [0.0, 2.0, -1.0]);
+        let moved = compose_affine_with_motion(&map, from, to);
+        let motion = |(q, t): ([f32; 4], [f64; 3]), x: glam::DVec3| {
+            glam::DQuat::from_array(q.map(f64::from)) * x + glam::DVec3::from_array(t)
+        };
+        for x in [[0.0, 0.0, 0.0], [1.0, -2.0, 0.5], [0.3, 0.7, -1.1]] {
+            // where the element's point was at the handoff, taken back to the fragment's rest
+            // frame and then moved as the fragment is now
+            let at_handoff = glam::DVec3::from_array(apply(&map, x));
+            let rest = glam::DQuat::from_array(from.0.map(f64::from)).inverse()
+                * (at_handoff - glam::DVec3::from_array(from.1));
+            let expected = motion(to, rest);
+            let found = glam::DVec3::from_array(apply(&moved, x));
+            assert!((found - expected).length() < 1e-5, "{found} vs {expected}");
+        }
+        assert_eq!(compose_affine_with_motion(&AFFINE_RIGID, from, to), AFFINE_RIGID);
+    }
+
     /// A rigid frame is written exactly as before the optional section existed.
     #[test]
     fn a_rigid_frame_has_no_affine_section() {

@@ -1,6 +1,7 @@
 //! Benchmark: `shatter post` work for one frame of 600,000 elements (target: under 1 s on two
 //! cores): components over intact adjacency, stable ids, Kabsch per fragment, and writing the
-//! frame's fragments file and point cache.
+//! frame's fragments file and point cache; and with deformed elements (`post.element_shapes =
+//! "deformed"`), the elements' affine maps (deformation gradients over every intact bond).
 //!
 //! `cargo bench -p shatter-post --bench post`
 
@@ -14,6 +15,7 @@ use shatter_core::fragments::{FragmentFrame, FragmentMeta};
 use shatter_core::ply::{Column, PointCache};
 use shatter_core::random::SplitMix64;
 use shatter_post::FragmentTracker;
+use shatter_post::deformation::ElementDeformation;
 
 fn main() {
     let text = r#"
@@ -100,6 +102,23 @@ bulk_modulus_pa = 14.9e9
         frame.motion.len()
     );
     println!("  graph setup (once per run): {setup_s:.3} s");
+    let started = Instant::now();
+    let mut deformation = ElementDeformation::new(&particles);
+    for &[a, b] in &particles.adjacency {
+        if block(a as usize) != block(b as usize) {
+            deformation.break_bond(&particles, particles.bonds.find(a as usize, b).expect("bonded") as u64);
+        }
+    }
+    let deformation_setup_s = started.elapsed().as_secs_f64();
+    let started = Instant::now();
+    let affine =
+        deformation.element_affine(&particles, [&moved[0], &moved[1], &moved[2]], &frame.fragment_of, &frame.motion);
+    let affine_s = started.elapsed().as_secs_f64();
+    assert_eq!(affine.len(), n);
+    println!(
+        "  deformed elements ({} bond entries): setup and breaks {deformation_setup_s:.3} s, affine maps {affine_s:.3} s per frame",
+        particles.bonds.neighbor.len()
+    );
     println!(
         "  one frame: components + ids + Kabsch {track_s:.3} s, writing {write_s:.3} s, total {:.3} s",
         track_s + write_s
