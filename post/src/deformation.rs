@@ -317,7 +317,10 @@ fn stars(vertices_m: &[[[f32; 3]; 4]]) -> (Vec<u32>, Vec<u32>) {
     let mut slots: Vec<([u32; 3], u32)> = vertices_m
         .iter()
         .enumerate()
-        .flat_map(|(t, tet)| tet.iter().enumerate().map(move |(k, v)| (v.map(f32::to_bits), (4 * t + k) as u32)))
+        // (+ 0.0 makes -0.0 the same key as 0.0, as == takes them)
+        .flat_map(|(t, tet)| {
+            tet.iter().enumerate().map(move |(k, v)| (v.map(|c| (c + 0.0).to_bits()), (4 * t + k) as u32))
+        })
         .collect();
     slots.sort_unstable();
     let mut offsets = vec![0u32];
