@@ -10,7 +10,8 @@
 //! CONFIG.toml ...]]` (default 200 steps). It takes the hardware GPU wgpu finds
 //! (`SHATTER_GPU_ADAPTER` picks one by name); without one it runs small blocks (24^3 at N = 2,
 //! 16^3 at N = 6, 20^3 elastoplastic) on a software adapter (Mesa lavapipe), only to show that the
-//! path works. `--small` forces the small blocks. `scripts/gpu-bench.sh` runs it with the rest
+//! path works. `--small` forces the small blocks; `--adapter` only prints the adapter it would
+//! use ("hardware NAME" or "software NAME"). `scripts/gpu-bench.sh` runs it with the rest
 //! of the GPU figures.
 //!
 //! A bond update is one bond's stretch, break test and force in one step, credited once per
@@ -311,6 +312,11 @@ fn main() {
             }
         }
     };
+    if args.iter().any(|a| a == "--adapter") {
+        // what scripts/gpu-bench.sh asks first
+        println!("{} {}", if software { "software" } else { "hardware" }, ctx.describe());
+        return;
+    }
     let ctx: &'static GpuContext = Box::leak(Box::new(ctx));
     let measured = measured_bandwidth(ctx);
     let nominal = nominal_bandwidth(&ctx.info.name);

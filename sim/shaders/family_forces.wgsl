@@ -55,8 +55,6 @@ struct FamilyParams {
 // at which it lets go (0: not held).
 @group(0) @binding(23) var<storage, read> hold: array<vec4<f32>>;
 
-var<workgroup> partial: array<f32, 64>;
-
 // One end's force scalar of a bond and its new plastic extension: `c` the end's particle
 // constants, `theta` its dilatation, `omega` its influence, `e_p` its old plastic extension.
 fn force_scalar(c: vec4<f32>, theta: f32, omega: f32, rest: f32, e: f32, e_p: f32, cap: f32) -> vec2<f32> {
@@ -169,15 +167,8 @@ fn family_forces(
     if (i < params.n) {
         p = particle(i);
     }
-    partial[lid] = p;
-    workgroupBarrier();
-    for (var stride = 32u; stride > 0u; stride = stride / 2u) {
-        if (lid < stride) {
-            partial[lid] = partial[lid] + partial[lid + stride];
-        }
-        workgroupBarrier();
-    }
+    let total = workgroup_sum(lid, p);
     if (lid == 0u && group < params.power_count) {
-        power[group] = partial[0];
+        power[group] = total;
     }
 }

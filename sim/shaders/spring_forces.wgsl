@@ -30,8 +30,6 @@
 @group(0) @binding(16) var<storage, read> spheres: array<vec4<f32>>;
 @group(0) @binding(17) var<storage, read_write> events: array<vec2<u32>>;
 
-var<workgroup> partial: array<f32, 64>;
-
 // All forces on particle i; returns the applied power F_ext . v.
 fn particle(i: u32) -> f32 {
     let own = body[2u * i];
@@ -137,15 +135,8 @@ fn spring_forces(
     if (local < range.count) {
         p = particle(range.first + local);
     }
-    partial[lid] = p;
-    workgroupBarrier();
-    for (var stride = 32u; stride > 0u; stride = stride / 2u) {
-        if (lid < stride) {
-            partial[lid] = partial[lid] + partial[lid + stride];
-        }
-        workgroupBarrier();
-    }
+    let total = workgroup_sum(lid, p);
     if (lid == 0u && group < range.workgroups) {
-        power[range.first_workgroup + group] = partial[0];
+        power[range.first_workgroup + group] = total;
     }
 }

@@ -16,7 +16,7 @@
 //!    `scan_blocks`, `scan_block_sums`, `scan_add`, `contact_scatter`, `contact_rank`,
 //!    `contact_candidates` bins the particles by a deterministic counting sort and lists each
 //!    particle's candidates in increasing index; `collisions` sums eq. 6 over them.
-//! 3. `spring_forces` (fused with the body forces of `body_forces.wgsl`): the bonds (stretch,
+//! 3. `spring_forces` (fused with the body forces of `force_common.wgsl`): the bonds (stretch,
 //!    break, force), the contact force, gravity, projectiles and indenters; the next boost; break
 //!    events; the workgroup's external power. With the elastoplastic model instead
 //!    `family_dilatation` (extensions, dilatation, damage) then `family_forces` (both ends' force

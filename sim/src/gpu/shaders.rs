@@ -5,11 +5,12 @@ use shatter_gpu::{ComputeKernel, GpuContext, GpuError};
 /// Declarations shared by every kernel (no entry point), prepended to each kernel file.
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
 
-/// The body forces (no entry point), prepended after [`COMMON`] to the kernels that apply them.
-pub const BODY_FORCES: &str = include_str!("../../shaders/body_forces.wgsl");
+/// What the force kernels share (body forces, the workgroup power sum; no entry point),
+/// prepended after [`COMMON`] to them.
+pub const FORCE_COMMON: &str = include_str!("../../shaders/force_common.wgsl");
 
-/// The kernels that apply the body forces (and get [`BODY_FORCES`]).
-const WITH_BODY_FORCES: [&str; 2] = ["spring_forces.wgsl", "family_forces.wgsl"];
+/// The force kernels (they get [`FORCE_COMMON`]).
+const FORCE_KERNELS: [&str; 2] = ["spring_forces.wgsl", "family_forces.wgsl"];
 
 /// Every kernel: (file name, source). One `@compute` entry point per file, named like the file.
 pub const KERNELS: [(&str, &str); 16] = [
@@ -31,10 +32,10 @@ pub const KERNELS: [(&str, &str); 16] = [
     ("family_forces.wgsl", include_str!("../../shaders/family_forces.wgsl")),
 ];
 
-/// The full source of kernel `name` (common declarations first, then the body forces where it
-/// applies them).
+/// The full source of kernel `name` (common declarations first, then the force kernels' shared
+/// code where it is one).
 pub fn source(name: &str) -> Option<String> {
-    let includes = if WITH_BODY_FORCES.contains(&name) { BODY_FORCES } else { "" };
+    let includes = if FORCE_KERNELS.contains(&name) { FORCE_COMMON } else { "" };
     KERNELS.iter().find(|(file, _)| *file == name).map(|(_, text)| format!("{COMMON}\n{includes}\n{text}"))
 }
 

@@ -60,6 +60,27 @@ fn flat(v: &[V4]) -> Vec<f32> {
     v.iter().flat_map(|x| x.iter().copied()).collect()
 }
 
+/// The parity scenes' bond network: a jittered 9 x 8 x 7 block of 1 mm at N = 3.
+fn block_particles() -> shatter_core::particles::ParticleSet {
+    let text = r#"
+[scene]
+name = "parity"
+output_dir = "out"
+seed = 3
+[geometry]
+source = "box"
+box_size_m = [0.009, 0.008, 0.007]
+sampler = "grid"
+spacing_m = 0.001
+horizon_factor = 3.0
+[material]
+density_kg_m3 = 2200.0
+bulk_modulus_pa = 14.9e9
+"#;
+    let config = PipelineConfig::from_toml_str(text, Path::new("/nonexistent/pipeline.toml")).expect("config");
+    shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles
+}
+
 /// A small random state on a real bond network: a jittered 9 x 8 x 7 block at N = 3, some
 /// bonds broken, thresholds placed so that about a third of the intact bonds break, contact on.
 struct Scene {
@@ -79,23 +100,7 @@ struct Scene {
 
 impl Scene {
     fn new(seed: u64, max_binding_bytes: u64) -> Scene {
-        let text = r#"
-[scene]
-name = "parity"
-output_dir = "out"
-seed = 3
-[geometry]
-source = "box"
-box_size_m = [0.009, 0.008, 0.007]
-sampler = "grid"
-spacing_m = 0.001
-horizon_factor = 3.0
-[material]
-density_kg_m3 = 2200.0
-bulk_modulus_pa = 14.9e9
-"#;
-        let config = PipelineConfig::from_toml_str(text, Path::new("/nonexistent/pipeline.toml")).expect("config");
-        let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
+        let particles = block_particles();
         let n = particles.len();
         let mut rng = SplitMix64::new(seed);
         let mut uniform = |lo: f64, hi: f64| (lo + (hi - lo) * rng.next_f64()) as f32;
@@ -610,25 +615,7 @@ fn elastoplastic_kernels_match_their_twins() {
     let scene = Scene::new(5, u64::MAX);
     assert_eq!(scene.layout.ranges.len(), 1);
     let (n, p) = (scene.n, scene.params);
-    let particles = {
-        let text = r#"
-[scene]
-name = "parity"
-output_dir = "out"
-seed = 3
-[geometry]
-source = "box"
-box_size_m = [0.009, 0.008, 0.007]
-sampler = "grid"
-spacing_m = 0.001
-horizon_factor = 3.0
-[material]
-density_kg_m3 = 2200.0
-bulk_modulus_pa = 14.9e9
-"#;
-        let config = PipelineConfig::from_toml_str(text, Path::new("/nonexistent/pipeline.toml")).expect("config");
-        shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles
-    };
+    let particles = block_particles();
     let constants = StateBasedConstants {
         bulk_modulus_pa: 14.9e9,
         shear_modulus_pa: 8.0e9,

@@ -2,8 +2,8 @@
 //! with the plastic return map, the break test, the bond forces) fused with the contact force,
 //! the body forces and the grips; break events; each workgroup's external power.
 
-use super::body_forces::body_force;
 use super::common::{U4, V4, add, dot3, scale, sub, xyz};
+use super::force_common::{body_force, workgroup_sum};
 use crate::gpu::wgsl_structs::{FamilyParams, Params, SLICE, Status, WG};
 
 /// `force_scalar` of `family_forces.wgsl`: one end's force scalar and new plastic extension.
@@ -135,15 +135,9 @@ pub fn family_forces(
             force[i] = [total[0], total[1], total[2], 0.0];
             partial[lid] = p;
         }
-        let mut stride = WG / 2;
-        while stride > 0 {
-            for lid in 0..stride {
-                partial[lid] += partial[lid + stride];
-            }
-            stride /= 2;
-        }
+        let total = workgroup_sum(partial);
         if group < params.power_count as usize {
-            power[group] = partial[0];
+            power[group] = total;
         }
     }
 }

@@ -19,7 +19,6 @@
 // `!(a <= b)` is the shaders' NaN-aware test.
 #![allow(clippy::needless_range_loop, clippy::too_many_arguments, clippy::neg_cmp_op_on_partial_ord)]
 
-mod body_forces;
 mod bond_energy;
 mod collisions;
 mod common;
@@ -30,6 +29,7 @@ mod contact_rank;
 mod contact_scatter;
 mod family_dilatation;
 mod family_forces;
+mod force_common;
 mod kick_drift;
 mod kick_floor;
 mod power_sum;
@@ -38,7 +38,6 @@ mod scan_block_sums;
 mod scan_blocks;
 mod spring_forces;
 
-pub use body_forces::cube_root;
 pub use bond_energy::bond_energy;
 pub use collisions::collisions;
 pub use common::{I4, U4, V4, bucket_of, cell_of, dot3};
@@ -49,6 +48,7 @@ pub use contact_rank::contact_rank;
 pub use contact_scatter::contact_scatter;
 pub use family_dilatation::family_dilatation;
 pub use family_forces::family_forces;
+pub use force_common::cube_root;
 pub use kick_drift::kick_drift;
 pub use kick_floor::kick_floor;
 pub use power_sum::power_sum;

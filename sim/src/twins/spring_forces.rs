@@ -2,8 +2,8 @@
 //! (stretch, break, force), the contact force, gravity, projectiles and indenters; the next boost;
 //! break events; each workgroup's external power.
 
-use super::body_forces::body_force;
 use super::common::{U4, V4, add, dot3, scale, sub, xyz};
+use super::force_common::{body_force, workgroup_sum};
 use crate::gpu::wgsl_structs::{NO_STRETCH, Params, RULE_BREAKING_FORCE, RULE_SIGNED_BOOST, Range, SLICE, Status, WG};
 
 /// Twin of `spring_forces.wgsl` (the workgroup power sums in the shader's tree order).
@@ -54,14 +54,8 @@ pub fn spring_forces(
                 );
             }
         }
-        let mut stride = wg / 2;
-        while stride > 0 {
-            for lid in 0..stride {
-                partial[lid] += partial[lid + stride];
-            }
-            stride /= 2;
-        }
-        power[range.first_workgroup as usize + group] = partial[0];
+        let total = workgroup_sum(partial);
+        power[range.first_workgroup as usize + group] = total;
     }
 }
 

@@ -1,10 +1,11 @@
-//! Twin of `body_forces.wgsl`, the body forces the force kernels (`spring_forces`,
-//! `family_forces`) share: gravity, projectiles (the paper's eq. 7) and spherical indenters.
+//! Twin of `force_common.wgsl`, what the force kernels (`spring_forces`, `family_forces`) share:
+//! the body forces (gravity, projectiles (the paper's eq. 7) and spherical indenters) and the
+//! workgroup power sum.
 
 use super::common::{V4, add, dot3, scale, sub, xyz};
-use crate::gpu::wgsl_structs::Params;
+use crate::gpu::wgsl_structs::{Params, WG};
 
-/// `cube_root` of `body_forces.wgsl`: pow, then one Newton step.
+/// `cube_root` of `force_common.wgsl`: pow, then one Newton step.
 pub fn cube_root(x: f32) -> f32 {
     if x <= 0.0 {
         return 0.0;
@@ -13,7 +14,7 @@ pub fn cube_root(x: f32) -> f32 {
     c - (c * c * c - x) / (3.0 * c * c)
 }
 
-/// `projectile_force` of `body_forces.wgsl`.
+/// `projectile_force` of `force_common.wgsl`.
 fn projectile_force(spheres: &[V4], s: usize, c: [f32; 3], p: [f32; 3]) -> [f32; 3] {
     let heading = spheres[2 * s];
     let radius = heading[3];
@@ -37,7 +38,7 @@ fn projectile_force(spheres: &[V4], s: usize, c: [f32; 3], p: [f32; 3]) -> [f32;
     scale(direction, magnitude)
 }
 
-/// `indenter_force` of `body_forces.wgsl`.
+/// `indenter_force` of `force_common.wgsl`.
 fn indenter_force(spheres: &[V4], s: usize, c: [f32; 3], p: [f32; 3]) -> [f32; 3] {
     let radius = spheres[2 * s][3];
     let stiffness = spheres[2 * s + 1][0];
@@ -50,7 +51,7 @@ fn indenter_force(spheres: &[V4], s: usize, c: [f32; 3], p: [f32; 3]) -> [f32; 3
     scale(d, stiffness * gap * gap / r)
 }
 
-/// `body_force` of `body_forces.wgsl`: gravity, then each projectile, then each indenter on a
+/// `body_force` of `force_common.wgsl`: gravity, then each projectile, then each indenter on a
 /// particle of mass `mass` at `p`, at step `step`.
 pub(super) fn body_force(params: &Params, spheres: &[V4], mass: f32, p: [f32; 3], step: u32) -> [f32; 3] {
     let mut external = scale([params.gravity_x, params.gravity_y, params.gravity_z], mass);
@@ -63,4 +64,17 @@ pub(super) fn body_force(params: &Params, spheres: &[V4], mass: f32, p: [f32; 3]
         external = add(external, indenter_force(spheres, s, xyz(spheres[centres + s]), p));
     }
     external
+}
+
+/// `workgroup_sum` of `force_common.wgsl`: the sum of a workgroup's `partial` values in the
+/// shader's tree order.
+pub(super) fn workgroup_sum(mut partial: [f32; WG]) -> f32 {
+    let mut stride = WG / 2;
+    while stride > 0 {
+        for lid in 0..stride {
+            partial[lid] += partial[lid + stride];
+        }
+        stride /= 2;
+    }
+    partial[0]
 }

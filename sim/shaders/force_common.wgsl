@@ -1,6 +1,23 @@
-// Body forces on a particle (the paper's bodyforces): gravity, projectiles (eq. 7) and
-// spherical indenters at the current step. No entry point: the host prepends this file to the
-// force kernels (`spring_forces`, `family_forces`), which declare `params` and `spheres`.
+// What the force kernels (`spring_forces`, `family_forces`) share: the body forces on a particle
+// (the paper's bodyforces: gravity, projectiles (eq. 7) and spherical indenters at the current
+// step) and the workgroup's sum of the external power. No entry point: the host prepends this
+// file to those kernels, which declare `params` and `spheres`.
+
+var<workgroup> partial: array<f32, 64>;
+
+// The sum of `p` over the workgroup's invocations, in a fixed tree order (every invocation gets
+// it; call from uniform control flow).
+fn workgroup_sum(lid: u32, p: f32) -> f32 {
+    partial[lid] = p;
+    workgroupBarrier();
+    for (var stride = 32u; stride > 0u; stride = stride / 2u) {
+        if (lid < stride) {
+            partial[lid] = partial[lid] + partial[lid + stride];
+        }
+        workgroupBarrier();
+    }
+    return partial[0];
+}
 
 // The cube root of x >= 0: pow, then one Newton step (WGSL has no cbrt).
 fn cube_root(x: f32) -> f32 {
