@@ -4,6 +4,7 @@
 //!
 //! Run with `--nocapture` to see the measured figures.
 
+use std::collections::HashMap;
 use std::time::Instant;
 
 use glam::DVec3;
@@ -51,6 +52,7 @@ fn check_mesh(name: &str, count: usize, independent_checks: usize) {
     assert!(volume_error < 5e-3, "{name}: cell volumes miss the mesh volume by {volume_error:e}");
     assert!(area_error < 1e-3, "{name}: cell surfaces miss the mesh area by {area_error:e}");
     assert!(voronoi.cells.iter().all(|cell| cell.volume > 0.0), "{name}: a cell around an inside site is empty");
+    check_closed_cells(name, &voronoi);
     let vertices = check_polytopes(&mesh, &sites, &voronoi);
     check_adjacency(&mesh, &sites, &voronoi, &vertices);
     eprintln!("{name}: all checks in {:.2?}", started.elapsed());
@@ -65,6 +67,35 @@ fn totals_error(mesh: &TriangleMesh, voronoi: &ClippedVoronoi) -> (f64, f64) {
     let volume: f64 = voronoi.cells.iter().map(|cell| cell.volume).sum();
     let area: f64 = voronoi.cells.iter().flat_map(|cell| &cell.triangles).map(triangle_area).sum();
     ((volume / mesh.signed_volume() - 1.0).abs(), (area / mesh.area() - 1.0).abs())
+}
+
+/// Every cell alone, its surface pieces and the inside parts of all its faces, is a closed,
+/// consistently oriented surface: each directed edge (by the exact bits of its ends) comes as
+/// often as its reverse. (Post's pieces are closed when their cells are.) Where the surface
+/// intersects itself, the cut curve crosses itself on a face; those faces were once left open.
+fn check_closed_cells(name: &str, voronoi: &ClippedVoronoi) {
+    let key = |p: DVec3| (p + DVec3::ZERO).to_array().map(f64::to_bits);
+    let (mut open_cells, mut all_edges) = (Vec::new(), 0);
+    for (index, cell) in voronoi.cells.iter().enumerate() {
+        let mut net: HashMap<([u64; 3], [u64; 3]), i64> = HashMap::new();
+        for t in cell.triangles.iter().chain(&cell.face_triangles) {
+            for k in 0..3 {
+                let (a, b) = (key(t[k]), key(t[(k + 1) % 3]));
+                if a < b {
+                    *net.entry((a, b)).or_default() += 1;
+                } else if b < a {
+                    *net.entry((b, a)).or_default() -= 1;
+                }
+            }
+        }
+        all_edges += net.len();
+        let open = net.values().filter(|&&count| count != 0).count();
+        if open > 0 {
+            open_cells.push((index, open));
+        }
+    }
+    eprintln!("  {all_edges} cell edges, open cells (cell, unmatched edges): {open_cells:?}");
+    assert!(open_cells.is_empty(), "{name}: cells are not closed: {open_cells:?}");
 }
 
 /// No two sites closer than `min_distance` (the k-d tree's range query is inclusive); returns

@@ -1,9 +1,15 @@
 //! The part of a cell face inside the mesh as triangles: the points of its boundary (the cut
 //! curve and the stretches of the face's edges inside the mesh) triangulated by spade's
-//! constrained Delaunay triangulation with the boundary as constraints, keeping the triangles the
-//! boundary winds round. The part may be non-convex and in several pieces.
+//! constrained Delaunay triangulation with the boundary as constraints. Each triangle's winding
+//! number is found by walking across the triangulation's edges from outside (it steps by the
+//! boundary segments along each edge), never by a point test, so the triangles' edges cancel
+//! exactly but for the boundary. The part may be non-convex and in several pieces.
+
+use std::cmp::Reverse;
+use std::collections::{BTreeMap, BinaryHeap, HashMap, VecDeque};
 
 use glam::{DVec2, DVec3};
+use spade::handles::FixedVertexHandle;
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
 
 /// Triangles, counter-clockwise about `normal`, covering the region of their plane that
@@ -11,69 +17,239 @@ use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
 /// holes clockwise), each as many times as the region's winding number steps there. A triangle
 /// comes as many times as the boundary winds round it, clockwise where the winding number is
 /// negative (where a self-overlapping surface counts volume twice or negatively, its faces
-/// close up with it). Segments that would cross others are left out of the constraints; the
-/// winding test still decides each triangle.
+/// close up with it).
+///
+/// The triangles' edges are exactly the boundary's segments (as a chain: each directed edge
+/// comes as many more times than its reverse as the boundary runs along it) whatever the
+/// rounding: the winding numbers are propagated across the triangulation's edges, and where a
+/// segment cannot be an edge of the triangulation (it crosses another segment, where the surface
+/// overlaps itself; or two boundary points fall on one point of the plane) the difference
+/// between the segment and a path of edges joining its ends is closed by a fan of thin
+/// triangles along it.
 pub(super) fn region_triangles(normal: DVec3, boundary: &[(DVec3, DVec3)]) -> Vec<[DVec3; 3]> {
-    let Some(&(origin, _)) = boundary.first() else {
+    // the boundary's points, each once (by its bits), and its segments between them
+    let key = |p: DVec3| (p + DVec3::ZERO).to_array().map(f64::to_bits);
+    let mut id_of: HashMap<[u64; 3], u32> = HashMap::new();
+    let mut points: Vec<DVec3> = Vec::new();
+    let mut id = |p: DVec3| {
+        *id_of.entry(key(p)).or_insert_with(|| {
+            points.push(p);
+            points.len() as u32 - 1
+        })
+    };
+    let segments: Vec<[u32; 2]> = boundary.iter().map(|&(a, b)| [id(a), id(b)]).filter(|[a, b]| a != b).collect();
+    let Some(&[first, _]) = segments.first() else {
         return Vec::new();
     };
+    let origin = points[first as usize];
     let u = normal.any_orthonormal_vector();
     let v = normal.cross(u);
     let flat = |p: DVec3| DVec2::new((p - origin).dot(u), (p - origin).dot(v));
+
+    // every point a vertex; points that fall on one point of the plane share it, and the vertex
+    // stands for the first of them
     let mut cdt: ConstrainedDelaunayTriangulation<Point2<f64>> = ConstrainedDelaunayTriangulation::new();
-    let mut at = Vec::new(); // the 3D point of each CDT vertex, by handle index
-    let mut constraints = Vec::with_capacity(boundary.len());
-    for &(a, b) in boundary {
-        let mut ends = [None, None];
-        for (end, p) in ends.iter_mut().zip([a, b]) {
-            let q = flat(p);
-            if let Ok(handle) = cdt.insert(Point2::new(q.x, q.y)) {
-                if handle.index() >= at.len() {
-                    at.resize(handle.index() + 1, p);
-                }
-                *end = Some(handle);
+    let mut vertex_of = Vec::with_capacity(points.len());
+    let mut point_of: Vec<u32> = Vec::new(); // by vertex index
+    for (k, &p) in points.iter().enumerate() {
+        let q = flat(p);
+        let Ok(handle) = cdt.insert(Point2::new(q.x, q.y)) else {
+            return Vec::new(); // not finite: nothing to triangulate
+        };
+        if handle.index() >= point_of.len() {
+            point_of.resize(handle.index() + 1, k as u32);
+        }
+        vertex_of.push(handle.index());
+    }
+
+    // each segment's path of vertices in the triangulation: the constraint edge (split where it
+    // runs through other vertices), or, where it would cross a constraint, the shortest path
+    let mut paths: HashMap<[usize; 2], Option<Vec<usize>>> = HashMap::new(); // by ends, either way
+    for &[a, b] in &segments {
+        let (from, to) = (vertex_of[a as usize], vertex_of[b as usize]);
+        if from == to || paths.contains_key(&[from, to]) || paths.contains_key(&[to, from]) {
+            continue;
+        }
+        let edges = cdt.try_add_constraint(FixedVertexHandle::from_index(from), FixedVertexHandle::from_index(to));
+        let mut path = vec![from];
+        for edge in edges {
+            let edge = cdt.directed_edge(edge);
+            if Some(&edge.from().fix().index()) != path.last() {
+                break;
+            }
+            path.push(edge.to().fix().index());
+        }
+        paths.insert([from, to], (path.len() > 1 && path.last() == Some(&to)).then_some(path));
+    }
+    let refused: Vec<[usize; 2]> = paths.iter().filter(|(_, path)| path.is_none()).map(|(&ends, _)| ends).collect();
+    if !refused.is_empty() {
+        let mut graph: Vec<Vec<(usize, f64)>> = vec![Vec::new(); point_of.len()];
+        for edge in cdt.directed_edges() {
+            let [from, to] = [edge.from(), edge.to()].map(|vertex| vertex.position());
+            graph[edge.from().fix().index()].push((edge.to().fix().index(), (from.x - to.x).hypot(from.y - to.y)));
+        }
+        for [from, to] in refused {
+            paths.insert([from, to], shortest_path(&graph, from, to));
+        }
+    }
+    let path_of = |from: usize, to: usize| -> Vec<usize> {
+        if from == to {
+            return vec![from];
+        }
+        match (paths.get(&[from, to]), paths.get(&[to, from])) {
+            (Some(Some(path)), _) => path.clone(),
+            (_, Some(Some(path))) => path.iter().rev().copied().collect(),
+            _ => Vec::new(), // no path (cannot happen: the triangulation is connected)
+        }
+    };
+
+    // the winding number of each face: zero outside, stepping by the paths along each edge
+    let mut steps: HashMap<[usize; 2], i32> = HashMap::new();
+    let mut corrections = TriangleChain::default();
+    for &[a, b] in &segments {
+        let (va, vb) = (vertex_of[a as usize], vertex_of[b as usize]);
+        let path = path_of(va, vb);
+        for pair in path.windows(2) {
+            *steps.entry([pair[0], pair[1]]).or_default() += 1;
+            *steps.entry([pair[1], pair[0]]).or_default() -= 1;
+        }
+        if path.len() != 2 || point_of[va] != a || point_of[vb] != b {
+            // what the path misses of the segment: the cycle a, b, the path back from b's
+            // vertex to a's, closed by a fan from a (thin triangles along the segment)
+            let mut cycle = vec![a, b];
+            cycle.extend(path.iter().rev().map(|&vertex| point_of[vertex]));
+            corrections.add_fan(&cycle, 1);
+        }
+    }
+    let mut across: Vec<Vec<(usize, i32)>> = vec![Vec::new(); cdt.num_all_faces()];
+    for edge in cdt.directed_edges() {
+        let (left, right) = (edge.face().fix().index(), edge.rev().face().fix().index());
+        let step = steps.get(&[edge.from().fix().index(), edge.to().fix().index()]).copied().unwrap_or(0);
+        across[left].push((right, -step));
+    }
+    let mut winding: Vec<Option<i32>> = vec![None; across.len()];
+    let outer = cdt.outer_face().fix().index();
+    winding[outer] = Some(0);
+    let mut queue = VecDeque::from([outer]);
+    while let Some(face) = queue.pop_front() {
+        let here = winding[face].unwrap_or(0);
+        for &(next, step) in &across[face] {
+            if winding[next].is_none() {
+                winding[next] = Some(here + step);
+                queue.push_back(next);
             }
         }
-        if let [Some(ha), Some(hb)] = ends {
-            constraints.push((ha, hb));
-        }
     }
-    for (a, b) in constraints {
-        if a != b && cdt.can_add_constraint(a, b) {
-            cdt.add_constraint(a, b);
+    let triangles = cdt.inner_faces().flat_map(|face| {
+        let [a, b, c] = face.vertices().map(|vertex| point_of[vertex.fix().index()]);
+        let winding = winding[face.fix().index()].unwrap_or(0);
+        let triangle = if winding < 0 { [a, c, b] } else { [a, b, c] };
+        std::iter::repeat_n(triangle, winding.unsigned_abs() as usize)
+    });
+    if corrections.count.is_empty() {
+        triangles.map(|triangle| triangle.map(|k| points[k as usize])).collect()
+    } else {
+        // the triangulation's triangles and the fans together, a triangle and its reverse cancelling
+        for triangle in triangles {
+            corrections.add_triangle(triangle, 1);
         }
+        corrections.triangles(&points)
     }
-    let flat_boundary: Vec<(DVec2, DVec2)> = boundary.iter().map(|&(a, b)| (flat(a), flat(b))).collect();
-    cdt.inner_faces()
-        .flat_map(|face| {
-            let vertices = face.vertices();
-            let [pa, pb, pc] = vertices.map(|vertex| {
-                let p = vertex.position();
-                DVec2::new(p.x, p.y)
-            });
-            // slivers stay (dropping one would leave its edges unmatched)
-            let winding = winding_number((pa + pb + pc) / 3.0, &flat_boundary);
-            let [a, b, c] = vertices.map(|vertex| at[vertex.fix().index()]);
-            let triangle = if winding < 0 { [a, c, b] } else { [a, b, c] };
-            std::iter::repeat_n(triangle, winding.unsigned_abs() as usize)
-        })
-        .collect()
 }
 
-/// How many times the closed segments `boundary` wind round `p` (counter-clockwise positive).
-fn winding_number(p: DVec2, boundary: &[(DVec2, DVec2)]) -> i32 {
-    let mut winding = 0;
-    for &(a, b) in boundary {
-        let side = (b - a).perp_dot(p - a);
-        if a.y <= p.y {
-            if b.y > p.y && side > 0.0 {
-                winding += 1;
-            }
-        } else if b.y <= p.y && side < 0.0 {
-            winding -= 1;
+/// Triangles on point ids with multiplicities, a triangle and its reverse cancelling.
+#[derive(Default)]
+struct TriangleChain {
+    /// Keyed by the ids rotated to put the smallest first and the other two ascending; the count
+    /// is negative for the other orientation.
+    count: BTreeMap<[u32; 3], i32>,
+}
+
+impl TriangleChain {
+    fn add_triangle(&mut self, [a, b, c]: [u32; 3], times: i32) {
+        if a == b || b == c || c == a || times == 0 {
+            return; // two corners the same: its edges cancel
+        }
+        let [first, second, third] = if a < b && a < c {
+            [a, b, c]
+        } else if b < c {
+            [b, c, a]
+        } else {
+            [c, a, b]
+        };
+        let (key, sign) = if second < third { ([first, second, third], 1) } else { ([first, third, second], -1) };
+        *self.count.entry(key).or_default() += sign * times;
+    }
+
+    /// The fan from the first corner over a closed polygon (its edges are the polygon's).
+    fn add_fan(&mut self, polygon: &[u32], times: i32) {
+        for k in 1..polygon.len().saturating_sub(1) {
+            self.add_triangle([polygon[0], polygon[k], polygon[k + 1]], times);
         }
     }
-    winding
+
+    fn triangles(&self, points: &[DVec3]) -> Vec<[DVec3; 3]> {
+        self.count
+            .iter()
+            .flat_map(|(&[a, b, c], &count)| {
+                let triangle = if count > 0 { [a, b, c] } else { [a, c, b] };
+                std::iter::repeat_n(triangle.map(|k| points[k as usize]), count.unsigned_abs() as usize)
+            })
+            .collect()
+    }
+}
+
+/// The shortest path of edges from vertex `from` to `to` (Dijkstra), `None` when there is none.
+fn shortest_path(graph: &[Vec<(usize, f64)>], from: usize, to: usize) -> Option<Vec<usize>> {
+    let mut distance = vec![f64::INFINITY; graph.len()];
+    let mut previous = vec![usize::MAX; graph.len()];
+    let mut heap = BinaryHeap::new();
+    distance[from] = 0.0;
+    heap.push(Reverse((Ordered(0.0), from)));
+    while let Some(Reverse((Ordered(d), vertex))) = heap.pop() {
+        if vertex == to {
+            break;
+        }
+        if d > distance[vertex] {
+            continue;
+        }
+        for &(next, length) in &graph[vertex] {
+            if d + length < distance[next] {
+                distance[next] = d + length;
+                previous[next] = vertex;
+                heap.push(Reverse((Ordered(d + length), next)));
+            }
+        }
+    }
+    if previous[to] == usize::MAX {
+        return None;
+    }
+    let mut path = vec![to];
+    while let Some(&last) = path.last()
+        && last != from
+    {
+        path.push(previous[last]);
+    }
+    path.reverse();
+    Some(path)
+}
+
+/// An f64 ordered by `total_cmp`, for the heap.
+#[derive(Clone, Copy, PartialEq)]
+struct Ordered(f64);
+
+impl Eq for Ordered {}
+
+impl PartialOrd for Ordered {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for Ordered {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.0.total_cmp(&other.0)
+    }
 }
 
 #[cfg(test)]
@@ -86,6 +262,32 @@ mod tests {
 
     fn closed(points: &[DVec3]) -> Vec<(DVec3, DVec3)> {
         (0..points.len()).map(|k| (points[k], points[(k + 1) % points.len()])).collect()
+    }
+
+    /// The directed edges of `triangles` minus the segments of `boundary`, by exact bits, that
+    /// do not cancel with their reverses: empty when the triangles' edges are exactly the
+    /// boundary (as a chain).
+    fn unmatched(triangles: &[[DVec3; 3]], boundary: &[(DVec3, DVec3)]) -> Vec<(DVec3, DVec3, i32)> {
+        let key = |p: DVec3| p.to_array().map(f64::to_bits);
+        type Bits = [[u64; 3]; 2];
+        let mut net: HashMap<Bits, (DVec3, DVec3, i32)> = HashMap::new();
+        let mut add = |a: DVec3, b: DVec3, times: i32| {
+            let (ka, kb) = (key(a), key(b));
+            if ka < kb {
+                net.entry([ka, kb]).or_insert((a, b, 0)).2 += times;
+            } else if kb < ka {
+                net.entry([kb, ka]).or_insert((b, a, 0)).2 -= times;
+            }
+        };
+        for t in triangles {
+            for k in 0..3 {
+                add(t[k], t[(k + 1) % 3], 1);
+            }
+        }
+        for &(a, b) in boundary {
+            add(a, b, -1);
+        }
+        net.into_values().filter(|edge| edge.2 != 0).collect()
     }
 
     #[test]
@@ -104,5 +306,48 @@ mod tests {
         let below = region_triangles(-DVec3::Z, &reversed);
         assert!((area(&below, -DVec3::Z) - (3.0 - 0.0625)).abs() < 1e-12);
         assert!(region_triangles(DVec3::Z, &[]).is_empty());
+        assert!(unmatched(&triangles, &boundary).is_empty());
+        assert!(unmatched(&below, &reversed).is_empty());
+    }
+
+    #[test]
+    fn a_boundary_that_crosses_itself_is_closed_up_exactly() {
+        // Where the surface intersects itself, the cut curve crosses itself on the face: two
+        // overlapping squares (winding number 2 where they overlap), and a long thin loop
+        // crossing both. Their segments cannot all be edges of one triangulation; the triangles'
+        // edges must still be exactly the boundary's (they were not when the crossing segments
+        // were left out and a point test at each triangle's centre decided its winding number).
+        let z = -0.25;
+        let p = |x: f64, y: f64| DVec3::new(x, y, z);
+        let mut boundary = closed(&[p(0.0, 0.0), p(2.0, 0.0), p(2.0, 2.0), p(0.0, 2.0)]);
+        boundary.extend(closed(&[p(1.0, 1.0), p(3.0, 1.0), p(3.0, 3.0), p(1.0, 3.0)]));
+        boundary.extend(closed(&[p(-0.5, 1.5), p(3.5, 1.4), p(3.5, 1.6)]));
+        let triangles = region_triangles(DVec3::Z, &boundary);
+        assert_eq!(unmatched(&triangles, &boundary), []);
+        // the area counts the overlaps with their winding numbers: 4 + 4 + the thin loop's 0.4
+        assert!((area(&triangles, DVec3::Z) - 8.4).abs() < 1e-12, "area {}", area(&triangles, DVec3::Z));
+        // a figure of eight: winding number +1 in one lobe, -1 in the other
+        let eight = closed(&[p(0.0, 0.0), p(1.0, 1.0), p(1.0, 0.0), p(0.0, 1.0)]);
+        let triangles = region_triangles(DVec3::Z, &eight);
+        assert_eq!(unmatched(&triangles, &eight), []);
+        assert!(area(&triangles, DVec3::Z).abs() < 1e-12);
+    }
+
+    #[test]
+    fn points_that_fall_on_one_point_of_the_plane_keep_their_own_edges() {
+        // a square whose loop comes back to its first corner through a point just above it
+        // (the same point once projected on the plane)
+        let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+        let above = p(0.0, 0.0, 1e-12);
+        let boundary = vec![
+            (p(0.0, 0.0, 0.0), p(1.0, 0.0, 0.0)),
+            (p(1.0, 0.0, 0.0), p(1.0, 1.0, 0.0)),
+            (p(1.0, 1.0, 0.0), p(0.0, 1.0, 0.0)),
+            (p(0.0, 1.0, 0.0), above),
+            (above, p(0.0, 0.0, 0.0)),
+        ];
+        let triangles = region_triangles(DVec3::Z, &boundary);
+        assert_eq!(unmatched(&triangles, &boundary), []);
+        assert!((area(&triangles, DVec3::Z) - 1.0).abs() < 1e-12);
     }
 }
