@@ -328,9 +328,15 @@ fn gpu_and_cpu_agree_on_trimtopes_with_an_embedded_surface() {
         face_triangles_m: Vec::new(),
         face_planes: Vec::new(),
     };
-    let scene = SceneGeometry::build(&set(sites, elements), None);
+    let particles = set(sites, elements);
+    let scene = SceneGeometry::build(&particles, None);
     for (eye, samples) in [(DVec3::new(0.2, 0.6, 0.8), 1), (DVec3::new(-0.9, -0.2, -0.3), 2)] {
         let camera = Camera::look_at(eye, DVec3::new(0.0, 0.0, -0.1), DVec3::Y, 50.0, 48, 36);
         assert!(compare(&scene, &look(false), &camera, samples) > 0, "trimtope cell faces are fracture faces");
     }
+    // deformed cells: planes and embedded triangles mapped by each cell's affine map
+    let bent = bent_scene(&particles);
+    assert_ne!(bent.triangles, scene.triangles);
+    let camera = Camera::look_at(DVec3::new(0.2, 0.6, 0.8), DVec3::new(0.0, 0.0, -0.1), DVec3::Y, 50.0, 48, 36);
+    assert!(compare(&bent, &look(false), &camera, 2) > 0, "deformed trimtope cell faces are fracture faces");
 }
