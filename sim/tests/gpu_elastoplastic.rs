@@ -306,3 +306,15 @@ fn a_beam_stretched_by_grips_thins_by_its_poisson_ratio_on_the_gpu() {
     assert!((measured - nu).abs() < 0.06, "nu = {nu}: measured {measured}");
     assert!((energy / work - 1.0).abs() < 0.02, "energy {energy:e} J against the grips' work {work:e} J");
 }
+
+#[test]
+fn bonds_beyond_one_binding_are_refused_with_their_sizes() {
+    let (config, particles) = struck_plate();
+    let ctx = GpuContext::shared_for_tests().unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
+    let model = Model::new(&config, &particles).expect("model");
+    let options = GpuOptions { max_binding_bytes: Some(256 * 1024), ..GpuOptions::default() };
+    let error = GpuSimulation::new(ctx.into(), &particles, model, None, config.sim.stiffness_correction, &options)
+        .expect_err("more than one binding");
+    eprintln!("{error}");
+    assert!(error.to_string().contains("one storage binding") && error.to_string().contains("262144"), "{error}");
+}

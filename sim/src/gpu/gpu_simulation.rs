@@ -136,7 +136,10 @@ impl GpuSimulation {
             return Err(GpuError::Split { message: "the particle set is empty".into() });
         }
         let binding = ctx.max_storage_binding_bytes();
-        let max_binding = options.max_binding_bytes.map_or(binding, |limit| limit.min(binding));
+        let limit = options.max_binding_bytes.map_or(binding, |limit| limit.min(binding));
+        // the layout sizes ranges by its 4-byte arrays; the elastoplastic model's widest is 16 bytes
+        // an entry
+        let max_binding = if model.elastoplastic.is_some() { limit / 4 } else { limit };
         let layout = GpuBondLayout::new(
             particles,
             model.bond_constant,
@@ -167,9 +170,11 @@ impl GpuSimulation {
                     return Err(GpuError::Split {
                         message: format!(
                             "the elastoplastic model keeps its bonds in one storage binding on the GPU, and this \
-                             scene's need {} (its bond arrays are larger than one binding of {} holds)",
+                             scene's need {} (its 16-byte entry records are larger than one binding of {} holds: \
+                             {} bytes)",
                             layout.ranges.len(),
-                            ctx.describe()
+                            ctx.describe(),
+                            limit
                         ),
                     });
                 }
