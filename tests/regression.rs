@@ -29,25 +29,21 @@ const MAX_P99: f32 = 0.2;
 /// Size of the test renders.
 const RESOLUTION: [u32; 2] = [192, 108];
 
-/// A shot: its scene file and key frames (the last key frame is as far as it is simulated), and
-/// the share of its pieces' edges that may be unmatched.
+/// A shot: its scene file and key frames (the last key frame is as far as it is simulated).
 struct Shot {
     scene: &'static str,
     key_frames: &'static [u32],
-    open_edges: f64,
 }
 
-const GLASS_PLATE: Shot = Shot { scene: "glass_plate_small", key_frames: &[1, 12, 24], open_edges: 0.0 };
-const VASE: Shot = Shot { scene: "vase_small", key_frames: &[1, 6, 12], open_edges: 0.0 };
-/// Voronoi pieces: 75 of 2 million edges (in 11 of 466 pieces) are still unmatched, in a few
-/// cells' faces (docs/DECISIONS.md); the bound keeps it there.
-const DRAGON: Shot = Shot { scene: "dragon_small", key_frames: &[1, 16, 32], open_edges: 5e-5 };
+const GLASS_PLATE: Shot = Shot { scene: "glass_plate_small", key_frames: &[1, 12, 24] };
+const VASE: Shot = Shot { scene: "vase_small", key_frames: &[1, 6, 12] };
+const DRAGON: Shot = Shot { scene: "dragon_small", key_frames: &[1, 16, 32] };
 /// The struck plate played on: intact, breaking (the simulation, in slow motion), its shards at
 /// rest on the floor (the follow-through, at real speed by the shot's end).
-const PLATE_SHOT: Shot = Shot { scene: "glass_plate_shot_small", key_frames: &[1, 24, 72], open_edges: 0.0 };
+const PLATE_SHOT: Shot = Shot { scene: "glass_plate_shot_small", key_frames: &[1, 24, 72] };
 /// The dragon dropped from 60 cm on its timeline: falling intact (the lead-in), just after the
 /// impact (the simulation, in slow motion), its pieces at rest (the follow-through).
-const DRAGON_DROP: Shot = Shot { scene: "dragon_drop_small", key_frames: &[8, 20, 96], open_edges: 5e-5 };
+const DRAGON_DROP: Shot = Shot { scene: "dragon_drop_small", key_frames: &[8, 20, 96] };
 
 fn repository() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -95,7 +91,7 @@ fn render_key_frames(shot: &Shot, output: &Path) -> Vec<(u32, image::RgbImage)> 
     }
     let simulated = if phases { SimFrames::read(&config, &layout).expect("simulation's frames").count() } else { last };
     let fragments = shatter_core::fragments::FragmentFrame::read(&layout.fragments(simulated)).expect("fragments");
-    check_closed_pieces(shot.scene, shot.open_edges, &particles, &fragments);
+    check_closed_pieces(shot.scene, &particles, &fragments);
     shatter_render::render_driver::run_render(
         &config,
         Some(shot.key_frames),
@@ -115,12 +111,10 @@ fn render_key_frames(shot: &Shot, output: &Path) -> Vec<(u32, image::RgbImage)> 
 
 /// Every piece's surface is closed and consistently oriented: after welding corners closer than
 /// 1e-4 of the particle spacing (a cube's corners are computed per cube, in single precision),
-/// each directed edge is matched
-/// by its reverse, but for at most `open_edges` (a fraction of all edges); and the pieces'
-/// enclosed volumes add up to the particles' volume within 0.1%.
+/// each directed edge is matched by its reverse (as many times), with no exception; and the
+/// pieces' enclosed volumes add up to the particles' volume within 0.1%.
 fn check_closed_pieces(
     scene: &str,
-    open_edges: f64,
     particles: &shatter_core::particles::ParticleSet,
     fragments: &shatter_core::fragments::FragmentFrame,
 ) {
@@ -134,11 +128,19 @@ fn check_closed_pieces(
     let (mut all_edges, mut unmatched) = (0, 0);
     for (piece, mesh) in meshes.iter().enumerate() {
         // weld: a grid of cells `tolerance` wide, each point joining a point within tolerance in
-        // its own or a neighbouring cell
+        // its own or a neighbouring cell; equal points always join the same one (the search's
+        // answer depends on the points welded before, so it must not be asked twice for one
+        // point: a closed surface would come out open)
         let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
         let mut welded: Vec<[f64; 3]> = Vec::new();
+        let mut equal: HashMap<[u32; 3], usize> = HashMap::new();
         let mut index_of = Vec::with_capacity(mesh.points.len());
         for p in &mesh.points {
+            let bits = p.map(|c| (c + 0.0).to_bits());
+            if let Some(&k) = equal.get(&bits) {
+                index_of.push(k);
+                continue;
+            }
             let p = p.map(f64::from);
             let cell = p.map(|c| (c / tolerance).floor() as i64);
             let mut found = None;
@@ -160,6 +162,7 @@ fn check_closed_pieces(
                 grid.entry(cell).or_default().push(welded.len() - 1);
                 welded.len() - 1
             });
+            equal.insert(bits, k);
             index_of.push(k);
         }
         let mut edges: HashMap<(usize, usize), i64> = HashMap::new();
@@ -197,11 +200,7 @@ fn check_closed_pieces(
         "{scene}: {pieces} pieces enclose {volume:e} m^3 (particles {total:e}); {unmatched} of {all_edges} edges unmatched"
     );
     assert!((volume / total - 1.0).abs() < 1e-3, "{scene}: pieces enclose {volume:e} m^3, particles hold {total:e}");
-    assert!(
-        unmatched as f64 <= open_edges * all_edges as f64,
-        "{scene}: {} of {pieces} pieces are open: {open_pieces:?}",
-        open_pieces.len()
-    );
+    assert!(unmatched == 0, "{scene}: {} of {pieces} pieces are open: {open_pieces:?}", open_pieces.len());
     assert!(pieces > 1 && fracture_faces > 0, "{scene}: {pieces} pieces, {fracture_faces} fracture faces");
 }
 
