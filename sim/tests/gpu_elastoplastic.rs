@@ -116,6 +116,53 @@ fn uniaxial_stress_in_the_interior_gives_the_youngs_modulus_and_poisson_ratio_on
     }
 }
 
+/// The squared speed of a plane wave of wavelength `wavelength` (m) along x polarised along
+/// `polarisation`, from the interior's force: -f / (m u) = omega^2 = c^2 k^2.
+fn wave_speed_squared(sim: &mut dyn Backend, particles: &ParticleSet, polarisation: usize, wavelength: f64) -> f64 {
+    let k = 2.0 * std::f64::consts::PI / wavelength;
+    let i = middle(particles);
+    let x0 = f64::from(particles.rest_position_m[i][0]);
+    let amplitude = 1e-7;
+    sim.set_displacement(&|_, x| {
+        let mut u = [0.0f32; 3];
+        u[polarisation] = (amplitude * (k * (f64::from(x[0]) - x0)).cos()) as f32;
+        u
+    })
+    .expect("wave");
+    let force = f64::from(sim.dynamics().force[polarisation][i]);
+    -force / (f64::from(sim.mass()[i]) * amplitude) / (k * k)
+}
+
+#[test]
+fn p_and_s_waves_travel_at_their_continuum_speeds_and_match_pmb_at_nu_one_quarter_on_the_gpu() {
+    for nu in [0.1, 0.25, 0.4] {
+        let (config, particles) = block([15, 15, 15], nu, "", "");
+        let mut sim = gpu(&config, &particles);
+        let (bulk, shear) = (config.material.bulk_modulus_pa, config.material.shear_modulus_pa());
+        for (polarisation, name, modulus) in [(0, "P", bulk + 4.0 * shear / 3.0), (1, "S", shear)] {
+            let theory = (modulus / elastoplastic_scenes::RHO).sqrt();
+            let speed = wave_speed_squared(&mut sim, &particles, polarisation, 0.2).sqrt();
+            eprintln!("nu = {nu}: {name} wave {speed:.1} m/s on the GPU, theory {theory:.1} m/s");
+            assert!((speed / theory - 1.0).abs() < 0.05, "nu = {nu}: {name} wave {speed} m/s against {theory}");
+        }
+        if nu == 0.25 {
+            // the same particles in the PMB model with the same K: the same response
+            let pmb_text = elastoplastic_scenes::block_text(
+                [15, 15, 15],
+                &format!("bulk_modulus_pa = {}", config.material.bulk_modulus_pa),
+                "",
+            );
+            let mut pmb = gpu(&elastoplastic_scenes::load(&pmb_text), &particles);
+            for polarisation in [0, 1] {
+                let a = wave_speed_squared(&mut sim, &particles, polarisation, 0.2);
+                let b = wave_speed_squared(&mut pmb, &particles, polarisation, 0.2);
+                eprintln!("polarisation {polarisation}: state-based c^2 {a:.5e}, PMB {b:.5e} on the GPU");
+                assert!((a / b - 1.0).abs() < 0.05, "polarisation {polarisation}: {a:e} against PMB's {b:e}");
+            }
+        }
+    }
+}
+
 /// A yield stress of 100 MPa (the CPU tests'): glass's E puts the yield strain at 1.39e-3.
 const YIELD_STRESS_PA: f64 = 100e6;
 
