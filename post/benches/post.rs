@@ -1,7 +1,8 @@
 //! Benchmark: `shatter post` work for one frame of 600,000 elements (target: under 1 s on two
 //! cores): components over intact adjacency, stable ids, Kabsch per fragment, and writing the
 //! frame's fragments file and point cache; and with deformed elements (`post.element_shapes =
-//! "deformed"`), the elements' affine maps (deformation gradients over every intact bond).
+//! "deformed"`), the elements' affine maps (deformation gradients over every intact bond), for
+//! the cubes and for vase_small's tetrahedral shell (the embedded mesh).
 //!
 //! `cargo bench -p shatter-post --bench post`
 
@@ -122,5 +123,71 @@ bulk_modulus_pa = 14.9e9
     println!(
         "  one frame: components + ids + Kabsch {track_s:.3} s, writing {write_s:.3} s, total {:.3} s",
         track_s + write_s
+    );
+    tet_shell();
+}
+
+/// Deformed tetrahedra: vase_small's shell (43,160 tets), cut in two by a plane through its
+/// axis and each half moved apart, so that the vertices on the cut split.
+fn tet_shell() {
+    let mesh = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/meshes/smooth_vase.obj");
+    let text = format!(
+        r#"
+[scene]
+name = "vase"
+output_dir = "out"
+seed = 3
+[geometry]
+source = "{}"
+sampler = "tet_shell"
+spacing_m = 0.006
+horizon_factor = 2.0
+[geometry.tet_shell]
+layers = 3
+layer_spacing_m = 0.0015
+[material]
+density_kg_m3 = 2200.0
+bulk_modulus_pa = 2.94e9
+critical_stretch = 0.001
+"#,
+        mesh.display()
+    );
+    let config = PipelineConfig::from_toml_str(&text, Path::new("/nonexistent/p.toml")).expect("config");
+    let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
+    let n = particles.len();
+    let left = |i: usize| particles.rest_position_m[i][0] < 0.0;
+    let started = Instant::now();
+    let mut deformation = ElementDeformation::new(&particles);
+    let mut tracker = FragmentTracker::new(&particles, particles.mass_kg.iter().map(|m| f64::from(*m)).collect());
+    for i in 0..n {
+        for entry in particles.bonds.row(i) {
+            let j = particles.bonds.neighbor[entry] as usize;
+            if i < j && left(i) != left(j) {
+                deformation.break_bond(&particles, entry as u64);
+                tracker.break_bond(entry as u64);
+            }
+        }
+    }
+    let setup_s = started.elapsed().as_secs_f64();
+    let moved: [Vec<f32>; 3] = [0, 1, 2].map(|a| {
+        (0..n)
+            .map(|i| {
+                let p = particles.rest_position_m[i];
+                let shift = if left(i) { -0.01 } else { 0.01 };
+                p[a] + if a == 0 { shift * (1.0 + 2.0 * p[1]) } else { 0.0 }
+            })
+            .collect()
+    });
+    let frame = tracker.track([&moved[0], &moved[1], &moved[2]], 0.0);
+    let started = Instant::now();
+    let affine =
+        deformation.element_affine(&particles, [&moved[0], &moved[1], &moved[2]], &frame.fragment_of, &frame.motion);
+    let affine_s = started.elapsed().as_secs_f64();
+    assert_eq!(affine.len(), n);
+    println!(
+        "post benchmark, deformed tetrahedra: {n} tets ({} bond entries), {} fragments: setup and breaks {setup_s:.3} s, \
+         affine maps (embedded mesh) {affine_s:.3} s per frame",
+        particles.bonds.neighbor.len(),
+        frame.motion.len()
     );
 }
