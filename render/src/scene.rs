@@ -38,7 +38,9 @@ pub struct SceneGeometry {
     pub fragment: Vec<u32>,
     /// Per element, bit k set when its plane k rests against an adjacent element: where such a
     /// face is seen, it is a fracture face (cubes and tetrahedra; trimtopes show fracture faces on
-    /// all their planes and the outer surface on their triangles, and keep 0 here).
+    /// all their planes and the outer surface on their triangles, and keep 0 here). Deformed
+    /// cubes: only against an element of another fragment (within one, a seam between two
+    /// cubes' affine maps).
     pub interior_faces: Vec<u32>,
     /// The k-d tree over the elements' bounds.
     pub tree: KdTree,
@@ -118,7 +120,7 @@ impl SceneGeometry {
             triangle_groups: Vec::new(),
             sites: Vec::with_capacity(n),
             fragment,
-            interior_faces: interior_faces(particles),
+            interior_faces: interior_faces(particles, cube_seams(particles, fragments)),
             tree: KdTree::build(&[]),
             slack: WIDEN * particles.meta.lambda_m as f32,
         };
@@ -257,10 +259,31 @@ fn deformed_element(particles: &ParticleSet, e: usize, map: &Affine) -> ElementP
     }
 }
 
-/// [`SceneGeometry::interior_faces`] of `particles`, from their rest adjacency.
-fn interior_faces(particles: &ParticleSet) -> Vec<u32> {
+/// With deformed cubes, the fragments file (its fragments and affine maps): neighbouring cubes
+/// mapped by different affine maps meet with a seam (a sliver of face, of order lambda^2 over
+/// the bend's radius), which is not a fracture face; only faces against another fragment are.
+/// None otherwise.
+fn cube_seams<'a>(particles: &ParticleSet, fragments: Option<&'a FragmentFrame>) -> Option<&'a FragmentFrame> {
+    let frame = fragments?;
+    let cubes = matches!(particles.elements, Elements::Cubes { .. });
+    (cubes && frame.element_affine.is_some()).then_some(frame)
+}
+
+/// [`SceneGeometry::interior_faces`] of `particles`, from their rest adjacency; with deformed
+/// cubes (`seams`), a face between two elements of one fragment of which one or both are
+/// deformed is not one.
+fn interior_faces(particles: &ParticleSet, seams: Option<&FragmentFrame>) -> Vec<u32> {
     let mut masks = vec![0u32; particles.len()];
+    let seam = |a: usize, b: usize| {
+        seams.is_some_and(|frame| {
+            let deformed = |e: usize| frame.element_affine.as_ref().is_some_and(|maps| !is_affine_rigid(&maps[e]));
+            frame.fragment_of[a] == frame.fragment_of[b] && (deformed(a) || deformed(b))
+        })
+    };
     for &[a, b] in &particles.adjacency {
+        if seam(a as usize, b as usize) {
+            continue;
+        }
         for (from, to) in [(a as usize, b as usize), (b as usize, a as usize)] {
             if let Some(face) = particles.shared_face(from, to) {
                 masks[from] |= 1 << face;
@@ -480,6 +503,22 @@ mod tests {
         assert_eq!(scene.sites[0], map([0.0; 3]));
         // the other element moves with its fragment (at rest)
         assert_eq!(scene.planes_of(1), SceneGeometry::build(&particles, None).planes_of(1));
+        // adjacent, in one fragment, one deformed: the seam between them is no fracture face;
+        // in two fragments it is
+        let adjacent = ParticleSet { adjacency: vec![[0, 1]], ..particles.clone() };
+        assert_eq!(SceneGeometry::build(&adjacent, None).interior_faces, vec![1, 2]);
+        assert_eq!(SceneGeometry::build(&adjacent, Some(&frame)).interior_faces, vec![0, 0]);
+        let split = FragmentFrame {
+            fragment_of: vec![0, 1],
+            rotation: vec![[0.0, 0.0, 0.0, 1.0]; 2],
+            translation_m: vec![[0.0; 3]; 2],
+            elements: vec![1, 1],
+            mass_kg: vec![1.0; 2],
+            ..frame.clone()
+        };
+        assert_eq!(SceneGeometry::build(&adjacent, Some(&split)).interior_faces, vec![1, 2]);
+        let rigid = FragmentFrame { element_affine: Some(vec![AFFINE_RIGID; 2]), ..frame.clone() };
+        assert_eq!(SceneGeometry::build(&adjacent, Some(&rigid)).interior_faces, vec![1, 2]);
     }
 
     /// Projects `p` with a row-vector matrix and divides: (x / w, y / w).
