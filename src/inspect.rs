@@ -6,7 +6,7 @@ use std::path::Path;
 
 use serde_json::json;
 use shatter_core::checkpoint;
-use shatter_core::fragments::FragmentFrame;
+use shatter_core::fragments::{AFFINE_RIGID, FragmentFrame};
 use shatter_core::frames::{BreakLog, PointFrame};
 use shatter_core::lead_in::LeadIn;
 use shatter_core::particles::ParticleSet;
@@ -44,10 +44,16 @@ pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
             StageKind::Fragments => {
                 let frame = FragmentFrame::read(path)?;
                 let largest = frame.elements.iter().copied().max().unwrap_or(0);
-                json!({"kind": "fragments", "frame": frame.meta.frame, "step": frame.meta.step,
+                let mut summary = json!({"kind": "fragments", "frame": frame.meta.frame, "step": frame.meta.step,
                        "time_s": frame.meta.time_s, "elements": frame.fragment_of.len(),
                        "fragments": frame.fragment_count(), "largest_fragment_elements": largest,
-                       "size_histogram": size_histogram(&frame.elements), "smoothed": frame.meta.smoothed})
+                       "size_histogram": size_histogram(&frame.elements), "smoothed": frame.meta.smoothed});
+                if let Some(affine) = &frame.element_affine {
+                    // deformed elements (post.element_shapes): those drawn in their own shape
+                    let deformed = affine.iter().filter(|a| **a != AFFINE_RIGID).count();
+                    summary["deformed_elements"] = json!(deformed);
+                }
+                summary
             }
             StageKind::LeadIn => serde_json::to_value(LeadIn::read(path)?)?,
             StageKind::RigidCheckpoint => {

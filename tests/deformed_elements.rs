@@ -295,6 +295,11 @@ fn an_elastoplastic_scene_writes_and_renders_deformed_elements_and_a_pmb_scene_d
     let first = FragmentFrame::read(&out.join("fragments/fragments.0001.shp")).expect("fragments");
     assert!(first.element_affine.expect("maps").iter().all(|m| *m == AFFINE_RIGID), "the rest frame is rigid");
     assert!(out.join("render/pulled_bar.0003.exr").is_file(), "the frames render");
+    let path = out.join("fragments/fragments.0003.shp");
+    let inspected = shatter(&["inspect", path.to_str().expect("path"), "--json"], dir.path());
+    let summary: serde_json::Value = serde_json::from_slice(&inspected.stdout).expect("inspect's JSON");
+    let deformed = affine.iter().filter(|m| **m != AFFINE_RIGID).count();
+    assert_eq!(summary["deformed_elements"], deformed, "inspect counts the deformed elements");
 
     // the same scene with rigid elements asked for: no section
     let rigid = PULLED_BAR.replace("[render]\n", "[post]\nelement_shapes = \"rigid\"\n[render]\n");
