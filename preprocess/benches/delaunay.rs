@@ -9,6 +9,10 @@
 //! - offset shells: one near-uniform sampling of a sphere repeated on concentric layers, so points
 //!   line up along radii (as offsetting a surface mesh along its normals does), which makes many
 //!   nearly coplanar and cospherical groups.
+//!
+//! With `--points-dir DIR` it also writes each layout's points to `DIR/<layout>.f64` (x, y, z as
+//! little-endian f64), so that `scripts/peers/delaunay_peers.py` can time qhull and TetGen on the
+//! same points (`scripts/compare-peers.sh` does both).
 
 use std::time::Instant;
 
@@ -20,11 +24,22 @@ const LAYERS: usize = 10;
 const LAYER_SPACING: f64 = 0.0225;
 
 fn main() {
-    let count: usize = std::env::args().skip(1).find_map(|arg| arg.parse().ok()).unwrap_or(200_000);
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let count: usize = args.iter().find_map(|arg| arg.parse().ok()).unwrap_or(200_000);
+    let points_dir = args.iter().position(|a| a == "--points-dir").and_then(|k| args.get(k + 1));
     println!("Delaunay benchmark: {count} points per layout, {} threads available", rayon::current_num_threads());
-    run("random cube", &random_cube(count));
-    run("nested shells", &nested_shells(count));
-    run("offset shells", &offset_shells(count));
+    for (name, points) in [
+        ("random cube", random_cube(count)),
+        ("nested shells", nested_shells(count)),
+        ("offset shells", offset_shells(count)),
+    ] {
+        if let Some(dir) = points_dir {
+            let bytes: Vec<u8> = points.iter().flat_map(|p| p.to_array()).flat_map(f64::to_le_bytes).collect();
+            let path = std::path::Path::new(dir).join(format!("{}.f64", name.replace(' ', "_")));
+            std::fs::write(&path, bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        }
+        run(name, &points);
+    }
 }
 
 fn run(name: &str, points: &[DVec3]) {

@@ -1,0 +1,93 @@
+"""Runs shatter's benchmarks and its peers' side by side, RUNS times, and prints the min, median
+and max of each ratio (how many times faster shatter is than the peer; the target beside it).
+Called by scripts/compare-peers.sh, which installs the peers first.
+
+    python3 compare.py RUNS
+"""
+
+import os
+import re
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+PEERS = Path(__file__).resolve().parent
+
+
+def bench(package, name, args, threads=None):
+    env = dict(os.environ)
+    if threads is not None:
+        env["RAYON_NUM_THREADS"] = str(threads)
+    command = ["cargo", "bench", "--locked", "-q", "-p", package, "--bench", name, "--", *args]
+    return run(command, env)
+
+
+def python(script, args):
+    return run([sys.executable, str(PEERS / script), *map(str, args)], dict(os.environ))
+
+
+def run(command, env):
+    done = subprocess.run(command, cwd=ROOT, env=env, capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        sys.exit(f"compare-peers: {' '.join(command)} failed:\n{done.stdout}\n{done.stderr}")
+    return done.stdout
+
+
+def number(pattern, text, what):
+    found = re.search(pattern, text, re.MULTILINE)
+    if not found:
+        sys.exit(f"compare-peers: no {what} in:\n{text}")
+    return float(found.group(1))
+
+
+def one_run(ratios, cores):
+    def add(name, value):
+        ratios.setdefault(name, []).append(value)
+        print(f"  {name}: {value:.2f}x", flush=True)
+
+    text = bench("shatter-sim", "bond_updates", ["100"])
+    add("CPU simulation vs LAMMPS peri/pmb, lattice, per core", number(r"per-core ratio, shatter 1 thread / LAMMPS: ([\d.]+)x", text, "LAMMPS ratio"))
+    text = bench("shatter-sim", "elastoplastic_updates", ["20"])
+    for style in ("lps", "eps"):
+        add(f"elastoplastic vs LAMMPS peri/{style}, per core", number(rf"LAMMPS peri/{style}, 1 core:.*ratio ([\d.]+)x", text, style))
+    with tempfile.TemporaryDirectory() as folder:
+        ours = bench("shatter-preprocess", "delaunay", ["--points-dir", folder])
+        peers = python("delaunay_peers.py", [folder])
+    for layout in ("random cube", "nested shells", "offset shells"):
+        seconds = number(rf"^\s*{layout}:\s+([\d.]+) s", ours, f"our {layout} time")
+        for peer in ("tetgen", "qhull"):
+            theirs = number(rf"^{peer} {layout}: ([\d.]+) s", peers, f"{peer} {layout} time")
+            add(f"Delaunay vs {'TetGen' if peer == 'tetgen' else 'qhull'}, {layout} (time ratio)", theirs / seconds)
+    for threads in (1, cores):
+        ours = bench("shatter-render", "render", ["640", "360"], threads=threads)
+        rate = number(r"CPU \(\d+ threads?\), primary hits only: .* s: ([\d.]+) M rays/s", ours, "our ray rate")
+        theirs = python("embree_primary.py", [640, 360, threads])
+        embree = number(r"primary hits: .* s: ([\d.]+) M rays/s", theirs, "Embree's ray rate")
+        add(f"primary rays vs Embree, {threads} thread(s) / process(es)", rate / embree)
+
+
+def main():
+    runs = int(sys.argv[1]) if len(sys.argv) > 1 else 3
+    cores = os.cpu_count() or 1
+    ratios = {}
+    for k in range(runs):
+        print(f"run {k + 1} of {runs}", flush=True)
+        one_run(ratios, cores)
+    targets = {
+        "CPU simulation vs LAMMPS peri/pmb": ">= 15x",
+        "elastoplastic vs LAMMPS": ">= 10x",
+        "Delaunay vs TetGen": ">= 1x",
+        "primary rays vs Embree": ">= 1x",
+    }
+    print(f"\n| comparison ({runs} runs, {cores} cores) | min | median | max | target |")
+    print("|---|---|---|---|---|")
+    for name, values in ratios.items():
+        target = next((t for prefix, t in targets.items() if name.startswith(prefix)), "")
+        print(f"| {name} | {min(values):.2f}x | {statistics.median(values):.2f}x | {max(values):.2f}x | {target} |")
+
+
+if __name__ == "__main__":
+    main()
