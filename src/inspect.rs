@@ -14,6 +14,7 @@ use shatter_core::ply::PointCache;
 use shatter_core::rigid_checkpoint::RigidCheckpoint;
 use shatter_core::stage_file::{StageKind, read_header};
 use shatter_post::components::size_histogram;
+use shatter_rigid::world::RigidWorld;
 
 use crate::Failure;
 
@@ -48,6 +49,9 @@ pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
                        "time_s": frame.meta.time_s, "elements": frame.fragment_of.len(),
                        "fragments": frame.fragment_count(), "largest_fragment_elements": largest,
                        "size_histogram": size_histogram(&frame.elements), "smoothed": frame.meta.smoothed});
+                for (key, value) in mass_shares(&frame) {
+                    summary[key] = value;
+                }
                 if let Some(affine) = &frame.element_affine {
                     // deformed elements (post.element_shapes): those drawn in their own shape
                     let deformed = affine.iter().filter(|a| **a != AFFINE_RIGID).count();
@@ -59,10 +63,19 @@ pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
             StageKind::RigidCheckpoint => {
                 let checkpoint = RigidCheckpoint::read(path)?;
                 let meta = checkpoint.meta;
-                json!({"kind": "rigid_checkpoint", "handoff_frame": meta.handoff_frame,
+                let mut summary = json!({"kind": "rigid_checkpoint", "handoff_frame": meta.handoff_frame,
                        "handoff_time_s": meta.handoff_time_s, "frame": meta.frame, "last_frame": meta.last_frame,
                        "rigid_steps": meta.steps, "every_piece_asleep": meta.asleep,
-                       "world_bytes": checkpoint.world.len()})
+                       "world_bytes": checkpoint.world.len()});
+                // what keeps a shot from settling: pieces still awake, and the deepest overlap
+                // (pieces by their index in the handoff's fragments; null is the floor or a sphere)
+                let world = RigidWorld::restore(&checkpoint.world)
+                    .map_err(|error| anyhow::anyhow!("{}: cannot restore the rigid world: {error}", path.display()))?;
+                summary["awake_pieces"] = json!(world.awake_pieces().len());
+                if let Some((a, b, depth)) = world.overlaps().first() {
+                    summary["deepest_overlap"] = json!({"pieces": [a, b], "depth_m": depth});
+                }
+                summary
             }
         }
     };
@@ -73,6 +86,24 @@ pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
         print_text(&summary, 1);
     }
     Ok(())
+}
+
+/// How a fragments frame's mass is shared: the largest fragment's share, the fragments holding
+/// over 1% of the mass each (the shots' shatter criterion, docs/DECISIONS.md), and the share held
+/// by single-element fragments (dust).
+fn mass_shares(frame: &FragmentFrame) -> Vec<(&'static str, serde_json::Value)> {
+    let total: f64 = frame.mass_kg.iter().sum();
+    if total <= 0.0 {
+        return Vec::new();
+    }
+    let largest = frame.mass_kg.iter().copied().fold(0.0, f64::max);
+    let over_one_percent = frame.mass_kg.iter().filter(|&&m| m > 0.01 * total).count();
+    let dust: f64 = frame.mass_kg.iter().zip(&frame.elements).filter(|(_, n)| **n == 1).map(|(m, _)| m).sum();
+    vec![
+        ("largest_fragment_mass_share", json!(largest / total)),
+        ("fragments_over_1_percent_of_mass", json!(over_one_percent)),
+        ("single_element_mass_share", json!(dust / total)),
+    ]
 }
 
 /// A simulation's point cache, post's (a `fragment` column and no velocities), or post's debris

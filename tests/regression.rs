@@ -87,7 +87,11 @@ fn render_key_frames(shot: &Shot, output: &Path) -> Vec<(u32, image::RgbImage)> 
     shatter_sim::sim_driver::run_sim(&config, options, &NoProgress).expect("sim");
     shatter_post::run_post(&config, &NoProgress).expect("post");
     if config.rigid.is_some() {
-        shatter_rigid::run_rigid(&config, false, &NoProgress).expect("rigid");
+        let report = shatter_rigid::run_rigid(&config, false, &NoProgress).expect("rigid");
+        // at rest by the shot's end: every piece asleep, none more than 1 mm into another or
+        // the floor (issue #18's acceptance)
+        assert!(report.asleep_from.is_some(), "{}: {} pieces still moving at the end", shot.scene, report.awake_at_end);
+        assert!(report.deepest_overlap_m <= 1e-3, "{}: overlap {} m at the end", shot.scene, report.deepest_overlap_m);
     }
     let simulated = if phases { SimFrames::read(&config, &layout).expect("simulation's frames").count() } else { last };
     let fragments = shatter_core::fragments::FragmentFrame::read(&layout.fragments(simulated)).expect("fragments");

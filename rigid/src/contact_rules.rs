@@ -9,12 +9,16 @@
 //! contacts up to that depth as touching, so the pair may not sink deeper but is not pushed
 //! out. The allowance shrinks to the pair's current depth after every step and ends when the
 //! pair separates.
+//!
+//! Pieces whose masses differ by more than `max_mass_ratio` do not collide at all (the light
+//! one passes through): rapier's soft contacts cannot hold the heavy one up on the light one.
 
 use std::collections::BTreeMap;
 use std::sync::Mutex;
 
-use rapier3d_f64::geometry::{ColliderHandle, NarrowPhase};
-use rapier3d_f64::pipeline::{ContactModificationContext, PhysicsHooks};
+use rapier3d_f64::dynamics::RigidBodyHandle;
+use rapier3d_f64::geometry::{ColliderHandle, NarrowPhase, SolverFlags};
+use rapier3d_f64::pipeline::{ContactModificationContext, PairFilterContext, PhysicsHooks};
 use serde::{Deserialize, Serialize};
 
 /// A collider pair, in order of the handles' raw parts.
@@ -39,6 +43,8 @@ pub struct ContactRules {
     pub piece_friction: f64,
     /// Restitution between pieces.
     pub piece_restitution: f64,
+    /// Pieces whose masses differ by more than this factor do not collide.
+    pub max_mass_ratio: f64,
     /// Overlap allowance of each pair that overlapped at the handoff, metres.
     pub allowance_m: BTreeMap<PairKey, f64>,
     /// True until the first step: the overlaps it finds become allowances.
@@ -62,6 +68,7 @@ impl PartialEq for ContactRules {
             && self.at_handoff == other.at_handoff
             && [self.floor_friction, self.floor_restitution, self.piece_friction, self.piece_restitution]
                 == [other.floor_friction, other.floor_restitution, other.piece_friction, other.piece_restitution]
+            && self.max_mass_ratio == other.max_mass_ratio
     }
 }
 
@@ -70,6 +77,7 @@ impl ContactRules {
     pub fn new(
         floor: Option<ColliderHandle>,
         [floor_friction, floor_restitution, piece_friction, piece_restitution]: [f64; 4],
+        max_mass_ratio: f64,
     ) -> ContactRules {
         ContactRules {
             floor,
@@ -77,6 +85,7 @@ impl ContactRules {
             floor_restitution,
             piece_friction,
             piece_restitution,
+            max_mass_ratio,
             allowance_m: BTreeMap::new(),
             at_handoff: true,
             found: Mutex::new(BTreeMap::new()),
@@ -120,6 +129,18 @@ fn deepest(distances: impl Iterator<Item = f64>) -> f64 {
 }
 
 impl PhysicsHooks for ContactRules {
+    /// Two pieces whose masses differ by more than `max_mass_ratio` pass through each other:
+    /// the light one could not hold the heavy one up (see `rigid.max_mass_ratio`).
+    fn filter_contact_pair(&self, context: &PairFilterContext) -> Option<SolverFlags> {
+        let dynamic_mass = |body: Option<RigidBodyHandle>| {
+            body.map(|b| &context.bodies[b]).filter(|b| b.is_dynamic()).map(|b| b.mass())
+        };
+        match (dynamic_mass(context.rigid_body1), dynamic_mass(context.rigid_body2)) {
+            (Some(a), Some(b)) if a.max(b) > self.max_mass_ratio * a.min(b) => None,
+            _ => Some(SolverFlags::COMPUTE_RIGID_IMPULSES),
+        }
+    }
+
     fn modify_solver_contacts(&self, context: &mut ContactModificationContext) {
         let on_floor = self.floor.is_some_and(|floor| context.collider1 == floor || context.collider2 == floor);
         let key = pair_key(context.collider1, context.collider2);

@@ -89,6 +89,7 @@ pub fn run_lead_in(config: &PipelineConfig, progress: &dyn Progress) -> Result<L
         // a flying body never sleeps
         sleep_speed_m_s: -1.0,
         sleep_after_s: rigid.sleep_after_s,
+        max_mass_ratio: rigid.max_mass_ratio,
     };
     let floor = config.sim.floor.as_ref().map(|floor| floor.height_m);
     let spheres = kinematic_spheres(config, 0.0);

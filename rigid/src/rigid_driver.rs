@@ -427,6 +427,7 @@ fn hand_over(
         piece_restitution: rigid.piece_restitution,
         sleep_speed_m_s: rigid.sleep_speed_m_s,
         sleep_after_s: rigid.sleep_after_s,
+        max_mass_ratio: rigid.max_mass_ratio,
     };
     let floor = config.sim.floor.as_ref().map(|floor| floor.height_m);
     (RigidWorld::new(&settings, floor, &spheres, &bodies), conservation)

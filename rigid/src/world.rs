@@ -5,7 +5,7 @@
 use rapier3d_f64::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::contact_rules::ContactRules;
+use crate::contact_rules::{ContactRules, pair_key};
 use crate::mass::MassProps;
 
 /// Half the floor slab's width, metres: far beyond any shot.
@@ -13,8 +13,10 @@ const FLOOR_HALF_WIDTH_M: f64 = 1.0e3;
 /// Half the floor slab's thickness, metres: nothing falls through a metre of floor.
 const FLOOR_HALF_THICKNESS_M: f64 = 0.5;
 
-/// The natural frequency of rapier's soft contact constraints, Hz.
-pub const CONTACT_FREQUENCY_HZ: f64 = 120.0;
+/// The natural frequency of rapier's soft contact constraints between pieces, Hz (twice this
+/// against the floor), when the steps are short enough: at most an eighth of the solver's
+/// substep rate (a quarter against the floor), where soft contacts stay stable.
+pub const CONTACT_FREQUENCY_HZ: f64 = 480.0;
 
 /// Settings of a rigid world.
 #[derive(Debug, Clone, PartialEq)]
@@ -33,6 +35,8 @@ pub struct WorldSettings {
     pub piece_friction: f64,
     /// Restitution piece-piece.
     pub piece_restitution: f64,
+    /// Pieces whose masses differ by more than this factor pass through each other.
+    pub max_mass_ratio: f64,
     /// Speed below which a piece may fall asleep, m/s.
     pub sleep_speed_m_s: f64,
     /// How long it must stay below it, seconds.
@@ -85,6 +89,21 @@ pub struct RigidWorld {
     world: PhysicsWorld,
     rules: ContactRules,
     pieces: Vec<RigidBodyHandle>,
+    /// Each piece's rest watch (see [`RigidWorld::settle`]).
+    watch: Vec<RestWatch>,
+    sleep_speed_m_s: f64,
+    sleep_after_s: f64,
+}
+
+/// Where a piece was at the end of the last frame, and how long it has moved less than the
+/// sleep speed from frame to frame.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct RestWatch {
+    centre_m: [f64; 3],
+    rotation: [f64; 4],
+    /// The distance from its centre of mass to its farthest point, metres.
+    reach_m: f64,
+    still_s: f64,
 }
 
 impl RigidWorld {
@@ -101,9 +120,6 @@ impl RigidWorld {
         world.gravity = Vector::from_array(settings.gravity_m_s2);
         world.integration_parameters.length_unit = settings.length_unit_m;
         world.integration_parameters.num_solver_iterations = settings.solver_iterations;
-        // stiffer contacts than rapier's 30 Hz default: a pile of small pieces under gravity
-        // then sinks into itself by tenths of a millimetre, not millimetres
-        world.integration_parameters.contact_softness.natural_frequency = CONTACT_FREQUENCY_HZ;
         let hooks = ActiveHooks::MODIFY_SOLVER_CONTACTS;
         let floor = floor_height_m.map(|height| {
             // a slab, not a half-space: on a half-space the plate shot's largest shard (9,330
@@ -143,27 +159,108 @@ impl RigidWorld {
             activation.time_until_sleep = settings.sleep_after_s;
             if let Some(shape) = &piece.shape {
                 let group = if piece.dust { groups(DUST, ENVIRONMENT) } else { groups(PIECES, PIECES | ENVIRONMENT) };
-                let collider =
-                    ColliderBuilder::new(shape.clone()).density(0.0).active_hooks(hooks).collision_groups(group);
+                let collider = ColliderBuilder::new(shape.clone())
+                    .density(0.0)
+                    .active_hooks(hooks | ActiveHooks::FILTER_CONTACT_PAIRS)
+                    .collision_groups(group);
                 world.insert_collider(collider, Some(handle));
             }
             handles.push(handle);
         }
         let coefficients =
             [settings.floor_friction, settings.floor_restitution, settings.piece_friction, settings.piece_restitution];
-        let rules = ContactRules::new(floor, coefficients);
-        RigidWorld { world, rules, pieces: handles }
+        let rules = ContactRules::new(floor, coefficients, settings.max_mass_ratio);
+        let watch = handles
+            .iter()
+            .zip(pieces)
+            .map(|(&handle, piece)| {
+                let body = &world.bodies[handle];
+                let reach_m = piece.shape.as_ref().map_or(0.0, |shape| {
+                    let sphere = shape.compute_local_bounding_sphere();
+                    (sphere.center() - piece.mass.centre_m).length() + sphere.radius()
+                });
+                let rotation = *body.rotation();
+                RestWatch {
+                    centre_m: body.center_of_mass().to_array(),
+                    rotation: [rotation.x, rotation.y, rotation.z, rotation.w],
+                    reach_m,
+                    still_s: 0.0,
+                }
+            })
+            .collect();
+        RigidWorld {
+            world,
+            rules,
+            pieces: handles,
+            watch,
+            sleep_speed_m_s: settings.sleep_speed_m_s,
+            sleep_after_s: settings.sleep_after_s,
+        }
     }
 
     /// Advances `duration_s` in equal steps no longer than `max_step_s`; returns the steps taken.
     pub fn advance(&mut self, duration_s: f64, max_step_s: f64) -> u64 {
         let steps = (duration_s / max_step_s).ceil().max(1.0);
-        self.world.integration_parameters.dt = duration_s / steps;
+        let dt = duration_s / steps;
+        self.world.integration_parameters.dt = dt;
+        // stiffer contacts than rapier's defaults (30 Hz between bodies, 60 Hz against the
+        // floor): a pile of small pieces under gravity sinks into itself by hundredths of a
+        // millimetre, not millimetres, and a light piece under a heavy shard is not pressed
+        // into the floor; capped where the substeps would make them unstable
+        let substep_rate_hz = self.world.integration_parameters.num_solver_iterations as f64 / dt;
+        let frequency_hz = CONTACT_FREQUENCY_HZ.min(substep_rate_hz / 8.0);
+        self.world.integration_parameters.contact_softness.natural_frequency = frequency_hz;
+        self.world.integration_parameters.static_contact_softness.natural_frequency = 2.0 * frequency_hz;
         for _ in 0..steps as u64 {
             self.world.step_with_events(&self.rules, &());
             self.rules.shrink_allowances(&self.world.narrow_phase);
         }
+        self.settle(duration_s);
         steps as u64
+    }
+
+    /// rapier puts a body to sleep when its velocity stays low, step by step. A small piece
+    /// resting on the floor can jitter in place (its contacts switching between faces), with
+    /// an angular velocity of several rad/s whose sign flips every step while it turns by a
+    /// fraction of a degree: it never sleeps. Here the test is the net motion over each frame:
+    /// a piece that touches no other piece and whose farthest point moved slower than the
+    /// sleep speed from frame to frame for `sleep_after_s` is put to sleep. Pieces in a pile
+    /// are left to rapier, which puts a pile to sleep as a whole: one put to sleep on its own
+    /// under others was pushed into by them and blew the pile apart when it woke.
+    fn settle(&mut self, frame_s: f64) {
+        if self.sleep_speed_m_s < 0.0 || frame_s <= 0.0 {
+            return;
+        }
+        let mut in_piles = std::collections::BTreeSet::new();
+        for pair in self.world.narrow_phase.contact_pairs().filter(|pair| pair.has_any_active_contact()) {
+            let parents = [pair.collider1, pair.collider2]
+                .map(|collider| self.world.colliders.get(collider).and_then(|c| c.parent()));
+            if let [Some(a), Some(b)] = parents
+                && self.world.bodies[a].is_dynamic()
+                && self.world.bodies[b].is_dynamic()
+            {
+                in_piles.extend([a.into_raw_parts(), b.into_raw_parts()]);
+            }
+        }
+        for (watch, &handle) in self.watch.iter_mut().zip(&self.pieces) {
+            let body = &mut self.world.bodies[handle];
+            let centre = body.center_of_mass();
+            let rotation = *body.rotation();
+            let [x, y, z, w] = watch.rotation;
+            let turned = Rotation::from_xyzw(x, y, z, w).angle_between(rotation);
+            let moved = (centre - Vector::from_array(watch.centre_m)).length() + turned * watch.reach_m;
+            watch.centre_m = centre.to_array();
+            watch.rotation = [rotation.x, rotation.y, rotation.z, rotation.w];
+            if body.is_sleeping() || in_piles.contains(&handle.into_raw_parts()) || moved > self.sleep_speed_m_s * frame_s
+            {
+                watch.still_s = 0.0;
+                continue;
+            }
+            watch.still_s += frame_s;
+            if watch.still_s >= self.sleep_after_s {
+                body.sleep();
+            }
+        }
     }
 
     /// Each piece's pose: rotation from the rest frame and translation (x = R X + t).
@@ -233,6 +330,25 @@ impl RigidWorld {
             .iter()
             .map(|(key, depth)| depth - self.rules.allowance_m.get(key).copied().unwrap_or(0.0))
             .fold(0.0, f64::max)
+    }
+
+    /// Every overlap now beyond the handoff's allowances, deepest first: the two pieces (None
+    /// for the floor, a projectile or an indenter) and the depth, metres.
+    pub fn overlaps(&self) -> Vec<(Option<usize>, Option<usize>, f64)> {
+        let piece_of = |collider: ColliderHandle| {
+            let body = self.world.colliders.get(collider)?.parent()?;
+            self.pieces.iter().position(|&piece| piece == body)
+        };
+        let mut overlaps: Vec<(Option<usize>, Option<usize>, f64)> = Vec::new();
+        for pair in self.world.narrow_phase.contact_pairs() {
+            let depth = pair.manifolds().iter().flat_map(|m| m.points.iter().map(|p| -p.dist)).fold(0.0, f64::max);
+            let beyond = depth - self.rules.allowance_m.get(&pair_key(pair.collider1, pair.collider2)).copied().unwrap_or(0.0);
+            if beyond > 0.0 {
+                overlaps.push((piece_of(pair.collider1), piece_of(pair.collider2), beyond));
+            }
+        }
+        overlaps.sort_by(|a, b| b.2.total_cmp(&a.2));
+        overlaps
     }
 
     /// The world serialised (MessagePack: every f64, infinities too, round trips exactly).

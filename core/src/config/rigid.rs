@@ -45,6 +45,12 @@ pub struct RigidConfig {
     /// pushed by projectiles, but do not collide with other pieces (0: every piece collides).
     /// A broken body's thousands of single elements would otherwise cost most of the contacts.
     pub dust_max_elements: u32,
+    /// Two pieces whose masses differ by more than this factor do not collide: the light one
+    /// passes through the heavy one, as dust does. Rapier's soft contacts hold a load F on a
+    /// piece of mass m at a depth F / (m w^2); at 480 Hz a piece carrying 500 times its mass
+    /// sinks half a millimetre into its load, and a lighter one is swallowed while its
+    /// contacts jitter and keep the pile from sleeping.
+    pub max_mass_ratio: f64,
     /// A piece whose farthest point moves slower than this (m/s) for `sleep_after_s` falls
     /// asleep (friction stops a sliding piece from this speed in milliseconds; a lower value
     /// lets small shards rock on their contacts for seconds); once every piece sleeps the
@@ -70,10 +76,11 @@ impl Default for RigidConfig {
             floor_restitution: 0.2,
             piece_friction: 0.5,
             piece_restitution: 0.1,
-            hull_volume_factor: 1.15,
+            hull_volume_factor: 1.02,
             dust_max_elements: 1,
+            max_mass_ratio: 500.0,
             sleep_speed_m_s: 0.02,
-            sleep_after_s: 0.5,
+            sleep_after_s: 0.2,
             checkpoint_every_frames: 24,
         }
     }
@@ -114,6 +121,10 @@ impl RigidConfig {
         let factor = self.hull_volume_factor;
         check.that(factor.is_finite() && factor >= 1.0, "rigid.hull_volume_factor", &factor.to_string(), || {
             "must be a finite number of at least 1 (1: only exactly convex pieces are drawn as hulls)".into()
+        })?;
+        let ratio = self.max_mass_ratio;
+        check.that(ratio.is_finite() && ratio >= 1.0, "rigid.max_mass_ratio", &ratio.to_string(), || {
+            "must be a finite number of at least 1".into()
         })?;
         check.non_negative("rigid.sleep_speed_m_s", self.sleep_speed_m_s, "m/s")?;
         check.non_negative("rigid.sleep_after_s", self.sleep_after_s, "seconds")?;
