@@ -251,7 +251,9 @@ impl RigidWorld {
             let moved = (centre - Vector::from_array(watch.centre_m)).length() + turned * watch.reach_m;
             watch.centre_m = centre.to_array();
             watch.rotation = [rotation.x, rotation.y, rotation.z, rotation.w];
-            if body.is_sleeping() || in_piles.contains(&handle.into_raw_parts()) || moved > self.sleep_speed_m_s * frame_s
+            if body.is_sleeping()
+                || in_piles.contains(&handle.into_raw_parts())
+                || moved > self.sleep_speed_m_s * frame_s
             {
                 watch.still_s = 0.0;
                 continue;
@@ -342,7 +344,8 @@ impl RigidWorld {
         let mut overlaps: Vec<(Option<usize>, Option<usize>, f64)> = Vec::new();
         for pair in self.world.narrow_phase.contact_pairs() {
             let depth = pair.manifolds().iter().flat_map(|m| m.points.iter().map(|p| -p.dist)).fold(0.0, f64::max);
-            let beyond = depth - self.rules.allowance_m.get(&pair_key(pair.collider1, pair.collider2)).copied().unwrap_or(0.0);
+            let beyond =
+                depth - self.rules.allowance_m.get(&pair_key(pair.collider1, pair.collider2)).copied().unwrap_or(0.0);
             if beyond > 0.0 {
                 overlaps.push((piece_of(pair.collider1), piece_of(pair.collider2), beyond));
             }

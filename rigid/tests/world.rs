@@ -223,7 +223,8 @@ fn a_piece_far_lighter_than_another_passes_through_it() {
     assert!(world.overlaps().iter().all(|o| o.2 < 1e-4), "{:?}", world.overlaps());
     assert!(world.all_asleep());
     // with the rule off they collide, and the soft contacts let the shard swallow the grain
-    let mut world = RigidWorld::new(&WorldSettings { max_mass_ratio: 1e9, ..settings() }, Some(0.0), &[], &[grain, shard]);
+    let mut world =
+        RigidWorld::new(&WorldSettings { max_mass_ratio: 1e9, ..settings() }, Some(0.0), &[], &[grain, shard]);
     run_until(&mut world, 1.0);
     let deepest = world.overlaps().first().map_or(0.0, |o| o.2);
     assert!(deepest > 1e-3, "the grain held the shard up ({deepest} m): the rule is no longer needed");
