@@ -49,8 +49,10 @@ pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
                        "time_s": frame.meta.time_s, "elements": frame.fragment_of.len(),
                        "fragments": frame.fragment_count(), "largest_fragment_elements": largest,
                        "size_histogram": size_histogram(&frame.elements), "smoothed": frame.meta.smoothed});
-                for (key, value) in mass_shares(&frame) {
-                    summary[key] = value;
+                if let Some(shares) = frame.mass_shares() {
+                    summary["largest_fragment_mass_share"] = json!(shares.largest);
+                    summary["fragments_over_1_percent_of_mass"] = json!(shares.over_one_percent);
+                    summary["single_element_mass_share"] = json!(shares.single_elements);
                 }
                 if let Some(affine) = &frame.element_affine {
                     // deformed elements (post.element_shapes): those drawn in their own shape
@@ -86,24 +88,6 @@ pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
         print_text(&summary, 1);
     }
     Ok(())
-}
-
-/// How a fragments frame's mass is shared: the largest fragment's share, the fragments holding
-/// over 1% of the mass each (the shots' shatter criterion, docs/DECISIONS.md), and the share held
-/// by single-element fragments (dust).
-fn mass_shares(frame: &FragmentFrame) -> Vec<(&'static str, serde_json::Value)> {
-    let total: f64 = frame.mass_kg.iter().sum();
-    if total <= 0.0 {
-        return Vec::new();
-    }
-    let largest = frame.mass_kg.iter().copied().fold(0.0, f64::max);
-    let over_one_percent = frame.mass_kg.iter().filter(|&&m| m > 0.01 * total).count();
-    let dust: f64 = frame.mass_kg.iter().zip(&frame.elements).filter(|(_, n)| **n == 1).map(|(m, _)| m).sum();
-    vec![
-        ("largest_fragment_mass_share", json!(largest / total)),
-        ("fragments_over_1_percent_of_mass", json!(over_one_percent)),
-        ("single_element_mass_share", json!(dust / total)),
-    ]
 }
 
 /// A simulation's point cache, post's (a `fragment` column and no velocities), or post's debris

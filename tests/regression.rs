@@ -111,12 +111,9 @@ fn render_key_frames(shot: &Shot, output: &Path) -> Vec<(u32, image::RgbImage)> 
     check_closed_pieces(shot.scene, &particles, &fragments);
     if shot.shards > 0 {
         // issue #18: a vase dropped on a floor breaks into shards, not dust
-        let total: f64 = fragments.mass_kg.iter().sum();
-        let over = fragments.mass_kg.iter().filter(|&&m| m > 0.01 * total).count();
-        let dust: f64 =
-            fragments.mass_kg.iter().zip(&fragments.elements).filter(|(_, n)| **n == 1).map(|(m, _)| m).sum();
-        assert!(over >= shot.shards, "{}: {over} pieces over 1% of the mass", shot.scene);
-        assert!(dust < 0.1 * total, "{}: dust holds {:.1}% of the mass", shot.scene, 100.0 * dust / total);
+        let shares = fragments.mass_shares().expect("a massive body");
+        assert!(shares.over_one_percent >= shot.shards, "{}: {shares:?}", shot.scene);
+        assert!(shares.single_elements < 0.1, "{}: {shares:?}", shot.scene);
     }
     shatter_render::render_driver::run_render(
         &config,

@@ -8,6 +8,18 @@ use serde::{Deserialize, Serialize};
 
 use crate::stage_file::{StageFileError, StageKind, StageReader, StageWriter};
 
+/// How a frame's mass is shared: the shots' shatter criterion (docs/DECISIONS.md, "vase_drop's
+/// material") is at least ten fragments over 1% of the mass and single elements under 10%.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MassShares {
+    /// The largest fragment's share of the mass.
+    pub largest: f64,
+    /// Fragments holding over 1% of the mass each.
+    pub over_one_percent: usize,
+    /// The share held by single-element fragments (dust).
+    pub single_elements: f64,
+}
+
 /// Scalars of a fragments frame.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -90,6 +102,20 @@ impl FragmentFrame {
     /// Number of fragments.
     pub fn fragment_count(&self) -> usize {
         self.rotation.len()
+    }
+
+    /// How the mass is shared among the fragments (None for a massless frame).
+    pub fn mass_shares(&self) -> Option<MassShares> {
+        let total: f64 = self.mass_kg.iter().sum();
+        if total <= 0.0 {
+            return None;
+        }
+        let dust: f64 = self.mass_kg.iter().zip(&self.elements).filter(|(_, n)| **n == 1).map(|(m, _)| m).sum();
+        Some(MassShares {
+            largest: self.mass_kg.iter().copied().fold(0.0, f64::max) / total,
+            over_one_percent: self.mass_kg.iter().filter(|&&m| m > 0.01 * total).count(),
+            single_elements: dust / total,
+        })
     }
 
     /// Writes the frame atomically.

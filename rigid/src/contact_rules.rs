@@ -124,7 +124,8 @@ impl ContactRules {
     }
 }
 
-fn deepest(distances: impl Iterator<Item = f64>) -> f64 {
+/// The deepest penetration among contact distances (negative: overlapping), metres; 0 if none.
+pub fn deepest(distances: impl Iterator<Item = f64>) -> f64 {
     distances.fold(0.0, |deepest: f64, dist| deepest.max(-dist))
 }
 

@@ -5,7 +5,7 @@
 use rapier3d_f64::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::contact_rules::{ContactRules, pair_key};
+use crate::contact_rules::{ContactRules, deepest, pair_key};
 use crate::mass::MassProps;
 
 /// Half the floor slab's width, metres: far beyond any shot.
@@ -243,7 +243,8 @@ impl RigidWorld {
             }
         }
         for (watch, &handle) in self.watch.iter_mut().zip(&self.pieces) {
-            let body = &mut self.world.bodies[handle];
+            // read-only: indexing rapier's set mutably marks a body modified
+            let body = &self.world.bodies[handle];
             let centre = body.center_of_mass();
             let rotation = *body.rotation();
             let [x, y, z, w] = watch.rotation;
@@ -260,7 +261,7 @@ impl RigidWorld {
             }
             watch.still_s += frame_s;
             if watch.still_s >= self.sleep_after_s {
-                body.sleep();
+                self.world.bodies[handle].sleep();
             }
         }
     }
@@ -328,22 +329,21 @@ impl RigidWorld {
     /// The deepest overlap between two pieces or a piece and the floor now, metres, beyond
     /// the handoff's allowances.
     pub fn deepest_penetration_m(&self) -> f64 {
-        ContactRules::overlaps(&self.world.narrow_phase)
-            .iter()
-            .map(|(key, depth)| depth - self.rules.allowance_m.get(key).copied().unwrap_or(0.0))
-            .fold(0.0, f64::max)
+        self.overlaps().first().map_or(0.0, |overlap| overlap.2)
     }
 
     /// Every overlap now beyond the handoff's allowances, deepest first: the two pieces (None
     /// for the floor, a projectile or an indenter) and the depth, metres.
     pub fn overlaps(&self) -> Vec<(Option<usize>, Option<usize>, f64)> {
+        let index: std::collections::BTreeMap<_, usize> =
+            self.pieces.iter().enumerate().map(|(i, body)| (body.into_raw_parts(), i)).collect();
         let piece_of = |collider: ColliderHandle| {
             let body = self.world.colliders.get(collider)?.parent()?;
-            self.pieces.iter().position(|&piece| piece == body)
+            index.get(&body.into_raw_parts()).copied()
         };
         let mut overlaps: Vec<(Option<usize>, Option<usize>, f64)> = Vec::new();
         for pair in self.world.narrow_phase.contact_pairs() {
-            let depth = pair.manifolds().iter().flat_map(|m| m.points.iter().map(|p| -p.dist)).fold(0.0, f64::max);
+            let depth = deepest(pair.manifolds().iter().flat_map(|m| m.points.iter().map(|p| p.dist)));
             let beyond =
                 depth - self.rules.allowance_m.get(&pair_key(pair.collider1, pair.collider2)).copied().unwrap_or(0.0);
             if beyond > 0.0 {
