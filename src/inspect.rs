@@ -73,7 +73,19 @@ pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
                 // (pieces by their index in the handoff's fragments; null is the floor or a sphere)
                 let world = RigidWorld::restore(&checkpoint.world)
                     .map_err(|error| anyhow::anyhow!("{}: cannot restore the rigid world: {error}", path.display()))?;
-                summary["awake_pieces"] = json!(world.awake_pieces().len());
+                let awake = world.awake_pieces();
+                summary["awake_pieces"] = json!(awake.len());
+                if !awake.is_empty() {
+                    // where the awake ones are: still sliding nearby, or flung far off
+                    let (velocities, centres) = (world.velocities(), world.centres());
+                    let speed = |i: &usize| velocities[*i].0.length();
+                    let reach = |i: &usize| centres[*i].with_y(0.0).length();
+                    let fastest = awake.iter().copied().max_by(|a, b| speed(a).total_cmp(&speed(b)));
+                    let farthest = awake.iter().map(reach).fold(0.0, f64::max);
+                    let airborne = awake.iter().filter(|&&i| world.clearance_m(i) > 0.0).count();
+                    summary["awake"] = json!({"fastest_piece": fastest, "fastest_m_s": fastest.as_ref().map(speed),
+                        "farthest_from_axis_m": farthest, "airborne": airborne});
+                }
                 if let Some((a, b, depth)) = world.overlaps().first() {
                     summary["deepest_overlap"] = json!({"pieces": [a, b], "depth_m": depth});
                 }
@@ -81,13 +93,18 @@ pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
             }
         }
     };
-    if json {
-        println!("{}", serde_json::to_string_pretty(&summary)?);
+    let text = if json {
+        format!("{}\n", serde_json::to_string_pretty(&summary)?)
     } else {
-        println!("{}", path.display());
-        print_text(&summary, 1);
+        let mut text = format!("{}\n", path.display());
+        write_text(&summary, 1, &mut text);
+        text
+    };
+    // `shatter inspect FILE | head` closes the pipe early: that is not an error
+    match std::io::Write::write_all(&mut std::io::stdout().lock(), text.as_bytes()) {
+        Err(error) if error.kind() != std::io::ErrorKind::BrokenPipe => Err(error.into()),
+        _ => Ok(()),
     }
-    Ok(())
 }
 
 /// A simulation's point cache, post's (a `fragment` column and no velocities), or post's debris
@@ -217,16 +234,16 @@ fn break_log(path: &Path) -> Result<serde_json::Value, Failure> {
     }))
 }
 
-fn print_text(value: &serde_json::Value, depth: usize) {
+fn write_text(value: &serde_json::Value, depth: usize, text: &mut String) {
     let indent = "  ".repeat(depth);
     if let serde_json::Value::Object(map) = value {
         for (key, value) in map {
             match value {
                 serde_json::Value::Object(_) => {
-                    println!("{indent}{key}:");
-                    print_text(value, depth + 1);
+                    text.push_str(&format!("{indent}{key}:\n"));
+                    write_text(value, depth + 1, text);
                 }
-                other => println!("{indent}{key:<20} {other}"),
+                other => text.push_str(&format!("{indent}{key:<20} {other}\n")),
             }
         }
     }

@@ -243,6 +243,24 @@ fn preprocess_writes_a_file_inspect_can_read() {
 }
 
 #[test]
+fn inspect_into_a_pipe_closed_early_exits_quietly() {
+    // as `shatter inspect FILE | head -1`: the reader is gone before the summary is written
+    let (dir, _) = scene(GOOD);
+    assert!(shatter(&["preprocess"], dir.path()).status.success());
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_shatter"))
+        .args(["inspect", "out/particles.shp"])
+        .current_dir(dir.path())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("shatter runs");
+    drop(child.stdout.take());
+    let output = child.wait_with_output().expect("shatter ends");
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(!stderr(&output).contains("panicked"), "{}", stderr(&output));
+}
+
+#[test]
 fn a_failed_run_keeps_the_good_output_and_corruption_is_reported() {
     let (dir, config) = scene(GOOD);
     assert!(shatter(&["preprocess"], dir.path()).status.success());
