@@ -23,7 +23,7 @@ use shatter_core::timeline::Timeline;
 use shatter_core::{PipelineConfig, Progress};
 
 use crate::mass::{element_mass_props, piece_mass_props};
-use crate::rigid_driver::{LENGTH_UNIT_SPACINGS, RigidError, kinematic_spheres, open_particles};
+use crate::rigid_driver::{RigidError, kinematic_spheres, open_particles, world_settings};
 use crate::shapes::ElementGeometry;
 use crate::world::{PieceBody, RigidWorld, WorldSettings};
 
@@ -78,18 +78,13 @@ pub fn run_lead_in(config: &PipelineConfig, progress: &dyn Progress) -> Result<L
     };
 
     let settings = WorldSettings {
-        gravity_m_s2: config.sim.gravity_m_s2,
-        length_unit_m: LENGTH_UNIT_SPACINGS * particles.meta.lambda_m,
         // one substep: the leapfrog start below is exact for rapier's update only then
         solver_iterations: 1,
-        floor_friction: rigid.floor_friction,
-        floor_restitution: rigid.floor_restitution,
-        piece_friction: rigid.piece_friction,
-        piece_restitution: rigid.piece_restitution,
-        // a flying body never sleeps
+        // a flying body never sleeps, is never retired and spins freely
         sleep_speed_m_s: -1.0,
-        sleep_after_s: rigid.sleep_after_s,
-        max_mass_ratio: rigid.max_mass_ratio,
+        bounds_m: None,
+        rolling_damping_per_s: 0.0,
+        ..world_settings(config, &rigid, particles.meta.lambda_m)
     };
     let floor = config.sim.floor.as_ref().map(|floor| floor.height_m);
     let spheres = kinematic_spheres(config, 0.0);

@@ -356,8 +356,9 @@ fn vectors(points: &PointFrame) -> (Vec<Vector>, Vec<Vector>) {
     ((0..n).map(|i| vector(&points.position, i)).collect(), (0..n).map(|i| vector(&points.velocity, i)).collect())
 }
 
-/// The rigid world at the handoff: one body per fragment, with the particles' momenta.
-fn hand_over(
+/// The rigid world at the handoff: one body per fragment of `handoff` (posed as it says), with
+/// the momenta of the particles in `points`; and how well they were kept.
+pub fn hand_over(
     config: &PipelineConfig,
     rigid: &RigidConfig,
     particles: &ParticleSet,
@@ -417,9 +418,16 @@ fn hand_over(
     conservation.momentum_error = relative(body_p, particle_p);
     conservation.angular_momentum_error = relative(body_l, particle_l);
     let spheres = kinematic_spheres(config, handoff.meta.time_s);
-    let settings = WorldSettings {
+    let settings = world_settings(config, rigid, particles.meta.lambda_m);
+    let floor = config.sim.floor.as_ref().map(|floor| floor.height_m);
+    (RigidWorld::new(&settings, floor, &spheres, &bodies), conservation)
+}
+
+/// The rigid world's settings for a shot of particles `lambda_m` apart.
+pub fn world_settings(config: &PipelineConfig, rigid: &RigidConfig, lambda_m: f64) -> WorldSettings {
+    WorldSettings {
         gravity_m_s2: config.sim.gravity_m_s2,
-        length_unit_m: LENGTH_UNIT_SPACINGS * particles.meta.lambda_m,
+        length_unit_m: LENGTH_UNIT_SPACINGS * lambda_m,
         solver_iterations: rigid.solver_iterations as usize,
         floor_friction: rigid.floor_friction,
         floor_restitution: rigid.floor_restitution,
@@ -428,9 +436,9 @@ fn hand_over(
         sleep_speed_m_s: rigid.sleep_speed_m_s,
         sleep_after_s: rigid.sleep_after_s,
         max_mass_ratio: rigid.max_mass_ratio,
-    };
-    let floor = config.sim.floor.as_ref().map(|floor| floor.height_m);
-    (RigidWorld::new(&settings, floor, &spheres, &bodies), conservation)
+        bounds_m: rigid.bounds_m,
+        rolling_damping_per_s: rigid.rolling_damping_per_s,
+    }
 }
 
 /// The projectiles and indenters at simulated time `time_s`, on their straight paths.

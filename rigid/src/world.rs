@@ -4,6 +4,7 @@
 
 use rapier3d_f64::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 use crate::contact_rules::{ContactRules, deepest, pair_key};
 use crate::mass::MassProps;
@@ -41,6 +42,11 @@ pub struct WorldSettings {
     pub sleep_speed_m_s: f64,
     /// How long it must stay below it, seconds.
     pub sleep_after_s: f64,
+    /// The shot's region, metres (lowest and highest corner): a piece whose centre of mass
+    /// leaves it is retired, held where it left and taken out of the simulation.
+    pub bounds_m: Option<[[f64; 3]; 2]>,
+    /// The decay rate of a touching piece's spin, 1/s (rolling resistance).
+    pub rolling_damping_per_s: f64,
 }
 
 /// A piece as it enters the rigid world.
@@ -93,10 +99,11 @@ pub struct RigidWorld {
     watch: Vec<RestWatch>,
     sleep_speed_m_s: f64,
     sleep_after_s: f64,
+    bounds_m: Option<[[f64; 3]; 2]>,
+    rolling_damping_per_s: f64,
 }
 
-/// Where a piece was at the end of the last frame, and how long it has moved less than the
-/// sleep speed from frame to frame.
+/// Where a piece was when its current still spell began, and how long that has lasted.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 struct RestWatch {
     centre_m: [f64; 3],
@@ -104,6 +111,8 @@ struct RestWatch {
     /// The distance from its centre of mass to its farthest point, metres.
     reach_m: f64,
     still_s: f64,
+    /// Left the shot's region (see [`WorldSettings::bounds_m`]).
+    retired: bool,
 }
 
 impl RigidWorld {
@@ -120,6 +129,12 @@ impl RigidWorld {
         world.gravity = Vector::from_array(settings.gravity_m_s2);
         world.integration_parameters.length_unit = settings.length_unit_m;
         world.integration_parameters.num_solver_iterations = settings.solver_iterations;
+        // rapier merges the manifolds of a compound's parts that share a normal into one of at
+        // most four points; as a piece lying on a compound of hundreds of hulls rocks, the four
+        // points chosen jump from part to part, and a curved shard rocked on for seconds, fed by
+        // the jumps (measured: a 24-hull shard still at 1.3 rad/s after 3 s with clustering, at
+        // rest at once without; the vase shot's last pieces sleep 12 frames earlier)
+        world.integration_parameters.contact_clustering = false;
         let hooks = ActiveHooks::MODIFY_SOLVER_CONTACTS;
         let floor = floor_height_m.map(|height| {
             // a slab, not a half-space: on a half-space the plate shot's largest shard (9,330
@@ -150,7 +165,9 @@ impl RigidWorld {
                 .additional_mass_properties(mass)
                 .linvel(piece.linear_m_s)
                 .angvel(piece.angular_rad_s)
-                .ccd_enabled(true)
+                // dust meets only the floor, a slab a metre thick, and the spheres: 46 m/s crosses
+                // 5 cm in a step, so CCD buys nothing (it cost 6% of the paper-scale vase's steps)
+                .ccd_enabled(!piece.dust)
                 .gyroscopic_forces_enabled(true)
                 .build();
             let handle = world.insert_body(body);
@@ -185,6 +202,7 @@ impl RigidWorld {
                     rotation: [rotation.x, rotation.y, rotation.z, rotation.w],
                     reach_m,
                     still_s: 0.0,
+                    retired: false,
                 }
             })
             .collect();
@@ -195,6 +213,8 @@ impl RigidWorld {
             watch,
             sleep_speed_m_s: settings.sleep_speed_m_s,
             sleep_after_s: settings.sleep_after_s,
+            bounds_m: settings.bounds_m,
+            rolling_damping_per_s: settings.rolling_damping_per_s,
         }
     }
 
@@ -215,32 +235,86 @@ impl RigidWorld {
             self.world.step_with_events(&self.rules, &());
             self.rules.shrink_allowances(&self.world.narrow_phase);
         }
-        self.settle(duration_s);
+        let (touching, piles) = self.contacts();
+        self.retire_outside_bounds();
+        self.settle(duration_s, piles);
+        self.resist_rolling(&touching);
         steps as u64
     }
 
-    /// rapier puts a body to sleep when its velocity stays low, step by step. A small piece
-    /// resting on the floor can jitter in place (its contacts switching between faces), with
-    /// an angular velocity of several rad/s whose sign flips every step while it turns by a
-    /// fraction of a degree: it never sleeps. Here the test is the net motion over each frame:
-    /// a piece that touches no other piece and whose farthest point moved slower than the
-    /// sleep speed from frame to frame for `sleep_after_s` is put to sleep. Pieces in a pile
-    /// are left to rapier, which puts a pile to sleep as a whole: one put to sleep on its own
-    /// under others was pushed into by them and blew the pile apart when it woke.
-    fn settle(&mut self, frame_s: f64) {
+    /// Which pieces touch anything (the floor, a sphere, another piece), and the piles that
+    /// contacts between pieces link them into.
+    fn contacts(&self) -> (Vec<bool>, Piles) {
+        let mut touching = vec![false; self.pieces.len()];
+        let mut piles = Piles::new(self.pieces.len());
+        let index = self.piece_index();
+        for pair in self.world.narrow_phase.contact_pairs().filter(|pair| pair.has_any_active_contact()) {
+            let pieces = [pair.collider1, pair.collider2].map(|collider| self.piece_of(&index, collider));
+            for piece in pieces.into_iter().flatten() {
+                touching[piece] = true;
+            }
+            if let [Some(a), Some(b)] = pieces {
+                piles.join(a, b);
+            }
+        }
+        (touching, piles)
+    }
+
+    /// Each piece's index by its body handle's raw parts.
+    fn piece_index(&self) -> BTreeMap<(u32, u32), usize> {
+        self.pieces.iter().enumerate().map(|(i, body)| (body.into_raw_parts(), i)).collect()
+    }
+
+    /// The piece that `collider` belongs to (None for the floor or a sphere).
+    fn piece_of(&self, index: &BTreeMap<(u32, u32), usize>, collider: ColliderHandle) -> Option<usize> {
+        let body = self.world.colliders.get(collider)?.parent()?;
+        index.get(&body.into_raw_parts()).copied()
+    }
+
+    /// Rolling resistance: a piece that touches something has its spin damped at
+    /// `rolling_damping_per_s` through the next frame; in flight it spins freely. rapier has
+    /// no rolling friction, and a curved shard of the vase (94 g, lying on its back on a
+    /// compound of 256 hulls) rocked by a degree or more each frame for as long as it was
+    /// simulated.
+    fn resist_rolling(&mut self, touching: &[bool]) {
+        for (&handle, &touches) in self.pieces.iter().zip(touching) {
+            let damping = if touches { self.rolling_damping_per_s } else { 0.0 };
+            // read first: indexing rapier's set mutably marks a body modified
+            if self.world.bodies[handle].angular_damping() != damping {
+                self.world.bodies[handle].set_angular_damping(damping);
+            }
+        }
+    }
+
+    /// A piece flung out of the shot's region (a single element shot off the crushed base of a
+    /// vase at 40 m/s skids for hundreds of metres before friction stops it) is retired: its
+    /// body is disabled where it left, so it neither moves nor keeps the shot from settling.
+    fn retire_outside_bounds(&mut self) {
+        let Some([low, high]) = self.bounds_m else { return };
+        for (watch, &handle) in self.watch.iter_mut().zip(&self.pieces) {
+            let centre = self.world.bodies[handle].center_of_mass().to_array();
+            let outside = (0..3).any(|axis| centre[axis] < low[axis] || centre[axis] > high[axis]);
+            if outside && !watch.retired {
+                watch.retired = true;
+                self.world.bodies[handle].set_enabled(false);
+            }
+        }
+    }
+
+    /// rapier puts a body to sleep when its velocity stays low, step by step. A piece resting
+    /// on the floor or on another piece can jitter in place (its contacts switching between
+    /// faces), with an angular velocity of several rad/s whose sign flips every step while it
+    /// turns by a fraction of a degree, or, lying on a compound of hundreds of hulls, rock by a
+    /// degree for ever: it never sleeps, and neither does the pile it rests on, which rapier
+    /// puts to sleep only as a whole. Here the test is the net motion: a piece is still while
+    /// its farthest point stays within the distance the sleep speed covers in `sleep_after_s`
+    /// of where it was when the spell began, and a pile (pieces linked by contacts; a lone
+    /// piece is a pile of one) whose every piece has been still for `sleep_after_s` is put to
+    /// sleep, every piece at once. (One put to sleep on its own under others was pushed into by
+    /// them and blew the pile apart when it woke.)
+    fn settle(&mut self, frame_s: f64, mut piles: Piles) {
         if self.sleep_speed_m_s < 0.0 || frame_s <= 0.0 {
             return;
-        }
-        let mut in_piles = std::collections::BTreeSet::new();
-        for pair in self.world.narrow_phase.contact_pairs().filter(|pair| pair.has_any_active_contact()) {
-            let parents = [pair.collider1, pair.collider2]
-                .map(|collider| self.world.colliders.get(collider).and_then(|c| c.parent()));
-            if let [Some(a), Some(b)] = parents
-                && self.world.bodies[a].is_dynamic()
-                && self.world.bodies[b].is_dynamic()
-            {
-                in_piles.extend([a.into_raw_parts(), b.into_raw_parts()]);
-            }
         }
         for (watch, &handle) in self.watch.iter_mut().zip(&self.pieces) {
             // read-only: indexing rapier's set mutably marks a body modified
@@ -250,17 +324,26 @@ impl RigidWorld {
             let [x, y, z, w] = watch.rotation;
             let turned = Rotation::from_xyzw(x, y, z, w).angle_between(rotation);
             let moved = (centre - Vector::from_array(watch.centre_m)).length() + turned * watch.reach_m;
-            watch.centre_m = centre.to_array();
-            watch.rotation = [rotation.x, rotation.y, rotation.z, rotation.w];
-            if body.is_sleeping()
-                || in_piles.contains(&handle.into_raw_parts())
-                || moved > self.sleep_speed_m_s * frame_s
-            {
-                watch.still_s = 0.0;
-                continue;
+            watch.still_s = if watch.retired || body.is_sleeping() {
+                self.sleep_after_s
+            } else if moved > self.sleep_speed_m_s * self.sleep_after_s {
+                // a new spell begins here
+                watch.centre_m = centre.to_array();
+                watch.rotation = [rotation.x, rotation.y, rotation.z, rotation.w];
+                0.0
+            } else {
+                watch.still_s + frame_s
+            };
+        }
+        let mut restless = vec![false; self.pieces.len()];
+        for (piece, watch) in self.watch.iter().enumerate() {
+            if watch.still_s < self.sleep_after_s {
+                restless[piles.root(piece)] = true;
             }
-            watch.still_s += frame_s;
-            if watch.still_s >= self.sleep_after_s {
+        }
+        for (piece, &handle) in self.pieces.iter().enumerate() {
+            let watch = &self.watch[piece];
+            if !restless[piles.root(piece)] && !watch.retired && !self.world.bodies[handle].is_sleeping() {
                 self.world.bodies[handle].sleep();
             }
         }
@@ -311,14 +394,24 @@ impl RigidWorld {
         nearest
     }
 
-    /// The pieces that are awake (still moving, or not yet still for long enough to sleep).
+    /// The pieces that are awake (still moving, or not yet still for long enough to sleep);
+    /// retired pieces are at rest.
     pub fn awake_pieces(&self) -> Vec<usize> {
-        (0..self.pieces.len()).filter(|&i| !self.world.bodies[self.pieces[i]].is_sleeping()).collect()
+        (0..self.pieces.len()).filter(|&i| !self.at_rest(i)).collect()
     }
 
-    /// Whether every piece sleeps.
+    /// Whether every piece sleeps (or is retired).
     pub fn all_asleep(&self) -> bool {
-        self.pieces.iter().all(|&h| self.world.bodies[h].is_sleeping())
+        (0..self.pieces.len()).all(|i| self.at_rest(i))
+    }
+
+    fn at_rest(&self, piece: usize) -> bool {
+        self.watch[piece].retired || self.world.bodies[self.pieces[piece]].is_sleeping()
+    }
+
+    /// The pieces retired for leaving the shot's region (see [`WorldSettings::bounds_m`]).
+    pub fn retired_pieces(&self) -> usize {
+        self.watch.iter().filter(|watch| watch.retired).count()
     }
 
     /// The overlap allowances still in force (see [`ContactRules`]).
@@ -335,12 +428,8 @@ impl RigidWorld {
     /// Every overlap now beyond the handoff's allowances, deepest first: the two pieces (None
     /// for the floor, a projectile or an indenter) and the depth, metres.
     pub fn overlaps(&self) -> Vec<(Option<usize>, Option<usize>, f64)> {
-        let index: std::collections::BTreeMap<_, usize> =
-            self.pieces.iter().enumerate().map(|(i, body)| (body.into_raw_parts(), i)).collect();
-        let piece_of = |collider: ColliderHandle| {
-            let body = self.world.colliders.get(collider)?.parent()?;
-            index.get(&body.into_raw_parts()).copied()
-        };
+        let index = self.piece_index();
+        let piece_of = |collider| self.piece_of(&index, collider);
         let mut overlaps: Vec<(Option<usize>, Option<usize>, f64)> = Vec::new();
         for pair in self.world.narrow_phase.contact_pairs() {
             let depth = deepest(pair.manifolds().iter().flat_map(|m| m.points.iter().map(|p| p.dist)));
@@ -362,5 +451,31 @@ impl RigidWorld {
     /// A world from [`RigidWorld::snapshot`].
     pub fn restore(bytes: &[u8]) -> Result<RigidWorld, rmp_serde::decode::Error> {
         rmp_serde::from_slice(bytes)
+    }
+}
+
+/// Pieces linked by contacts, as a disjoint-set forest.
+struct Piles {
+    parent: Vec<usize>,
+}
+
+impl Piles {
+    fn new(pieces: usize) -> Piles {
+        Piles { parent: (0..pieces).collect() }
+    }
+
+    /// The pile of `piece`, by its root piece.
+    fn root(&mut self, mut piece: usize) -> usize {
+        while self.parent[piece] != piece {
+            self.parent[piece] = self.parent[self.parent[piece]];
+            piece = self.parent[piece];
+        }
+        piece
+    }
+
+    fn join(&mut self, a: usize, b: usize) {
+        let (a, b) = (self.root(a), self.root(b));
+        // the lower index is the root: the same forest whatever the order of the pairs
+        self.parent[a.max(b)] = a.min(b);
     }
 }

@@ -47,17 +47,27 @@ pub struct RigidConfig {
     pub dust_max_elements: u32,
     /// Two pieces whose masses differ by more than this factor do not collide: the light one
     /// passes through the heavy one, as dust does. Rapier's soft contacts hold a load F on a
-    /// piece of mass m at a depth F / (m w^2); at 480 Hz a piece carrying 500 times its mass
-    /// sinks half a millimetre into its load, and a lighter one is swallowed while its
-    /// contacts jitter and keep the pile from sleeping.
+    /// piece of mass m at a depth F / (m w^2); at 480 Hz a piece carrying 200 times its mass
+    /// sinks 0.2 mm into its load, and a lighter one is swallowed while its contacts jitter and
+    /// keep the pile from sleeping.
     pub max_mass_ratio: f64,
-    /// A piece whose farthest point moves slower than this (m/s) for `sleep_after_s` falls
-    /// asleep (friction stops a sliding piece from this speed in milliseconds; a lower value
-    /// lets small shards rock on their contacts for seconds); once every piece sleeps the
-    /// remaining frames repeat the last.
+    /// A piece whose farthest point stays within `sleep_speed_m_s * sleep_after_s` of where it
+    /// was for `sleep_after_s` (slower than this on average, m/s; jitter and rocking in place
+    /// do not count) falls asleep, a pile of pieces in contact as a whole. Friction stops a
+    /// sliding piece from this speed in milliseconds, so nothing visible is cut short. Once
+    /// every piece sleeps the remaining frames repeat the last.
     pub sleep_speed_m_s: f64,
     /// How long a piece stays slow before it sleeps, seconds.
     pub sleep_after_s: f64,
+    /// The shot's region as its lowest and highest corner, metres: a piece whose centre of
+    /// mass leaves it is retired (held where it left, out of the simulation, at rest), as a
+    /// single element flung off at tens of m/s would skid for minutes. Unset: no region.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bounds_m: Option<[[f64; 3]; 2]>,
+    /// Rolling resistance (Bullet's rolling friction, as a rate): the spin of a piece that
+    /// touches the floor or another piece decays at this rate, 1/s; a piece in flight spins
+    /// freely. A curved shard lying on its back otherwise rocks for seconds.
+    pub rolling_damping_per_s: f64,
     /// A checkpoint (the rapier world, for resume) is written every this many frames.
     pub checkpoint_every_frames: u32,
 }
@@ -78,9 +88,11 @@ impl Default for RigidConfig {
             piece_restitution: 0.1,
             hull_volume_factor: 1.02,
             dust_max_elements: 1,
-            max_mass_ratio: 500.0,
+            max_mass_ratio: 200.0,
             sleep_speed_m_s: 0.02,
             sleep_after_s: 0.2,
+            bounds_m: None,
+            rolling_damping_per_s: 4.0,
             checkpoint_every_frames: 24,
         }
     }
@@ -128,6 +140,16 @@ impl RigidConfig {
         })?;
         check.non_negative("rigid.sleep_speed_m_s", self.sleep_speed_m_s, "m/s")?;
         check.non_negative("rigid.sleep_after_s", self.sleep_after_s, "seconds")?;
+        check.non_negative("rigid.rolling_damping_per_s", self.rolling_damping_per_s, "a rate, 1/s")?;
+        if let Some([low, high]) = self.bounds_m {
+            let shown = format!("{:?}", [low, high]);
+            check.that(
+                (0..3).all(|axis| low[axis].is_finite() && high[axis].is_finite() && low[axis] < high[axis]),
+                "rigid.bounds_m",
+                &shown,
+                || "must be [[x, y, z], [x, y, z]]: the lowest corner, then the highest, finite and apart on every axis".into(),
+            )?;
+        }
         let every = self.checkpoint_every_frames;
         check.that(every >= 1, "rigid.checkpoint_every_frames", &every.to_string(), || "must be at least 1".into())
     }
