@@ -43,7 +43,8 @@ pub struct WorldSettings {
     /// How long it must stay below it, seconds.
     pub sleep_after_s: f64,
     /// The shot's region, metres (lowest and highest corner): a piece whose centre of mass
-    /// leaves it is retired, held where it left and taken out of the simulation.
+    /// leaves it is retired, held where it is and taken out of the simulation (past a side,
+    /// once it touches something).
     pub bounds_m: Option<[[f64; 3]; 2]>,
     /// The decay rate of a touching piece's spin, 1/s (rolling resistance).
     pub rolling_damping_per_s: f64,
@@ -236,7 +237,7 @@ impl RigidWorld {
             self.rules.shrink_allowances(&self.world.narrow_phase);
         }
         let (touching, piles) = self.contacts();
-        self.retire_outside_bounds();
+        self.retire_outside_bounds(&touching);
         self.settle(duration_s, piles);
         self.resist_rolling(&touching);
         steps as u64
@@ -288,13 +289,15 @@ impl RigidWorld {
 
     /// A piece flung out of the shot's region (a single element shot off the crushed base of a
     /// vase at 40 m/s skids for hundreds of metres before friction stops it) is retired: its
-    /// body is disabled where it left, so it neither moves nor keeps the shot from settling.
-    fn retire_outside_bounds(&mut self) {
+    /// body is disabled where it is, so it neither moves nor keeps the shot from settling. Past
+    /// the region's top or bottom it is retired at once; past its sides only once it touches
+    /// something (lands): one retired in flight would hang in the air, in view.
+    fn retire_outside_bounds(&mut self, touching: &[bool]) {
         let Some([low, high]) = self.bounds_m else { return };
-        for (watch, &handle) in self.watch.iter_mut().zip(&self.pieces) {
+        for ((watch, &handle), &touches) in self.watch.iter_mut().zip(&self.pieces).zip(touching) {
             let centre = self.world.bodies[handle].center_of_mass().to_array();
-            let outside = (0..3).any(|axis| centre[axis] < low[axis] || centre[axis] > high[axis]);
-            if outside && !watch.retired {
+            let outside = |axis: usize| centre[axis] < low[axis] || centre[axis] > high[axis];
+            if !watch.retired && (outside(1) || (touches && (outside(0) || outside(2)))) {
                 watch.retired = true;
                 self.world.bodies[handle].set_enabled(false);
             }

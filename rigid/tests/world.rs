@@ -366,3 +366,20 @@ fn rolling_resistance_damps_spin_on_contact_only() {
         "rolling at {resisted} m/s with rolling resistance, {free} m/s without"
     );
 }
+
+#[test]
+fn a_piece_flung_out_through_the_side_is_retired_where_it_lands() {
+    // a flat chip thrown out of the 1 m region's side at 5 m/s, 0.3 m up: it flies on (a piece
+    // retired in flight would hang in the air, in view) and is retired once it lands, 1.85 m out
+    let half = Vector::new(0.02, 0.003, 0.02);
+    let thrown = box_piece(Vector::ZERO, half, Vector::new(0.0, 0.3, 0.0), Vector::new(5.0, 1.0, 0.0), 2200.0);
+    let bounds = Some([[-1.0, -1.0, -1.0], [1.0, 3.0, 1.0]]);
+    let mut world = RigidWorld::new(&WorldSettings { bounds_m: bounds, ..settings() }, Some(0.0), &[], &[thrown]);
+    run_until(&mut world, 0.25);
+    assert_eq!(world.retired_pieces(), 0, "retired in flight at {:?}", world.centres()[0]);
+    assert!(world.centres()[0].x > 1.0);
+    run_until(&mut world, 0.75);
+    assert_eq!(world.retired_pieces(), 1, "not retired at {:?}", world.centres()[0]);
+    let at = world.centres()[0];
+    assert!(at.y < 0.01 && at.x > 1.8 && at.x < 3.0, "retired at {at:?}, not on the floor where it landed");
+}
