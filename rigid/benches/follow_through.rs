@@ -22,12 +22,14 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use glam::DVec3;
 use rapier3d_f64::math::{Rotation, Vector};
 use shatter_core::fragments::{FragmentFrame, FragmentMeta};
 use shatter_core::frames::PointFrame;
 use shatter_core::particles::ParticleSet;
 use shatter_core::rigid_checkpoint::RigidCheckpoint;
 use shatter_core::{OutputLayout, PipelineConfig};
+use shatter_geometry::PointKdTree;
 use shatter_rigid::rigid_driver::hand_over;
 
 const FRAME_S: f64 = 1.0 / 24.0;
@@ -58,8 +60,7 @@ fn main() {
     // FOLLOW_THROUGH_DUST=grains: the small shot's dust stays in grains of its size
     let split_dust = std::env::var("FOLLOW_THROUGH_DUST").map_or(true, |dust| dust != "grains");
     let started = Instant::now();
-    let nearest = Nearest::new(&small_particles.rest_position_m, small_particles.meta.lambda_m);
-    let source: Vec<usize> = particles.rest_position_m.iter().map(|p| nearest.find(*p)).collect();
+    let source = nearest(&small_particles.rest_position_m, &particles.rest_position_m, small_particles.meta.lambda_m);
     let (handoff, points) = cut(&small_fragments, &small_points, &particles, &source, split_dust);
     let cut_s = started.elapsed().as_secs_f64();
 
@@ -177,54 +178,27 @@ fn cut(
     (handoff, points)
 }
 
-/// The nearest of a set of points, by a grid of cells a spacing wide.
-struct Nearest<'a> {
-    points: &'a [[f32; 3]],
-    cell_m: f32,
-    cells: HashMap<[i32; 3], Vec<u32>>,
-}
-
-impl<'a> Nearest<'a> {
-    fn new(points: &'a [[f32; 3]], spacing_m: f64) -> Nearest<'a> {
-        let cell_m = spacing_m as f32;
-        let mut cells: HashMap<[i32; 3], Vec<u32>> = HashMap::new();
-        for (i, p) in points.iter().enumerate() {
-            cells.entry(p.map(|c| (c / cell_m).floor() as i32)).or_default().push(i as u32);
-        }
-        Nearest { points, cell_m, cells }
-    }
-
-    /// The index of the point nearest `p` (ties to the lower index), searching rings of cells
-    /// outwards until one holds a point, and one ring further.
-    fn find(&self, p: [f32; 3]) -> usize {
-        let centre = p.map(|c| (c / self.cell_m).floor() as i32);
-        let mut best: Option<(f32, u32)> = None;
-        let mut found_at = None;
-        for ring in 0.. {
-            if found_at.is_some_and(|r: i32| ring > r + 1) {
-                break;
-            }
-            for dx in -ring..=ring {
-                for dy in -ring..=ring {
-                    for dz in -ring..=ring {
-                        if dx.abs().max(dy.abs()).max(dz.abs()) != ring {
-                            continue;
-                        }
-                        let cell = [centre[0] + dx, centre[1] + dy, centre[2] + dz];
-                        for &j in self.cells.get(&cell).map_or(&[][..], |v| v.as_slice()) {
-                            let q = self.points[j as usize];
-                            let d = (0..3).map(|a| (q[a] - p[a]) * (q[a] - p[a])).sum::<f32>();
-                            if best.is_none_or(|(bd, bj)| d < bd || (d == bd && j < bj)) {
-                                best = Some((d, j));
-                            }
-                        }
-                    }
+/// For each of `queries`, the index of the nearest of `points` (ties to the lower index),
+/// searched within a radius of `spacing_m` that doubles until a point is found.
+fn nearest(points: &[[f32; 3]], queries: &[[f32; 3]], spacing_m: f64) -> Vec<usize> {
+    let vector = |p: &[f32; 3]| DVec3::from_array(p.map(f64::from));
+    let points: Vec<DVec3> = points.iter().map(vector).collect();
+    let tree = PointKdTree::new(&points);
+    let mut found = Vec::new();
+    queries
+        .iter()
+        .map(|query| {
+            let query = vector(query);
+            let mut radius = spacing_m;
+            loop {
+                found.clear();
+                tree.within(query, radius * radius, &mut found);
+                let distance = |j: &u32| (points[*j as usize].distance_squared(query), *j);
+                if let Some(j) = found.iter().min_by(|a, b| distance(a).partial_cmp(&distance(b)).expect("finite")) {
+                    return *j as usize;
                 }
+                radius *= 2.0;
             }
-            if best.is_some() && found_at.is_none() {
-                found_at = Some(ring);
-            }
-        }
-        best.expect("a point").1 as usize
-    }
+        })
+        .collect()
 }

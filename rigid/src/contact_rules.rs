@@ -17,7 +17,7 @@ use std::collections::BTreeMap;
 use std::sync::Mutex;
 
 use rapier3d_f64::dynamics::RigidBodyHandle;
-use rapier3d_f64::geometry::{ColliderHandle, NarrowPhase, SolverFlags};
+use rapier3d_f64::geometry::{ColliderHandle, ContactPair, NarrowPhase, SolverFlags};
 use rapier3d_f64::pipeline::{ContactModificationContext, PairFilterContext, PhysicsHooks};
 use serde::{Deserialize, Serialize};
 
@@ -105,17 +105,20 @@ impl ContactRules {
         // grains on the floor, a map of every pair's overlap cost a sixteenth of each step
         self.allowance_m.retain(|&(a, b), allowance| {
             let [a, b] = [a, b].map(|(index, generation)| ColliderHandle::from_raw_parts(index, generation));
-            let depth = narrow_phase
-                .contact_pair(a, b)
-                .map_or(0.0, |pair| deepest(pair.manifolds().iter().flat_map(|m| m.points.iter().map(|p| p.dist))));
+            let depth = narrow_phase.contact_pair(a, b).map_or(0.0, pair_depth);
             *allowance = allowance.min(depth);
             depth > 0.0
         });
     }
 }
 
+/// The deepest overlap of a pair's contact points now, metres; 0 if none.
+pub fn pair_depth(pair: &ContactPair) -> f64 {
+    deepest(pair.manifolds().iter().flat_map(|m| m.points.iter().map(|p| p.dist)))
+}
+
 /// The deepest penetration among contact distances (negative: overlapping), metres; 0 if none.
-pub fn deepest(distances: impl Iterator<Item = f64>) -> f64 {
+fn deepest(distances: impl Iterator<Item = f64>) -> f64 {
     distances.fold(0.0, |deepest: f64, dist| deepest.max(-dist))
 }
 

@@ -6,7 +6,7 @@ use rapier3d_f64::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
-use crate::contact_rules::{ContactRules, deepest, pair_key};
+use crate::contact_rules::{ContactRules, pair_depth, pair_key};
 use crate::mass::MassProps;
 
 /// Half the floor slab's width, metres: far beyond any shot.
@@ -435,7 +435,7 @@ impl RigidWorld {
         let piece_of = |collider| self.piece_of(&index, collider);
         let mut overlaps: Vec<(Option<usize>, Option<usize>, f64)> = Vec::new();
         for pair in self.world.narrow_phase.contact_pairs() {
-            let depth = deepest(pair.manifolds().iter().flat_map(|m| m.points.iter().map(|p| p.dist)));
+            let depth = pair_depth(pair);
             let beyond =
                 depth - self.rules.allowance_m.get(&pair_key(pair.collider1, pair.collider2)).copied().unwrap_or(0.0);
             if beyond > 0.0 {
