@@ -27,6 +27,26 @@ fn scene() -> ParticleSet {
         }
     }
     let n = positions.len();
+    // face neighbours, as preprocessing records them: the next cube along x, y and z
+    let index = |x: usize, y: usize, z: usize| ((x * 100 + y) * 60 + z) as u32;
+    let mut adjacency = Vec::with_capacity(3 * n);
+    for x in 0..100 {
+        for y in 0..100 {
+            for z in 0..60 {
+                let here = index(x, y, z);
+                adjacency.extend(
+                    [
+                        (x + 1 < 100, index(x + 1, y, z)),
+                        (y + 1 < 100, index(x, y + 1, z)),
+                        (z + 1 < 60, index(x, y, z + 1)),
+                    ]
+                    .into_iter()
+                    .filter(|(inside, _)| *inside)
+                    .map(|(_, next)| [here, next]),
+                );
+            }
+        }
+    }
     ParticleSet {
         meta: ParticleMeta {
             scene_name: "bench".into(),
@@ -49,7 +69,7 @@ fn scene() -> ParticleSet {
             orientation: DQuat::from_rotation_y(0.3).as_quat().to_array(),
         },
         bonds: Bonds { offsets: vec![0; n + 1], ..Bonds::default() },
-        adjacency: Vec::new(),
+        adjacency,
     }
 }
 

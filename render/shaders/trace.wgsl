@@ -73,6 +73,8 @@ const BRANCH_EVENTS: u32 = 128u;
 // scene.rs interior_faces: per element, bit k set when plane k rested against another element
 @group(0) @binding(14) var<storage, read> interior_faces: array<u32>;
 @group(0) @binding(15) var<storage, read_write> mattes: array<MatteOut>;
+// scene.rs face_neighbours: parallel to planes, the element that rested against each plane, or NONE
+@group(0) @binding(16) var<storage, read> face_neighbours: array<u32>;
 
 fn infinity() -> f32 {
     return bitcast<f32>(0x7f800000u);
@@ -420,6 +422,17 @@ fn element_at(point: vec3<f32>, except: u32) -> u32 {
     return NONE;
 }
 
+// trace.rs next_element
+fn next_element(current: u32, plane: u32, point: vec3<f32>) -> u32 {
+    if (plane != NONE) {
+        let neighbour = face_neighbours[plane_offsets[current] + plane];
+        if (neighbour != NONE && polytope_contains(neighbour, params.scene_min.w, point)) {
+            return neighbour;
+        }
+    }
+    return element_at(point, current);
+}
+
 struct Exit {
     t: f32,
     normal: vec3<f32>,
@@ -440,7 +453,7 @@ fn union_exit(element: u32, origin: vec3<f32>, direction: vec3<f32>) -> Exit {
         }
         let t = max(span.t_out, 0.0);
         let exit = start + t * direction;
-        let next = element_at(exit + step * direction, current);
+        let next = next_element(current, span.plane_out, exit + step * direction);
         if (next == NONE || span.plane_out == NONE) {
             let count = plane_offsets[current + 1u] - plane_offsets[current];
             return Exit(travelled + t, plane_normal(current, min(span.plane_out, count - 1u)), current);

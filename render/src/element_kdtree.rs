@@ -299,6 +299,13 @@ fn relocate([a, b]: [u32; 2], node_offset: u32, item_offset: u32) -> [u32; 2] {
     if a & 3 == LEAF { [a + (item_offset << 2), b] } else { [a + (node_offset << 2), b] }
 }
 
+/// Nodes of at most this many items weigh a plane at each of their items' bounds; larger ones at
+/// the [`BINS`] bin boundaries. Bin boundaries cut through items: in a grid of touching cubes
+/// (their bounds widened by the tracer's slack, so neighbours overlap by a sliver) every such
+/// plane copies a layer of cubes into both children, and a small node never runs out of slivers
+/// to copy. Planes at the items' own bounds peel the slivers off, and the SAH then stops.
+const EXACT_ITEMS: usize = 64;
+
 /// The SAH-best split of `items` in `node_box`, if any beats making a leaf.
 fn best_split(bounds: &[Aabb], items: &[u32], node_box: &Aabb) -> Option<(usize, f32)> {
     let area = node_box.area();
@@ -306,45 +313,81 @@ fn best_split(bounds: &[Aabb], items: &[u32], node_box: &Aabb) -> Option<(usize,
         return None;
     }
     let leaf_cost = INTERSECTION_COST * items.len() as f32;
-    let lo = node_box.min;
-    let width = [0, 1, 2].map(|axis| (node_box.max[axis] - lo[axis]) / BINS as f32);
-    let bin = |x: f32, axis: usize| (((x - lo[axis]) / width[axis]) as isize).clamp(0, BINS as isize - 1) as usize;
-    // Counts of items starting and ending in each bin, all three axes in one pass over the items.
-    let mut starts = [[0u32; BINS]; 3];
-    let mut ends = [[0u32; BINS]; 3];
-    for &item in items {
-        let b = &bounds[item as usize];
-        for axis in 0..3 {
-            starts[axis][bin(b.min[axis], axis)] += 1;
-            ends[axis][bin(b.max[axis], axis)] += 1;
-        }
-    }
     let mut best: Option<(f32, usize, f32)> = None;
     for axis in 0..3 {
-        if node_box.max[axis] <= lo[axis] {
+        let (lo, hi) = (node_box.min[axis], node_box.max[axis]);
+        if hi <= lo {
             continue;
         }
         // A child of extent e along the axis has area 2 (d1 d2 + e (d1 + d2)), with d1 and d2
         // the node's other two extents: cross_area + perimeter * e.
-        let hi = node_box.max[axis];
         let [d1, d2] = [(axis + 1) % 3, (axis + 2) % 3].map(|a| (node_box.max[a] - node_box.min[a]).max(0.0));
         let (cross_area, perimeter) = (2.0 * d1 * d2, 2.0 * (d1 + d2));
-        let total = items.len() as u32;
-        let (mut left_count, mut right_count) = (0u32, total);
-        for plane in 1..BINS {
-            left_count += starts[axis][plane - 1];
-            right_count -= ends[axis][plane - 1];
-            let position = lo[axis] + plane as f32 * width[axis];
+        let mut weigh = |position: f32, left_count: usize, right_count: usize| {
             let (left_area, right_area) =
-                (cross_area + perimeter * (position - lo[axis]), cross_area + perimeter * (hi - position));
+                (cross_area + perimeter * (position - lo), cross_area + perimeter * (hi - position));
             let cost = TRAVERSAL_COST
                 + INTERSECTION_COST * (left_area * left_count as f32 + right_area * right_count as f32) / area;
             if best.is_none_or(|(c, _, _)| cost < c) {
                 best = Some((cost, axis, position));
             }
+        };
+        if items.len() <= EXACT_ITEMS {
+            planes_at_bounds(bounds, items, axis, (lo, hi), &mut weigh);
+        } else {
+            planes_at_bins(bounds, items, axis, (lo, hi), &mut weigh);
         }
     }
     best.filter(|(cost, _, _)| *cost < leaf_cost).map(|(_, axis, position)| (axis, position))
+}
+
+/// Calls `weigh(position, left count, right count)` for the [`BINS`] - 1 inner bin boundaries
+/// of `span` along `axis`, counting an item on the left from the bin of its lower bound on and on
+/// the right up to the bin of its upper bound.
+fn planes_at_bins(
+    bounds: &[Aabb],
+    items: &[u32],
+    axis: usize,
+    (lo, hi): (f32, f32),
+    weigh: &mut impl FnMut(f32, usize, usize),
+) {
+    let width = (hi - lo) / BINS as f32;
+    let bin = |x: f32| (((x - lo) / width) as isize).clamp(0, BINS as isize - 1) as usize;
+    // Counts of items starting and ending in each bin.
+    let (mut starts, mut ends) = ([0usize; BINS], [0usize; BINS]);
+    for &item in items {
+        let b = &bounds[item as usize];
+        starts[bin(b.min[axis])] += 1;
+        ends[bin(b.max[axis])] += 1;
+    }
+    let (mut left_count, mut right_count) = (0, items.len());
+    for plane in 1..BINS {
+        left_count += starts[plane - 1];
+        right_count -= ends[plane - 1];
+        weigh(lo + plane as f32 * width, left_count, right_count);
+    }
+}
+
+/// Calls `weigh(position, left count, right count)` for every item bound strictly inside `span`
+/// along `axis`, with the exact counts of items reaching below and above the plane.
+fn planes_at_bounds(
+    bounds: &[Aabb],
+    items: &[u32],
+    axis: usize,
+    (lo, hi): (f32, f32),
+    weigh: &mut impl FnMut(f32, usize, usize),
+) {
+    let mut lows: Vec<f32> = items.iter().map(|&item| bounds[item as usize].min[axis]).collect();
+    let mut highs: Vec<f32> = items.iter().map(|&item| bounds[item as usize].max[axis]).collect();
+    lows.sort_unstable_by(f32::total_cmp);
+    highs.sort_unstable_by(f32::total_cmp);
+    for &position in lows.iter().chain(&highs) {
+        if position > lo && position < hi {
+            let left_count = lows.partition_point(|&x| x < position);
+            let right_count = highs.len() - highs.partition_point(|&x| x <= position);
+            weigh(position, left_count, right_count);
+        }
+    }
 }
 
 #[cfg(test)]

@@ -95,6 +95,10 @@ impl GpuTracer {
             "interior faces",
             if scene.interior_faces.is_empty() { &[0u32][..] } else { &scene.interior_faces },
         )?;
+        let face_neighbours = ctx.create_storage_buffer(
+            "face neighbours",
+            if scene.face_neighbours.is_empty() { &[0u32][..] } else { &scene.face_neighbours },
+        )?;
         let fragments = ctx.create_storage_buffer(
             "fragments",
             if scene.fragment.is_empty() { &[0u32][..] } else { &scene.fragment },
@@ -183,6 +187,7 @@ impl GpuTracer {
                     triangle_groups.as_entire_binding(),
                     interior_faces.as_entire_binding(),
                     matte_slice,
+                    face_neighbours.as_entire_binding(),
                 ],
             )?;
             self.kernel.dispatch_invocations(ctx, &[&group], u64::from(count))?;

@@ -11,6 +11,7 @@ use shatter_core::particles::{ElementType, Elements, ParticleSet};
 
 use crate::element_kdtree::{Aabb, KdTree};
 use crate::primitives::{Plane, WIDEN, cube_planes, sort_triangles_spatially, tet_planes, triangle_groups};
+use crate::trace::NONE;
 
 /// One element's planes, triangles, site and bounds.
 type ElementParts = (Vec<Plane>, Vec<[[f32; 3]; 3]>, [f32; 3], Aabb);
@@ -42,6 +43,10 @@ pub struct SceneGeometry {
     /// cubes: only against an element of another fragment (within one, a seam between two
     /// cubes' affine maps).
     pub interior_faces: Vec<u32>,
+    /// Parallel to `planes`: the element that rested against each plane (cubes and tetrahedra),
+    /// else [`crate::trace::NONE`]. A ray walking through a union, leaving an element by a plane,
+    /// tries that neighbour before it asks the k-d tree (see [`crate::trace::union_exit`]).
+    pub face_neighbours: Vec<u32>,
     /// The k-d tree over the elements' bounds.
     pub tree: KdTree,
     /// How far elements are widened in ray tests (so touching elements leave no cracks), metres.
@@ -121,6 +126,7 @@ impl SceneGeometry {
             sites: Vec::with_capacity(n),
             fragment,
             interior_faces: interior_faces(particles, cube_seams(particles, fragments)),
+            face_neighbours: Vec::new(),
             tree: KdTree::build(&[]),
             slack: WIDEN * particles.meta.lambda_m as f32,
         };
@@ -139,6 +145,7 @@ impl SceneGeometry {
             scene.sites.push(site);
             bounds.push(Aabb { min: b.min.map(|v| v - 2.0 * slack), max: b.max.map(|v| v + 2.0 * slack) });
         }
+        scene.face_neighbours = face_neighbours(particles, &scene.plane_offsets);
         scene.tree = KdTree::build(&bounds);
         scene
     }
@@ -291,6 +298,23 @@ fn interior_faces(particles: &ParticleSet, seams: Option<&FragmentFrame>) -> Vec
         }
     }
     masks
+}
+
+/// [`SceneGeometry::face_neighbours`] of `particles`, whose elements' planes start at
+/// `plane_offsets`: from their rest adjacency.
+fn face_neighbours(particles: &ParticleSet, plane_offsets: &[u32]) -> Vec<u32> {
+    let mut neighbours = vec![NONE; *plane_offsets.last().unwrap_or(&0) as usize];
+    for &[a, b] in &particles.adjacency {
+        for (from, to) in [(a, b), (b, a)] {
+            let (first, end) = (plane_offsets[from as usize], plane_offsets[from as usize + 1]);
+            if let Some(face) = particles.shared_face(from as usize, to as usize)
+                && first + (face as u32) < end
+            {
+                neighbours[(first + face as u32) as usize] = to;
+            }
+        }
+    }
+    neighbours
 }
 
 /// Bounds of a convex polytope around a point inside it: every vertex (three planes meeting,

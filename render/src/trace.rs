@@ -96,6 +96,19 @@ pub fn element_at(scene: &SceneGeometry, point: [f32; 3], except: u32) -> u32 {
     found
 }
 
+/// The element (other than `current`) holding `point` just past `current`'s plane `plane`: the
+/// face neighbour that rested against that plane when it holds the point (one point test), else
+/// the k-d tree's answer (a descent and a leaf of tests).
+fn next_element(scene: &SceneGeometry, current: u32, plane: u32, point: [f32; 3]) -> u32 {
+    if plane != NONE {
+        let neighbour = scene.face_neighbours[(scene.plane_offsets[current as usize] + plane) as usize];
+        if neighbour != NONE && polytope_contains(scene.planes_of(neighbour as usize), scene.slack, point) {
+            return neighbour;
+        }
+    }
+    element_at(scene, point, current)
+}
+
 /// Where a ray inside the union containing `element` leaves it: (distance, unit outward normal of
 /// the last element's exit face, last element).
 pub fn union_exit(scene: &SceneGeometry, element: u32, origin: [f32; 3], direction: [f32; 3]) -> (f32, [f32; 3], u32) {
@@ -110,7 +123,7 @@ pub fn union_exit(scene: &SceneGeometry, element: u32, origin: [f32; 3], directi
         };
         let t = span.t_out.max(0.0);
         let exit = along(from, direction, t);
-        let next = element_at(scene, along(exit, direction, step), current);
+        let next = next_element(scene, current, span.plane_out, along(exit, direction, step));
         if next == NONE || span.plane_out == NONE {
             let p = planes[span.plane_out.min(planes.len() as u32 - 1) as usize];
             return (travelled + t, [p[0], p[1], p[2]], current);
@@ -698,6 +711,62 @@ mod tests {
         assert!((t - 1.9).abs() < 1e-4, "exit at x = 1.5, not 0.5: t = {t}");
         assert_eq!(normal, [1.0, 0.0, 0.0]);
         assert_eq!(last, 1);
+    }
+
+    #[test]
+    fn the_walk_across_face_neighbours_leaves_where_the_tree_walk_does() {
+        // a 4 x 4 x 4 block of touching unit cubes with its face adjacency
+        let index = |x: usize, y: usize, z: usize| (x * 16 + y * 4 + z) as u32;
+        let (mut centres, mut adjacency) = (Vec::new(), Vec::new());
+        for x in 0..4 {
+            for y in 0..4 {
+                for z in 0..4 {
+                    centres.push([x as f32, y as f32, z as f32]);
+                    for (inside, next) in [(x < 3, (x + 1, y, z)), (y < 3, (x, y + 1, z)), (z < 3, (x, y, z + 1))] {
+                        if inside {
+                            adjacency.push([index(x, y, z), index(next.0, next.1, next.2)]);
+                        }
+                    }
+                }
+            }
+        }
+        let elements = Elements::Cubes { half_size_m: vec![0.5; 64], orientation: [0.0, 0.0, 0.0, 1.0] };
+        let particles = ParticleSet { adjacency, ..set(centres, elements) };
+        let scene = SceneGeometry::build(&particles, None);
+        assert_eq!(scene.face_neighbours.len(), 6 * 64);
+        assert_eq!(scene.face_neighbours.iter().filter(|&&n| n != NONE).count(), 2 * 3 * 48);
+        let mut tree_only = SceneGeometry::build(&particles, None);
+        tree_only.face_neighbours.fill(NONE);
+        for k in 0..200u32 {
+            let origin = [0, 1, 2].map(|a| random(k, 0, a) * 3.0);
+            let direction = {
+                let v = DVec3::new(
+                    f64::from(random(k, 1, 0)) - 0.5,
+                    f64::from(random(k, 1, 1)) - 0.5,
+                    f64::from(random(k, 1, 2)) - 0.5,
+                )
+                .normalize();
+                v.as_vec3().to_array()
+            };
+            let start = element_at(&scene, origin, NONE);
+            let (t, normal, _) = union_exit(&scene, start, origin, direction);
+            let (t_tree, normal_tree, _) = union_exit(&tree_only, start, origin, direction);
+            assert!((t - t_tree).abs() < 1e-5, "ray {k}: {t} vs {t_tree}");
+            assert_eq!(normal, normal_tree, "ray {k}");
+            // and it is where the ray leaves the block [-0.5, 3.5]^3
+            let t_far = (0..3)
+                .map(|a| {
+                    ((-0.5 - f64::from(origin[a])) / f64::from(direction[a]))
+                        .max((3.5 - f64::from(origin[a])) / f64::from(direction[a]))
+                })
+                .fold(f64::INFINITY, f64::min);
+            assert!((f64::from(t) - t_far).abs() < 1e-4, "ray {k}: {t} vs {t_far}");
+        }
+        // a neighbour that has moved away is no shortcut: the walk ends at the face it left by
+        let mut apart = cubes(vec![[0.0; 3], [5.0, 0.0, 0.0]]);
+        apart.face_neighbours[0] = 1;
+        let (t, normal, last) = union_exit(&apart, 0, [0.0; 3], [1.0, 0.0, 0.0]);
+        assert_eq!((t, normal, last), (0.5, [1.0, 0.0, 0.0], 0));
     }
 
     #[test]
