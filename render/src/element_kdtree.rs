@@ -313,6 +313,7 @@ fn best_split(bounds: &[Aabb], items: &[u32], node_box: &Aabb) -> Option<(usize,
         return None;
     }
     let leaf_cost = INTERSECTION_COST * items.len() as f32;
+    let binned = (items.len() > EXACT_ITEMS).then(|| bin_counts(bounds, items, node_box));
     let mut best: Option<(f32, usize, f32)> = None;
     for axis in 0..3 {
         let (lo, hi) = (node_box.min[axis], node_box.max[axis]);
@@ -332,40 +333,44 @@ fn best_split(bounds: &[Aabb], items: &[u32], node_box: &Aabb) -> Option<(usize,
                 best = Some((cost, axis, position));
             }
         };
-        if items.len() <= EXACT_ITEMS {
-            planes_at_bounds(bounds, items, axis, (lo, hi), &mut weigh);
-        } else {
-            planes_at_bins(bounds, items, axis, (lo, hi), &mut weigh);
+        match &binned {
+            Some((starts, ends)) => {
+                // an item is on the left from the bin of its lower bound on, on the right up to
+                // the bin of its upper bound
+                let width = (hi - lo) / BINS as f32;
+                let (mut left_count, mut right_count) = (0, items.len());
+                for plane in 1..BINS {
+                    left_count += starts[axis][plane - 1] as usize;
+                    right_count -= ends[axis][plane - 1] as usize;
+                    weigh(lo + plane as f32 * width, left_count, right_count);
+                }
+            }
+            None => planes_at_bounds(bounds, items, axis, (lo, hi), &mut weigh),
         }
     }
     best.filter(|(cost, _, _)| *cost < leaf_cost).map(|(_, axis, position)| (axis, position))
 }
 
-/// Calls `weigh(position, left count, right count)` for the [`BINS`] - 1 inner bin boundaries
-/// of `span` along `axis`, counting an item on the left from the bin of its lower bound on and on
-/// the right up to the bin of its upper bound.
-fn planes_at_bins(
-    bounds: &[Aabb],
-    items: &[u32],
-    axis: usize,
-    (lo, hi): (f32, f32),
-    weigh: &mut impl FnMut(f32, usize, usize),
-) {
-    let width = (hi - lo) / BINS as f32;
-    let bin = |x: f32| (((x - lo) / width) as isize).clamp(0, BINS as isize - 1) as usize;
-    // Counts of items starting and ending in each bin.
-    let (mut starts, mut ends) = ([0usize; BINS], [0usize; BINS]);
+/// Per axis, how many of `items` have their lower bound (`starts`) and their upper bound
+/// (`ends`) in each of [`BINS`] equal bins across `node_box`; one pass over the items.
+#[allow(clippy::type_complexity)]
+fn bin_counts(bounds: &[Aabb], items: &[u32], node_box: &Aabb) -> ([[u32; BINS]; 3], [[u32; BINS]; 3]) {
+    let lo = node_box.min;
+    let scale = [0, 1, 2].map(|axis| {
+        let extent = node_box.max[axis] - lo[axis];
+        if extent > 0.0 { BINS as f32 / extent } else { 0.0 }
+    });
+    let bin = |x: f32, axis: usize| (((x - lo[axis]) * scale[axis]) as isize).clamp(0, BINS as isize - 1) as usize;
+    let mut starts = [[0u32; BINS]; 3];
+    let mut ends = [[0u32; BINS]; 3];
     for &item in items {
         let b = &bounds[item as usize];
-        starts[bin(b.min[axis])] += 1;
-        ends[bin(b.max[axis])] += 1;
+        for axis in 0..3 {
+            starts[axis][bin(b.min[axis], axis)] += 1;
+            ends[axis][bin(b.max[axis], axis)] += 1;
+        }
     }
-    let (mut left_count, mut right_count) = (0, items.len());
-    for plane in 1..BINS {
-        left_count += starts[plane - 1];
-        right_count -= ends[plane - 1];
-        weigh(lo + plane as f32 * width, left_count, right_count);
-    }
+    (starts, ends)
 }
 
 /// Calls `weigh(position, left count, right count)` for every item bound strictly inside `span`
