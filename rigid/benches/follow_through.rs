@@ -84,8 +84,9 @@ fn main() {
     let pieces = handoff.fragment_count();
     let dust = handoff.elements.iter().filter(|&&n| n <= rigid.dust_max_elements).count();
     println!(
-        "paper-scale vase follow-through (one thread: rapier steps serially): {} elements, {pieces} pieces ({dust} \
+        "paper-scale vase follow-through ({} threads): {} elements, {pieces} pieces ({dust} \
          of them dust of at most {} elements)",
+        rayon::current_num_threads(),
         particles.len(),
         rigid.dust_max_elements
     );
