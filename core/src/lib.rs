@@ -22,13 +22,14 @@
 //! - [`ply`]: checksummed binary PLY point caches, the public per-frame format.
 //! - [`memory`]: each stage's peak memory, estimated and refused up front when it cannot fit.
 //! - [`progress`]: how library code reports progress to the CLI.
-//! - [`random`]: seeded, order-independent randomness.
+//! - [`random`]: seeded, order-independent randomness; [`disjoint_sets`]: union-find.
 
 pub mod atomic_file;
 pub mod checkpoint;
 pub mod config;
 pub mod debris_points;
 pub mod digest;
+pub mod disjoint_sets;
 pub mod fragments;
 pub mod frames;
 pub mod layout;

@@ -24,6 +24,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use glam::{DMat3, DVec3};
+use shatter_core::disjoint_sets::DisjointSets;
 use shatter_core::fragments::AFFINE_RIGID;
 use shatter_core::particles::{Elements, ParticleSet};
 
@@ -246,11 +247,11 @@ impl ElementDeformation {
         particle: &dyn Fn(usize) -> (DVec3, DMat3),
     ) -> (Vec<u32>, Vec<DVec3>) {
         let slots = 4 * vertices_m.len();
-        let mut parent: Vec<u32> = (0..slots as u32).collect();
+        let mut sets = DisjointSets::new(slots);
         for face in &self.shared_faces {
             if self.is_intact(face.bond) {
                 for [a, b] in face.slots {
-                    join(&mut parent, a, b);
+                    sets.join(a, b);
                 }
             }
         }
@@ -258,19 +259,19 @@ impl ElementDeformation {
         // there): pieces of one fragment that an intact bond joins share the vertex copy.
         for star in self.star_offsets.windows(2) {
             let star = &self.star_slots[star[0] as usize..star[1] as usize];
-            let first = root(&mut parent, star[0]);
-            if star.iter().all(|s| root(&mut parent, *s) == first) {
+            let first = sets.root(star[0]);
+            if star.iter().all(|s| sets.root(*s) == first) {
                 continue;
             }
             for (x, &a) in star.iter().enumerate() {
                 for &b in &star[x + 1..] {
                     let (ta, tb) = (a as usize / 4, b as usize / 4);
-                    if fragment_of[ta] != fragment_of[tb] || root(&mut parent, a) == root(&mut parent, b) {
+                    if fragment_of[ta] != fragment_of[tb] || sets.root(a) == sets.root(b) {
                         continue;
                     }
                     let bond = particles.bonds.find(ta, tb as u32);
                     if bond.is_some_and(|bond| self.is_intact(bond)) {
-                        join(&mut parent, a, b);
+                        sets.join(a, b);
                     }
                 }
             }
@@ -282,32 +283,14 @@ impl ElementDeformation {
             let rest_t = DVec3::from_array(particles.rest_position_m[t].map(f64::from));
             let w = 0.25 * f64::from(particles.mass_kg[t]).max(f64::MIN_POSITIVE);
             for (k, v) in vertices.iter().enumerate() {
-                let r = root(&mut parent, (4 * t + k) as u32) as usize;
+                let r = sets.root((4 * t + k) as u32) as usize;
                 sum[r] += w * (x + f * (DVec3::from_array(v.map(f64::from)) - rest_t));
                 weight[r] += w;
             }
         }
-        let copies: Vec<u32> = (0..slots as u32).map(|s| root(&mut parent, s)).collect();
+        let copies: Vec<u32> = (0..slots as u32).map(|s| sets.root(s)).collect();
         let positions = copies.iter().map(|&r| sum[r as usize] / weight[r as usize]).collect();
         (copies, positions)
-    }
-}
-
-/// The root of slot `s` in the union-find forest `parent` (halving paths on the way).
-fn root(parent: &mut [u32], mut s: u32) -> u32 {
-    while parent[s as usize] != s {
-        let up = parent[parent[s as usize] as usize];
-        parent[s as usize] = up;
-        s = up;
-    }
-    s
-}
-
-/// Joins the groups of slots `a` and `b` (the lower root becomes the root).
-fn join(parent: &mut [u32], a: u32, b: u32) {
-    let (ra, rb) = (root(parent, a), root(parent, b));
-    if ra != rb {
-        parent[ra.max(rb) as usize] = ra.min(rb);
     }
 }
 

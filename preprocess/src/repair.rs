@@ -7,6 +7,7 @@
 //! not consistently wound is filled with the even-odd rule instead of the non-zero rule.
 
 use crate::inside::FillRule;
+use shatter_core::disjoint_sets::DisjointSets;
 use shatter_geometry::mesh::{LoadStats, TriangleMesh};
 
 /// One edge-connected part of a mesh.
@@ -145,28 +146,17 @@ pub fn repair(mesh: &TriangleMesh, load: LoadStats, min_body_volume_fraction: f6
 /// Body index of every triangle: triangles sharing a vertex are in the same body. Bodies are
 /// numbered in order of their first triangle.
 fn label_bodies(mesh: &TriangleMesh) -> Vec<u32> {
-    let mut parent: Vec<u32> = (0..mesh.positions.len() as u32).collect();
-    fn root(parent: &mut [u32], mut v: u32) -> u32 {
-        while parent[v as usize] != v {
-            parent[v as usize] = parent[parent[v as usize] as usize];
-            v = parent[v as usize];
-        }
-        v
-    }
+    let mut sets = DisjointSets::new(mesh.positions.len());
     for &[a, b, c] in &mesh.triangles {
-        for (x, y) in [(a, b), (b, c)] {
-            let (rx, ry) = (root(&mut parent, x), root(&mut parent, y));
-            if rx != ry {
-                parent[rx.max(ry) as usize] = rx.min(ry);
-            }
-        }
+        sets.join(a, b);
+        sets.join(b, c);
     }
     let mut body_of_root = vec![u32::MAX; mesh.positions.len()];
     let mut bodies = 0;
     mesh.triangles
         .iter()
         .map(|triangle| {
-            let r = root(&mut parent, triangle[0]) as usize;
+            let r = sets.root(triangle[0]) as usize;
             if body_of_root[r] == u32::MAX {
                 body_of_root[r] = bodies;
                 bodies += 1;

@@ -382,11 +382,15 @@ fn planes_at_bounds(
     (lo, hi): (f32, f32),
     weigh: &mut impl FnMut(f32, usize, usize),
 ) {
-    let mut lows: Vec<f32> = items.iter().map(|&item| bounds[item as usize].min[axis]).collect();
-    let mut highs: Vec<f32> = items.iter().map(|&item| bounds[item as usize].max[axis]).collect();
+    // at most EXACT_ITEMS of each: on the stack (these nodes are most of a tree's nodes)
+    let (mut low_store, mut high_store) = ([0.0f32; EXACT_ITEMS], [0.0f32; EXACT_ITEMS]);
+    let (lows, highs) = (&mut low_store[..items.len()], &mut high_store[..items.len()]);
+    for ((low, high), &item) in lows.iter_mut().zip(highs.iter_mut()).zip(items) {
+        (*low, *high) = (bounds[item as usize].min[axis], bounds[item as usize].max[axis]);
+    }
     lows.sort_unstable_by(f32::total_cmp);
     highs.sort_unstable_by(f32::total_cmp);
-    for &position in lows.iter().chain(&highs) {
+    for &position in lows.iter().chain(highs.iter()) {
         if position > lo && position < hi {
             let left_count = lows.partition_point(|&x| x < position);
             let right_count = highs.len() - highs.partition_point(|&x| x <= position);

@@ -125,7 +125,7 @@ impl SceneGeometry {
             triangle_groups: Vec::new(),
             sites: Vec::with_capacity(n),
             fragment,
-            interior_faces: interior_faces(particles, cube_seams(particles, fragments)),
+            interior_faces: Vec::new(),
             face_neighbours: Vec::new(),
             tree: KdTree::build(&[]),
             slack: WIDEN * particles.meta.lambda_m as f32,
@@ -146,6 +146,8 @@ impl SceneGeometry {
             bounds.push(Aabb { min: b.min.map(|v| v - 2.0 * slack), max: b.max.map(|v| v + 2.0 * slack) });
         }
         scene.face_neighbours = face_neighbours(particles, &scene.plane_offsets);
+        scene.interior_faces =
+            interior_faces(&scene.face_neighbours, &scene.plane_offsets, cube_seams(particles, fragments));
         scene.tree = KdTree::build(&bounds);
         scene
     }
@@ -276,28 +278,28 @@ fn cube_seams<'a>(particles: &ParticleSet, fragments: Option<&'a FragmentFrame>)
     (cubes && frame.element_affine.is_some()).then_some(frame)
 }
 
-/// [`SceneGeometry::interior_faces`] of `particles`, from their rest adjacency; with deformed
-/// cubes (`seams`), a face between two elements of one fragment of which one or both are
-/// deformed is not one.
-fn interior_faces(particles: &ParticleSet, seams: Option<&FragmentFrame>) -> Vec<u32> {
-    let mut masks = vec![0u32; particles.len()];
+/// [`SceneGeometry::interior_faces`]: the planes with a face neighbour (`face_neighbours`,
+/// planes starting at `plane_offsets`); with deformed cubes (`seams`), a face between two
+/// elements of one fragment of which one or both are deformed is not one.
+fn interior_faces(face_neighbours: &[u32], plane_offsets: &[u32], seams: Option<&FragmentFrame>) -> Vec<u32> {
     let seam = |a: usize, b: usize| {
         seams.is_some_and(|frame| {
             let deformed = |e: usize| frame.element_affine.as_ref().is_some_and(|maps| !is_affine_rigid(&maps[e]));
             frame.fragment_of[a] == frame.fragment_of[b] && (deformed(a) || deformed(b))
         })
     };
-    for &[a, b] in &particles.adjacency {
-        if seam(a as usize, b as usize) {
-            continue;
-        }
-        for (from, to) in [(a as usize, b as usize), (b as usize, a as usize)] {
-            if let Some(face) = particles.shared_face(from, to) {
-                masks[from] |= 1 << face;
-            }
-        }
-    }
-    masks
+    plane_offsets
+        .windows(2)
+        .enumerate()
+        .map(|(e, planes)| {
+            let neighbours = &face_neighbours[planes[0] as usize..planes[1] as usize];
+            neighbours
+                .iter()
+                .enumerate()
+                .filter(|&(_, &n)| n != NONE && !seam(e, n as usize))
+                .fold(0, |mask, (plane, _)| mask | 1 << plane)
+        })
+        .collect()
 }
 
 /// [`SceneGeometry::face_neighbours`] of `particles`, whose elements' planes start at

@@ -6,6 +6,8 @@ use rapier3d_f64::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
+use shatter_core::disjoint_sets::DisjointSets;
+
 use crate::contact_rules::{ContactRules, pair_depth, pair_key};
 use crate::mass::MassProps;
 
@@ -245,9 +247,9 @@ impl RigidWorld {
 
     /// Which pieces touch anything (the floor, a sphere, another piece), and the piles that
     /// contacts between pieces link them into.
-    fn contacts(&self) -> (Vec<bool>, Piles) {
+    fn contacts(&self) -> (Vec<bool>, DisjointSets) {
         let mut touching = vec![false; self.pieces.len()];
-        let mut piles = Piles::new(self.pieces.len());
+        let mut piles = DisjointSets::new(self.pieces.len());
         let index = self.piece_index();
         for pair in self.world.narrow_phase.contact_pairs().filter(|pair| pair.has_any_active_contact()) {
             let pieces = [pair.collider1, pair.collider2].map(|collider| self.piece_of(&index, collider));
@@ -255,7 +257,7 @@ impl RigidWorld {
                 touching[piece] = true;
             }
             if let [Some(a), Some(b)] = pieces {
-                piles.join(a, b);
+                piles.join(a as u32, b as u32);
             }
         }
         (touching, piles)
@@ -315,7 +317,7 @@ impl RigidWorld {
     /// piece is a pile of one) whose every piece has been still for `sleep_after_s` is put to
     /// sleep, every piece at once. (One put to sleep on its own under others was pushed into by
     /// them and blew the pile apart when it woke.)
-    fn settle(&mut self, frame_s: f64, mut piles: Piles) {
+    fn settle(&mut self, frame_s: f64, mut piles: DisjointSets) {
         if self.sleep_speed_m_s < 0.0 || frame_s <= 0.0 {
             return;
         }
@@ -341,12 +343,15 @@ impl RigidWorld {
         let mut restless = vec![false; self.pieces.len()];
         for (piece, watch) in self.watch.iter().enumerate() {
             if watch.still_s < self.sleep_after_s {
-                restless[piles.root(piece)] = true;
+                restless[piles.root(piece as u32) as usize] = true;
             }
         }
         for (piece, &handle) in self.pieces.iter().enumerate() {
             let watch = &self.watch[piece];
-            if !restless[piles.root(piece)] && !watch.retired && !self.world.bodies[handle].is_sleeping() {
+            if !restless[piles.root(piece as u32) as usize]
+                && !watch.retired
+                && !self.world.bodies[handle].is_sleeping()
+            {
                 self.world.bodies[handle].sleep();
             }
         }
@@ -454,31 +459,5 @@ impl RigidWorld {
     /// A world from [`RigidWorld::snapshot`].
     pub fn restore(bytes: &[u8]) -> Result<RigidWorld, rmp_serde::decode::Error> {
         rmp_serde::from_slice(bytes)
-    }
-}
-
-/// Pieces linked by contacts, as a disjoint-set forest.
-struct Piles {
-    parent: Vec<usize>,
-}
-
-impl Piles {
-    fn new(pieces: usize) -> Piles {
-        Piles { parent: (0..pieces).collect() }
-    }
-
-    /// The pile of `piece`, by its root piece.
-    fn root(&mut self, mut piece: usize) -> usize {
-        while self.parent[piece] != piece {
-            self.parent[piece] = self.parent[self.parent[piece]];
-            piece = self.parent[piece];
-        }
-        piece
-    }
-
-    fn join(&mut self, a: usize, b: usize) {
-        let (a, b) = (self.root(a), self.root(b));
-        // the lower index is the root: the same forest whatever the order of the pairs
-        self.parent[a.max(b)] = a.min(b);
     }
 }
