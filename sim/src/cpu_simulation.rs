@@ -10,7 +10,7 @@ use shatter_core::particles::{Bonds, ParticleSet};
 
 use crate::backend::{Backend, DeviceError};
 use crate::bond_layouts::EntryValues;
-use crate::bond_layouts::lattice_layout::{LatticeTable, NO_PARTICLE, SlotInputs};
+use crate::bond_layouts::lattice_layout::{LatticeTable, NO_PARTICLE, SlotInputs, SlotViews};
 use crate::bond_layouts::layout_choice::{LayoutChoice, SpringTable};
 use crate::bond_layouts::row_layout::chunk_size;
 use crate::contact::ContactList;
@@ -547,7 +547,7 @@ impl CpuSimulation {
 fn lattice_forces(lattice: &mut LatticeTable, disp: [&[f32]; 3], boost: &[f32], rule: BreakRule) {
     let LatticeTable { chunk_slots, chunks, particle_of, slots, .. } = lattice;
     let (size, particle_of) = (*chunk_slots, &*particle_of);
-    let ([ux, uy, uz, slot_boost], [fx, fy, fz, min_stretch]) = slots.split_mut();
+    let SlotViews { inputs: [ux, uy, uz, slot_boost], outputs: [fx, fy, fz, min_stretch], rest } = slots.split_mut();
     (ux.par_chunks_mut(size), uy.par_chunks_mut(size), uz.par_chunks_mut(size), slot_boost.par_chunks_mut(size))
         .into_par_iter()
         .enumerate()
@@ -562,7 +562,7 @@ fn lattice_forces(lattice: &mut LatticeTable, disp: [&[f32]; 3], boost: &[f32], 
                 }
             }
         });
-    let inputs = SlotInputs { disp: [ux, uy, uz], boost: slot_boost };
+    let inputs = SlotInputs { disp: [ux, uy, uz], boost: slot_boost, rest };
     (
         chunks.par_iter_mut(),
         fx.par_chunks_mut(size),

@@ -5,8 +5,7 @@
 //! A new model adds one arm here and a folder of its own; the integrator, contact, body forces,
 //! art direction and frame loop do not change.
 
-use crate::bond_layouts::layout_choice::SpringTable;
-use crate::bond_layouts::row_layout::BondBlock;
+use crate::bond_layouts::layout_choice::{SpringTable, StoredBond};
 use crate::elastoplastic::FamilyTable;
 use crate::kernels;
 
@@ -39,10 +38,10 @@ impl MaterialBonds {
     /// The stored elastic energy, joules, summed in a fixed order.
     pub fn energy_j(&self, disp: &[Vec<f32>; 3]) -> f64 {
         match self {
-            MaterialBonds::Pmb(table) => table.sum_entries(|i, bond, lane, internal| {
+            MaterialBonds::Pmb(table) => table.sum_entries(|bond| {
                 // stored once: the partner's half too
-                let ends = if internal { 2.0 } else { 1.0 };
-                ends * half_spring_energy_j(disp, i, bond, lane)
+                let ends = if bond.internal { 2.0 } else { 1.0 };
+                ends * half_spring_energy_j(disp, bond)
             }),
             MaterialBonds::Elastoplastic(table) => {
                 table.energy_per_particle([&disp[0], &disp[1], &disp[2]]).iter().sum()
@@ -55,12 +54,12 @@ impl MaterialBonds {
         match self {
             MaterialBonds::Pmb(table) => {
                 let mut energy = vec![0.0f64; disp[0].len()];
-                table.for_each_entry(|i, bond, lane, internal| {
-                    let half = half_spring_energy_j(disp, i, bond, lane);
-                    energy[i] += half;
-                    if internal {
+                table.for_each_entry(|bond| {
+                    let half = half_spring_energy_j(disp, bond);
+                    energy[bond.i] += half;
+                    if bond.internal {
                         // stored once: the partner's half too
-                        energy[bond.neighbor[lane] as usize] += half;
+                        energy[bond.j] += half;
                     }
                 });
                 energy
@@ -75,11 +74,11 @@ impl MaterialBonds {
             MaterialBonds::Pmb(table) => {
                 // Silling and Askari (2005): min over particles of sqrt(2 m_i / sum_j k_ij / L_ij)
                 let mut stiffness = vec![0.0f64; mass.len()];
-                table.for_each_entry(|i, bond, lane, internal| {
-                    let spring = f64::from(bond.stiffness[lane]) / f64::from(bond.rest_length_m[lane]);
-                    stiffness[i] += spring;
-                    if internal {
-                        stiffness[bond.neighbor[lane] as usize] += spring;
+                table.for_each_entry(|bond| {
+                    let spring = f64::from(bond.stiffness) / f64::from(bond.rest_length_m);
+                    stiffness[bond.i] += spring;
+                    if bond.internal {
+                        stiffness[bond.j] += spring;
                     }
                 });
                 stiffness
@@ -115,16 +114,13 @@ impl MaterialBonds {
     }
 }
 
-/// Half the energy 1/2 k s^2 L of particle i's spring in `bond`'s lane `lane` (0 once broken),
-/// joules.
-fn half_spring_energy_j(disp: &[Vec<f32>; 3], i: usize, bond: &BondBlock, lane: usize) -> f64 {
-    if bond.stiffness[lane] == 0.0 {
+/// Half the energy 1/2 k s^2 L of a spring (0 once broken), joules.
+fn half_spring_energy_j(disp: &[Vec<f32>; 3], bond: &StoredBond) -> f64 {
+    if bond.stiffness == 0.0 {
         return 0.0;
     }
-    let j = bond.neighbor[lane] as usize;
-    let xi = [0, 1, 2].map(|a| bond.rest_vector[a][lane]);
+    let (i, j) = (bond.i, bond.j);
     let eta = [0, 1, 2].map(|a| disp[a][j] - disp[a][i]);
-    let rest_length = bond.rest_length_m[lane];
-    let (s, _, _) = kernels::stretch(xi, eta, rest_length);
-    0.25 * f64::from(bond.stiffness[lane]) * f64::from(s).powi(2) * f64::from(rest_length)
+    let (s, _, _) = kernels::stretch(bond.rest_vector, eta, bond.rest_length_m);
+    0.25 * f64::from(bond.stiffness) * f64::from(s).powi(2) * f64::from(bond.rest_length_m)
 }

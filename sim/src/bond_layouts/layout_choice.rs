@@ -6,7 +6,7 @@ use shatter_core::particles::ParticleSet;
 
 use super::EntryValues;
 use super::lattice_layout::LatticeTable;
-use super::row_layout::{self, BondBlock, BondTable, LANES, PADDING};
+use super::row_layout::{self, BondTable, LANES, PADDING};
 
 /// Which layouts a CPU simulation may run on: what [`SpringTable`] may choose from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -15,6 +15,23 @@ pub enum LayoutChoice {
     Fastest,
     /// The row layout always (tests compare the two).
     RowsOnly,
+}
+
+/// One stored bond entry as every layout presents it: particle i's bond to j.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StoredBond {
+    /// The particle whose entry this is.
+    pub i: usize,
+    /// Its partner.
+    pub j: usize,
+    /// Rest vector xi = X_j - X_i, metres.
+    pub rest_vector: [f32; 3],
+    /// Rest length |xi|, metres.
+    pub rest_length_m: f32,
+    /// Stiffness k, N per unit stretch; 0 once broken.
+    pub stiffness: f32,
+    /// Stored once for both ends (else each end stores its own entry).
+    pub internal: bool,
 }
 
 /// The bond layout of a CPU simulation.
@@ -47,7 +64,11 @@ impl SpringTable {
             }
             SpringTable::Lattice(table) => {
                 for chunk in &mut table.chunks {
-                    row_layout::mark_broken(&mut chunk.blocks, &chunk.bond_id, sorted_ids);
+                    let blocks = &mut chunk.blocks;
+                    row_layout::mark_broken(&chunk.bond_id, sorted_ids, |block, lane| {
+                        blocks[block].threshold[lane] = f32::INFINITY;
+                        blocks[block].stiffness[lane] = 0.0;
+                    });
                 }
             }
         }
@@ -61,28 +82,44 @@ impl SpringTable {
         }
     }
 
-    /// Calls `entry(i, block, lane, internal)` for every stored bond entry of chunk `c` (padding
-    /// skipped), in a fixed order: particle i's bond to `block.neighbor[lane]`, `internal` when it
-    /// is stored once for both ends.
-    fn for_each_entry_of_chunk(&self, c: usize, mut entry: impl FnMut(usize, &BondBlock, usize, bool)) {
+    /// Calls `entry` with every stored bond entry of chunk `c` (padding skipped), in a fixed
+    /// order.
+    fn for_each_entry_of_chunk(&self, c: usize, mut entry: impl FnMut(&StoredBond)) {
         match self {
             SpringTable::Rows(table) => {
                 let chunk = &table.chunks[c];
                 for local in 0..chunk.len {
                     for (block, lane, internal) in chunk.row_bonds(local) {
-                        entry(chunk.first + local, &chunk.blocks[block], lane, internal);
+                        let bond = &chunk.blocks[block];
+                        entry(&StoredBond {
+                            i: chunk.first + local,
+                            j: bond.neighbor[lane] as usize,
+                            rest_vector: bond.rest_vector.map(|axis| axis[lane]),
+                            rest_length_m: bond.rest_length_m[lane],
+                            stiffness: bond.stiffness[lane],
+                            internal,
+                        });
                     }
                 }
             }
             SpringTable::Lattice(table) => {
                 let chunk = &table.chunks[c];
+                let rest = [8, 9, 10].map(|k| table.slots.array(k));
                 for brick in 0..chunk.brick_slot.len() {
                     let own = chunk.brick_slot[brick] as usize;
                     for (block, internal) in chunk.brick_blocks(brick) {
+                        let partner = chunk.partner_slot[block] as usize;
+                        let bonds = &chunk.blocks[block];
                         for lane in 0..LANES {
                             if chunk.bond_id[block * LANES + lane] != PADDING {
-                                let i = table.particle_of[own + lane] as usize;
-                                entry(i, &chunk.blocks[block], lane, internal);
+                                entry(&StoredBond {
+                                    i: table.particle_of[own + lane] as usize,
+                                    j: table.particle_of[partner + lane] as usize,
+                                    rest_vector: rest.map(|axis| axis[partner + lane] - axis[own + lane]),
+                                    rest_length_m: bonds.rest_length_m[lane],
+                                    stiffness: bonds.stiffness[lane],
+                                    internal,
+                                });
                             }
                         }
                     }
@@ -91,23 +128,22 @@ impl SpringTable {
         }
     }
 
-    /// `for_each_entry_of_chunk` over all chunks, in chunk order: `entry(i, block, lane, internal)`
-    /// for every stored bond entry (padding skipped), particle i's bond to `block.neighbor[lane]`,
-    /// `internal` when it is stored once for both ends.
-    pub fn for_each_entry(&self, mut entry: impl FnMut(usize, &BondBlock, usize, bool)) {
+    /// `for_each_entry_of_chunk` over all chunks, in chunk order: `entry` with every stored bond
+    /// entry (padding skipped).
+    pub fn for_each_entry(&self, mut entry: impl FnMut(&StoredBond)) {
         for c in 0..self.chunk_count() {
             self.for_each_entry_of_chunk(c, &mut entry);
         }
     }
 
-    /// The sum of `value(i, block, lane, internal)` over all stored entries: summed per chunk in
-    /// entry order, in parallel, then over chunks in order (the same on any thread count).
-    pub fn sum_entries(&self, value: impl Fn(usize, &BondBlock, usize, bool) -> f64 + Sync) -> f64 {
+    /// The sum of `value` over all stored entries: summed per chunk in entry order, in parallel,
+    /// then over chunks in order (the same on any thread count).
+    pub fn sum_entries(&self, value: impl Fn(&StoredBond) -> f64 + Sync) -> f64 {
         let sums: Vec<f64> = (0..self.chunk_count())
             .into_par_iter()
             .map(|c| {
                 let mut sum = 0.0;
-                self.for_each_entry_of_chunk(c, |i, block, lane, internal| sum += value(i, block, lane, internal));
+                self.for_each_entry_of_chunk(c, |bond| sum += value(bond));
                 sum
             })
             .collect();
@@ -127,7 +163,7 @@ impl SpringTable {
     /// both ends; external, stored and computed on both sides).
     pub fn entries(&self) -> (usize, usize) {
         let mut counts = (0, 0);
-        self.for_each_entry(|_, _, _, internal| if internal { counts.0 += 1 } else { counts.1 += 1 });
+        self.for_each_entry(|bond| if bond.internal { counts.0 += 1 } else { counts.1 += 1 });
         counts
     }
 }

@@ -222,19 +222,26 @@ impl BondTable {
 
     /// Marks the bonds with the given ids (sorted) broken; returns how many entries changed.
     pub fn mark_broken(&mut self, sorted_ids: &[u64]) -> usize {
-        self.chunks.par_iter_mut().map(|chunk| mark_broken(&mut chunk.blocks, &chunk.bond_id, sorted_ids)).sum()
+        self.chunks
+            .par_iter_mut()
+            .map(|chunk| {
+                let blocks = &mut chunk.blocks;
+                mark_broken(&chunk.bond_id, sorted_ids, |block, lane| {
+                    blocks[block].threshold[lane] = f32::INFINITY;
+                    blocks[block].stiffness[lane] = 0.0;
+                })
+            })
+            .sum()
     }
 }
 
-/// Marks the lanes of `blocks` whose ids (`bond_id`, one per lane) are among `sorted_ids`
-/// broken: zero stiffness, infinite threshold. Returns how many lanes changed.
-pub(crate) fn mark_broken(blocks: &mut [BondBlock], bond_id: &[u64], sorted_ids: &[u64]) -> usize {
+/// Calls `breaks(block, lane)` for each lane whose id (`bond_id`, one per lane) is among
+/// `sorted_ids`, to mark it broken (zero stiffness, infinite threshold). Returns how many.
+pub(crate) fn mark_broken(bond_id: &[u64], sorted_ids: &[u64], mut breaks: impl FnMut(usize, usize)) -> usize {
     let mut marked = 0;
     for (k, id) in bond_id.iter().enumerate() {
         if *id != PADDING && sorted_ids.binary_search(id).is_ok() {
-            let block = &mut blocks[k / LANES];
-            block.threshold[k % LANES] = f32::INFINITY;
-            block.stiffness[k % LANES] = 0.0;
+            breaks(k / LANES, k % LANES);
             marked += 1;
         }
     }

@@ -8,7 +8,7 @@ use shatter_core::config::sim::BreakRule;
 
 use super::lanes::{BondLanes, LANES, Lanes, add, bond_lanes, min, mul, sub};
 use super::springs::{ChunkForces, break_bound, effective_threshold};
-use crate::bond_layouts::lattice_layout::{LatticeChunk, SlotInputs};
+use crate::bond_layouts::lattice_layout::{LatticeBlock, LatticeChunk, SlotInputs};
 
 /// Eight consecutive values of `values` from `start`.
 #[inline(always)]
@@ -31,26 +31,44 @@ pub fn lattice_spring_forces(
     rule: BreakRule,
     out: &mut ChunkForces,
 ) {
-    let context = LatticeContext { inputs, particle_of, rule };
-    chunk.breaks.clear();
-    let first = chunk.first_slot;
+    let LatticeChunk {
+        first_slot: first,
+        slots,
+        brick_slot,
+        brick_start,
+        internal_end,
+        partner_slot,
+        blocks,
+        bond_id,
+        breaks,
+    } = chunk;
+    let (first, slots) = (*first, *slots);
+    breaks.clear();
     // Slots past the chunk's rows are never read.
     for axis in 0..3 {
-        out.force[axis][..chunk.slots].fill(0.0);
+        out.force[axis][..slots].fill(0.0);
     }
-    out.min_stretch[..chunk.slots].fill(0.0);
-    for brick in 0..chunk.brick_slot.len() {
-        let own = chunk.brick_slot[brick] as usize;
-        let disp = inputs.disp;
+    out.min_stretch[..slots].fill(0.0);
+    // Slices of one length, so that one bounds check covers a load from all of them.
+    let len = particle_of.len();
+    let disp = inputs.disp.map(|values| &values[..len]);
+    let rest = inputs.rest.map(|values| &values[..len]);
+    let context = LatticeContext { boost: &inputs.boost[..len], particle_of, rule };
+    let mut totals = ChunkTotals::new(out, slots);
+    for (brick, &own) in brick_slot.iter().enumerate() {
+        let own = own as usize;
         let bound = match rule {
-            BreakRule::Max => load(inputs.boost, own),
+            BreakRule::Max => load(context.boost, own),
             BreakRule::Min => [break_bound(rule, 0.0); LANES],
         };
         let mut force_sum = [[0.0f32; LANES]; 3];
         let mut smallest = [0.0f32; LANES];
-        for (block, internal) in chunk.brick_blocks(brick) {
-            let partner = chunk.partner_slot[block] as usize;
-            let bonds = &chunk.blocks[block];
+        let (start, middle, end) =
+            (brick_start[brick] as usize, internal_end[brick] as usize, brick_start[brick + 1] as usize);
+        let brick_blocks = blocks[start..end].iter_mut().zip(&partner_slot[start..end]);
+        for (k, (bonds, &partner)) in brick_blocks.enumerate() {
+            let (block, partner) = (start + k, partner as usize);
+            let internal = block < middle;
             // u_i is loaded again for every block rather than kept: the registers it would hold
             // keep the lane sums out of the stack.
             let eta = [
@@ -58,16 +76,21 @@ pub fn lattice_spring_forces(
                 sub(load(disp[1], partner), load(disp[1], own)),
                 sub(load(disp[2], partner), load(disp[2], own)),
             ];
-            let BondLanes { y, mut stretch, mut scale } =
-                bond_lanes(&bonds.rest_vector, &eta, bonds.rest_length_m, bonds.stiffness);
+            // the same f32 subtraction as the row layout's stored rest vectors
+            let xi = [
+                sub(load(rest[0], partner), load(rest[0], own)),
+                sub(load(rest[1], partner), load(rest[1], own)),
+                sub(load(rest[2], partner), load(rest[2], own)),
+            ];
+            let BondLanes { y, mut stretch, mut scale } = bond_lanes(&xi, &eta, bonds.rest_length_m, bonds.stiffness);
             let limit = add(bonds.threshold, bound);
             let mut suspects = false;
             for lane in 0..LANES {
                 suspects |= stretch[lane] > limit[lane];
             }
             if suspects {
-                let place = BlockPlace { block, own, partner, internal };
-                break_lanes(&context, chunk, &place, &mut stretch, &mut scale);
+                let place = BlockPlace { own, partner, internal, ids: &bond_id[block * LANES..(block + 1) * LANES] };
+                break_lanes(&context, bonds, &place, breaks, [&mut stretch, &mut scale]);
             }
             let force = [mul(y[0], scale), mul(y[1], scale), mul(y[2], scale)];
             for axis in 0..3 {
@@ -77,10 +100,10 @@ pub fn lattice_spring_forces(
             if internal {
                 // The reaction: x - f is x + (-f), bit for bit.
                 let reaction = [neg(force[0]), neg(force[1]), neg(force[2])];
-                out.add(partner - first, &reaction, stretch);
+                totals.add(partner - first, &reaction, stretch);
             }
         }
-        out.add(own - first, &force_sum, smallest);
+        totals.add(own - first, &force_sum, smallest);
     }
 }
 
@@ -90,7 +113,22 @@ fn neg(a: Lanes) -> Lanes {
     mul(a, [-1.0; LANES])
 }
 
-impl ChunkForces<'_> {
+/// A chunk's force and smallest-stretch totals, each the chunk's slots long.
+struct ChunkTotals<'a> {
+    force: [&'a mut [f32]; 3],
+    min_stretch: &'a mut [f32],
+}
+
+impl<'a> ChunkTotals<'a> {
+    /// The first `slots` of `out`'s arrays, all of one length (one bounds check covers them).
+    fn new(out: &'a mut ChunkForces, slots: usize) -> ChunkTotals<'a> {
+        let [x, y, z] = &mut out.force;
+        ChunkTotals {
+            force: [&mut x[..slots], &mut y[..slots], &mut z[..slots]],
+            min_stretch: &mut out.min_stretch[..slots],
+        }
+    }
+
     /// Adds `force` to the eight slots from `at` (chunk-local) and keeps the smaller stretch.
     #[inline(always)]
     fn add(&mut self, at: usize, force: &[Lanes; 3], stretch: Lanes) {
@@ -107,39 +145,38 @@ impl ChunkForces<'_> {
 
 /// What the break test reads besides the block.
 struct LatticeContext<'a> {
-    inputs: &'a SlotInputs<'a>,
+    boost: &'a [f32],
     particle_of: &'a [u32],
     rule: BreakRule,
 }
 
-/// A block and where it sits: its brick's first slot, its partners' first slot, and whether it
-/// is internal.
-struct BlockPlace {
-    block: usize,
+/// A block's place: its brick's first slot, its partners' first slot, whether it is internal,
+/// and its lanes' bond ids.
+struct BlockPlace<'a> {
     own: usize,
     partner: usize,
     internal: bool,
+    ids: &'a [u64],
 }
 
 /// Breaks the bonds of a block whose stretches passed the cheap bound where they exceed their
-/// effective threshold (zero stiffness, infinite threshold, logged once) and zeroes their lanes'
-/// stretch and force scale.
+/// effective threshold (zero stiffness, infinite threshold, logged once in `breaks`) and zeroes
+/// their lanes' stretch and force scale.
 fn break_lanes(
     context: &LatticeContext,
-    chunk: &mut LatticeChunk,
+    bonds: &mut LatticeBlock,
     place: &BlockPlace,
-    stretch: &mut Lanes,
-    scale: &mut Lanes,
+    breaks: &mut Vec<u64>,
+    [stretch, scale]: [&mut Lanes; 2],
 ) {
-    let boost = context.inputs.boost;
-    let bonds = &mut chunk.blocks[place.block];
+    let boost = context.boost;
     for lane in 0..LANES {
         let (mine, theirs) = (boost[place.own + lane], boost[place.partner + lane]);
         if stretch[lane] > effective_threshold(context.rule, bonds.threshold[lane], mine, theirs) {
             bonds.threshold[lane] = f32::INFINITY;
             bonds.stiffness[lane] = 0.0;
-            if place.internal || context.particle_of[place.own + lane] < bonds.neighbor[lane] {
-                chunk.breaks.push(chunk.bond_id[place.block * LANES + lane]);
+            if place.internal || context.particle_of[place.own + lane] < context.particle_of[place.partner + lane] {
+                breaks.push(place.ids[lane]);
             }
             stretch[lane] = 0.0;
             scale[lane] = 0.0;
