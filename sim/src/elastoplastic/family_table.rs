@@ -1,8 +1,11 @@
-//! The state-based model's bonds in a fixed-stride layout: every particle's family occupies
-//! `stride` consecutive entries (its file row, then padding), so that a chunk of particles owns
-//! one contiguous run of entries, each pass splits the arrays by plain chunks without any index,
-//! and the same layout serves a GPU kernel. A bond is stored in both its particles' families:
-//! the state-based force scalar t_ij depends on i's dilatation and i's plastic extension of the
+//! The state-based model's bonds in a fixed-stride layout: every particle's family has `stride`
+//! entries (its file row, then padding), interleaved by groups of [`LANES`] particles: entry k
+//! of particle i sits at (i / 8) 8 stride + 8 k + i % 8 ([`FamilyView::entry`]). The passes then
+//! work on eight particles at once, one lane each, and load entry k of all eight as one vector;
+//! each lane still walks its own family in order, so every sum is the one-particle sum. A chunk
+//! of particles (a multiple of eight) owns one contiguous run of entries, and each pass splits
+//! the arrays by plain chunks. A bond is stored in both its particles' families: the
+//! state-based force scalar t_ij depends on i's dilatation and i's plastic extension of the
 //! bond, so t_ij and t_ji differ.
 
 use rayon::prelude::*;
@@ -10,7 +13,7 @@ use shatter_core::config::material::Normalisation;
 use shatter_core::particles::ParticleSet;
 
 use super::StateBasedConstants;
-use super::passes::{ChunkOutputs, FamilyView, ForceInputs, bond_forces, dilatation, energy_j, stiffness_n_m};
+use super::passes::{ChunkOutputs, FamilyView, ForceInputs, LANES, bond_forces, dilatation, energy_j, stiffness_n_m};
 use crate::SimError;
 
 /// The bonds, their state, and the per-particle values the passes share.
@@ -18,11 +21,13 @@ use crate::SimError;
 pub struct FamilyTable {
     /// Entries per particle: the longest family.
     pub stride: usize,
-    /// Particles per chunk of every pass (a function of the particle count only).
+    /// Particles per chunk of every pass (a function of the particle count only; a multiple of
+    /// [`LANES`]).
     pub chunk_size: usize,
     /// The model's constants.
     pub constants: StateBasedConstants,
-    /// Partner particle of each entry (the particle itself for padding).
+    /// Partner particle of each entry (the particle itself for padding; 0 past the last
+    /// particle).
     pub neighbor: Vec<u32>,
     /// The entry of the same bond in the partner's family.
     pub reverse: Vec<u32>,
@@ -44,6 +49,8 @@ pub struct FamilyTable {
     pub plastic_m: Vec<f32>,
     /// The next evaluation's plastic extensions (scratch: the buffers swap after each).
     pub plastic_next: Vec<f32>,
+    /// No yield and every plastic extension zero: they stay zero, and the force pass skips them.
+    pub plastic_frozen: bool,
     /// Each entry's extension at the last evaluation, metres (scratch).
     pub extension: Vec<f32>,
     /// The particle file's row offsets: the id of bond (i, j), i < j, is `file_offset[i]` plus
@@ -71,7 +78,8 @@ pub struct FamilyTable {
 
 impl FamilyTable {
     /// The table of a particle set: `threshold(k)` is the critical stretch of file entry k
-    /// (jitter, material rescale and art direction included).
+    /// (jitter, material rescale and art direction included). `chunk_size` must be a multiple of
+    /// [`LANES`].
     pub fn new(
         particles: &ParticleSet,
         constants: StateBasedConstants,
@@ -80,8 +88,9 @@ impl FamilyTable {
     ) -> Result<FamilyTable, SimError> {
         let n = particles.len();
         let bonds = &particles.bonds;
+        assert!(chunk_size.is_multiple_of(LANES), "chunks of whole lane groups");
         let stride = (0..n).map(|i| bonds.row(i).len()).max().unwrap_or(0).max(1);
-        let entries = n.checked_mul(stride).filter(|e| *e <= u32::MAX as usize).ok_or_else(|| {
+        let entries = n.next_multiple_of(LANES).checked_mul(stride).filter(|e| *e <= u32::MAX as usize).ok_or_else(|| {
             SimError::BadInput(format!(
                 "the elastoplastic model stores {n} families of up to {stride} bonds; that is more than 2^32 entries"
             ))
@@ -102,6 +111,7 @@ impl FamilyTable {
             reverse_influence: vec![0.0; entries],
             plastic_m: vec![0.0; entries],
             plastic_next: vec![0.0; entries],
+            plastic_frozen: constants.yield_force_n_m6 == f64::INFINITY,
             extension: vec![0.0; entries],
             file_offset: bonds.offsets.clone(),
             volume: particles.volume_m3.clone(),
@@ -114,9 +124,10 @@ impl FamilyTable {
             initial: (0..n).map(|i| bonds.row(i).len() as u32).collect(),
             breaks: vec![Vec::new(); n.div_ceil(chunk_size)],
         };
+        let entry = |i: usize, k: usize| FamilyView::entry_of(stride, i, k);
         for i in 0..n {
             for (local, k) in bonds.row(i).enumerate() {
-                let e = i * stride + local;
+                let e = entry(i, local);
                 let j = bonds.neighbor[k] as usize;
                 table.neighbor[e] = j as u32;
                 for (axis, rest_vector) in table.rest_vector.iter_mut().enumerate() {
@@ -129,18 +140,19 @@ impl FamilyTable {
                 let back = bonds.find(j, i as u32).ok_or_else(|| {
                     SimError::BadInput(format!("the particle file's bond {i}-{j} is missing from particle {j}'s row"))
                 })?;
-                table.reverse[e] = (j * stride + (back - bonds.row(j).start)) as u32;
+                table.reverse[e] = entry(j, back - bonds.row(j).start) as u32;
             }
             for local in bonds.row(i).len()..stride {
-                table.neighbor[i * stride + local] = i as u32;
+                table.neighbor[entry(i, local)] = i as u32;
             }
         }
-        for e in 0..entries {
-            if table.neighbor[e] as usize != e / stride {
-                let mean =
-                    0.5 * (f64::from(table.influence[e]) + f64::from(table.influence[table.reverse[e] as usize]));
+        for i in 0..n {
+            for local in 0..bonds.row(i).len() {
+                let e = entry(i, local);
+                let back = table.reverse[e] as usize;
+                let mean = 0.5 * (f64::from(table.influence[e]) + f64::from(table.influence[back]));
                 table.break_scale[e] = (1.0 / (mean * f64::from(table.rest_length_m[e]))) as f32;
-                table.reverse_influence[e] = table.influence[table.reverse[e] as usize];
+                table.reverse_influence[e] = table.influence[back];
             }
         }
         let analytic = (std::f64::consts::PI * delta.powi(5)) as f32;
@@ -149,7 +161,8 @@ impl FamilyTable {
             .map(|i| match constants.normalisation {
                 Normalisation::Analytic => analytic,
                 Normalisation::WeightedVolume => {
-                    let sum: f64 = (i * stride..(i + 1) * stride)
+                    let sum: f64 = (0..stride)
+                        .map(|k| entry(i, k))
                         .map(|e| {
                             let xi = f64::from(table.rest_length_m[e]);
                             let v = f64::from(table.volume[table.neighbor[e] as usize]);
@@ -194,7 +207,7 @@ impl FamilyTable {
     pub fn mark_broken(&mut self, ids: &[u64]) {
         for &id in ids {
             let i = self.file_offset.partition_point(|offset| *offset <= id) - 1;
-            let e = i * self.stride + (id - self.file_offset[i]) as usize;
+            let e = FamilyView::entry_of(self.stride, i, (id - self.file_offset[i]) as usize);
             for entry in [e, self.reverse[e] as usize] {
                 self.influence[entry] = 0.0;
             }
@@ -202,7 +215,7 @@ impl FamilyTable {
         let stride = self.stride;
         let influence = &self.influence;
         self.intact.par_iter_mut().enumerate().for_each(|(i, intact)| {
-            *intact = influence[i * stride..(i + 1) * stride].iter().filter(|w| **w > 0.0).count() as u32;
+            *intact = (0..stride).filter(|&k| influence[FamilyView::entry_of(stride, i, k)] > 0.0).count() as u32;
         });
     }
 
@@ -213,7 +226,7 @@ impl FamilyTable {
         let mut out = Vec::with_capacity(total);
         for i in 0..n {
             let count = (self.file_offset[i + 1] - self.file_offset[i]) as usize;
-            out.extend_from_slice(&self.plastic_m[i * self.stride..i * self.stride + count]);
+            out.extend((0..count).map(|k| self.plastic_m[FamilyView::entry_of(self.stride, i, k)]));
         }
         out
     }
@@ -228,8 +241,11 @@ impl FamilyTable {
         }
         for i in 0..n {
             let (start, end) = (self.file_offset[i] as usize, self.file_offset[i + 1] as usize);
-            self.plastic_m[i * self.stride..i * self.stride + end - start].copy_from_slice(&plastic[start..end]);
+            for (k, value) in plastic[start..end].iter().enumerate() {
+                self.plastic_m[FamilyView::entry_of(self.stride, i, k)] = *value;
+            }
         }
+        self.plastic_frozen = self.constants.yield_force_n_m6 == f64::INFINITY && plastic.iter().all(|p| *p == 0.0);
         Ok(())
     }
 }
@@ -247,6 +263,11 @@ impl FamilyTable {
             particle: &self.particle,
             weighted_volume: &self.weighted_volume,
         }
+    }
+
+    /// Entry k of particle i's family.
+    pub fn entry(&self, i: usize, k: usize) -> usize {
+        FamilyView::entry_of(self.stride, i, k)
     }
 
     /// One force evaluation at displacements `disp`: the two passes, each over the chunks in
@@ -290,7 +311,7 @@ impl FamilyTable {
                 break_scale: &self.break_scale,
                 file_offset: &self.file_offset,
             };
-            let constants = &self.constants;
+            let (constants, frozen) = (&self.constants, self.plastic_frozen);
             let [fx, fy, fz] = force;
             (
                 influence.par_chunks_mut(run),
@@ -306,7 +327,11 @@ impl FamilyTable {
                 .for_each(|(c, (influence, plastic, intact, fx, fy, fz, breaks))| {
                     breaks.clear();
                     let mut out = ChunkOutputs { influence, plastic, intact, force: [fx, fy, fz], breaks };
-                    bond_forces(&view, constants, &inputs, c * size, &mut out);
+                    if frozen {
+                        bond_forces::<false>(&view, constants, &inputs, c * size, &mut out);
+                    } else {
+                        bond_forces::<true>(&view, constants, &inputs, c * size, &mut out);
+                    }
                 });
         }
         std::mem::swap(&mut self.plastic_m, &mut plastic_next);
@@ -341,5 +366,87 @@ impl FamilyTable {
                 if k > 0.0 { (2.0 * mass / k).sqrt() } else { f64::INFINITY }
             })
             .reduce(|| f64::INFINITY, f64::min)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use shatter_core::NoProgress;
+    use shatter_core::config::PipelineConfig;
+    use shatter_core::random::splitmix64;
+
+    use super::*;
+
+    #[test]
+    fn entries_and_places_are_inverse() {
+        for stride in [1, 3, 17] {
+            let mut seen = vec![false; 24 * stride];
+            for i in 0..24 {
+                for k in 0..stride {
+                    let e = FamilyView::entry_of(stride, i, k);
+                    assert!(!seen[e], "entry {e} twice");
+                    seen[e] = true;
+                    assert_eq!(FamilyView::place_of(stride, e), (i, k));
+                }
+            }
+        }
+    }
+
+    /// An elastic table skips its frozen plastic extensions; the general pass, made to read and
+    /// write them, gives the same bits: forces, breaks, influences, and zeros left zero.
+    #[test]
+    fn the_frozen_plastic_pass_gives_the_general_passs_bits() {
+        // 7 x 5 x 3 = 105 particles: the last lane group is partly empty
+        let text = r#"
+[scene]
+name = "frozen"
+output_dir = "out"
+seed = 3
+[geometry]
+source = "box"
+box_size_m = [0.007, 0.005, 0.003]
+sampler = "grid"
+spacing_m = 0.001
+horizon_factor = 2.5
+[material]
+model = "elastoplastic"
+density_kg_m3 = 2200.0
+bulk_modulus_pa = 14.9e9
+shear_modulus_pa = 8e9
+critical_stretch = 0.004
+"#;
+        let config = PipelineConfig::from_toml_str(text, Path::new("/nonexistent/pipeline.toml")).expect("config");
+        let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
+        let n = particles.len();
+        assert_eq!(n % LANES, 1);
+        let constants = StateBasedConstants::of(&config, particles.meta.delta_m);
+        let frozen = FamilyTable::new(&particles, constants, 1024, |_| 0.004).expect("table");
+        assert!(frozen.plastic_frozen);
+        let mut general = frozen.clone();
+        general.plastic_frozen = false;
+        let random = |i: usize, axis: usize| (splitmix64((3 * i + axis) as u64) % 2001) as f32 / 1000.0 - 1.0;
+        let disp: [Vec<f32>; 3] = [0, 1, 2].map(|axis| (0..n).map(|i| 8e-6 * random(i, axis)).collect());
+        let run = |table: &mut FamilyTable| {
+            let mut force = [vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]];
+            let [fx, fy, fz] = &mut force;
+            table.evaluate([&disp[0], &disp[1], &disp[2]], [fx, fy, fz]);
+            let breaks: Vec<u64> = table.breaks.iter().flatten().copied().collect();
+            (force, breaks)
+        };
+        let (mut frozen_table, mut general_table) = (frozen, general);
+        let (frozen_force, frozen_breaks) = run(&mut frozen_table);
+        let (general_force, general_breaks) = run(&mut general_table);
+        assert_eq!(frozen_table.influence, general_table.influence);
+        assert_eq!(frozen_table.intact, general_table.intact);
+        assert!(!general_breaks.is_empty() && general_breaks.len() * 4 < particles.bonds.neighbor.len());
+        assert!(general_breaks.is_sorted());
+        assert_eq!(frozen_breaks, general_breaks);
+        for axis in 0..3 {
+            let same = frozen_force[axis].iter().zip(&general_force[axis]).all(|(a, b)| a.to_bits() == b.to_bits());
+            assert!(same, "forces along axis {axis} differ");
+        }
+        assert!(general_table.plastic_m.iter().chain(&general_table.plastic_next).all(|p| *p == 0.0));
     }
 }

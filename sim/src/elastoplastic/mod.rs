@@ -5,10 +5,11 @@
 //!
 //! - [`constants`]: the model's constants, from `[material]`.
 //! - [`family_table`]: the bonds in a fixed-stride layout (every particle's family padded to the
-//!   same length), their rest geometry, influence, thresholds, plastic extensions, and each
-//!   particle's weighted volume.
-//! - [`passes`]: the three passes of a force evaluation (dilatation; force scalars with the
-//!   plastic return map; bond forces with the break test) and the stored energy.
+//!   same length, groups of eight particles interleaved entry by entry), their rest geometry,
+//!   influence, thresholds, plastic extensions, and each particle's weighted volume.
+//! - [`passes`]: the two passes of a force evaluation (dilatation; force scalars with the
+//!   plastic return map, the break test and the bond forces), eight particles at a time, and the
+//!   stored energy.
 
 pub mod constants;
 pub mod family_table;

@@ -18,6 +18,12 @@
 //! either end), so both ends agree bit for bit without a pass between them; each writes only its
 //! own entry's new plastic extension (into a second buffer: the other end still reads the old).
 //!
+//! Both passes take [`LANES`] particles at a time, one per lane: entry k of the eight is one
+//! vector load ([`FamilyView::entry`]), the partners' values are gathered lane by lane, and the
+//! arithmetic is lane-wise loops the compiler turns into vector instructions. A lane adds its
+//! own entries in order and skips the ones without influence, exactly as one particle alone
+//! would, so the lanes change no bit of any result.
+//!
 //! This is the linear peridynamic solid of Silling et al. (2007) with Mitchell's per-bond
 //! plasticity as Chen et al. write it: the force derives from the energy [`energy_j`], so an
 //! elastic run conserves energy. Every sum runs over a particle's entries in order, in f32.
@@ -28,7 +34,22 @@
 use super::StateBasedConstants;
 use crate::kernels::stretch;
 
+/// Particles per lane group: one 256-bit register of f32.
+pub const LANES: usize = 8;
+
+/// Eight f32 lanes.
+type Lanes = [f32; LANES];
+
+/// Eight consecutive values of `values` from `at`.
+#[inline(always)]
+fn load<T: Copy + Default>(values: &[T], at: usize) -> [T; LANES] {
+    let mut lanes = [T::default(); LANES];
+    lanes.copy_from_slice(&values[at..at + LANES]);
+    lanes
+}
+
 /// What every pass reads of the bonds and particles (none of it changes while a run lasts).
+/// Per-entry arrays are indexed by [`FamilyView::entry`].
 #[derive(Debug, Clone, Copy)]
 pub struct FamilyView<'a> {
     /// Entries per particle.
@@ -50,6 +71,31 @@ pub struct FamilyView<'a> {
     pub weighted_volume: &'a [f32],
 }
 
+impl FamilyView<'_> {
+    /// Entry k of particle i's family in a table of `stride` entries per particle: lane i % 8 of
+    /// the group of particles i / 8, row k.
+    pub fn entry_of(stride: usize, i: usize, k: usize) -> usize {
+        (i / LANES * stride + k) * LANES + i % LANES
+    }
+
+    /// The particle and row of entry `e` in a table of `stride` entries per particle (the
+    /// inverse of [`FamilyView::entry_of`]).
+    pub fn place_of(stride: usize, e: usize) -> (usize, usize) {
+        let (group, within) = (e / (LANES * stride), e % (LANES * stride));
+        (group * LANES + within % LANES, within / LANES)
+    }
+
+    /// Entry k of particle i's family.
+    pub fn entry(&self, i: usize, k: usize) -> usize {
+        Self::entry_of(self.stride, i, k)
+    }
+
+    /// Particle i's entries in order.
+    fn family(&self, i: usize) -> impl Iterator<Item = usize> + use<'_> {
+        (0..self.stride).map(move |k| self.entry(i, k))
+    }
+}
+
 /// The extension e = |y| - |xi| of entry `e` between displacements `u_i` and `u_j`, with
 /// y = xi + u_j - u_i and |y|.
 #[inline(always)]
@@ -61,9 +107,10 @@ fn extension(view: &FamilyView, e: usize, u_i: [f32; 3], u_j: [f32; 3]) -> (f32,
     (s * rest, y, length)
 }
 
-/// Pass 1 over particles `first..first + theta.len()`: dilatation theta_i and damage phi_i, and
-/// each intact entry's extension (into `extension_out`, the chunk's run of entries; the force
-/// pass reuses it). `record` holds each particle's displacement in its first three lanes.
+/// Pass 1 over particles `first..first + theta.len()` (`first` a multiple of [`LANES`]):
+/// dilatation theta_i and damage phi_i, and each intact entry's extension (into
+/// `extension_out`, the chunk's run of entries; the force pass reuses it). `record` holds each
+/// particle's displacement in its first three lanes.
 #[allow(clippy::too_many_arguments)]
 pub fn dilatation(
     view: &FamilyView,
@@ -77,23 +124,52 @@ pub fn dilatation(
 ) {
     let (intact, initial) = counts;
     let stride = view.stride;
-    for local in 0..theta.len() {
-        let i = first + local;
-        let u_i = [record[i][0], record[i][1], record[i][2]];
-        let mut sum = 0.0f32;
-        for e in i * stride..(i + 1) * stride {
-            let omega = influence[e];
-            if omega == 0.0 {
+    for (group, theta) in theta.chunks_mut(LANES).enumerate() {
+        let first_i = first + group * LANES;
+        let u_i = gather_displacement(record, std::array::from_fn(|l| (first_i + l).min(record.len() - 1) as u32));
+        let mut sum: Lanes = [0.0; LANES];
+        for k in 0..stride {
+            let at = view.entry(first_i, k);
+            let omega: Lanes = load(influence, at);
+            if omega == [0.0; LANES] {
                 continue;
             }
-            let j = view.neighbor[e] as usize;
-            let (extension, _, _) = extension(view, e, u_i, [record[j][0], record[j][1], record[j][2]]);
-            extension_out[e - first * stride] = extension;
-            sum += omega * view.rest_length_m[e] * extension * view.particle[j][0];
+            let j = load(view.neighbor, at);
+            let u_j = gather_displacement(record, j);
+            let volume_j: Lanes = std::array::from_fn(|l| view.particle[j[l] as usize][0]);
+            let xi = [0, 1, 2].map(|axis| load(view.rest_vector[axis], at));
+            let rest = load(view.rest_length_m, at);
+            let local = at - first * stride;
+            let mut extension = load(extension_out, local);
+            for l in 0..LANES {
+                if omega[l] != 0.0 {
+                    let eta = [u_j[0][l] - u_i[0][l], u_j[1][l] - u_i[1][l], u_j[2][l] - u_i[2][l]];
+                    let (s, _, _) = stretch([xi[0][l], xi[1][l], xi[2][l]], eta, rest[l]);
+                    extension[l] = s * rest[l];
+                    sum[l] += omega[l] * rest[l] * extension[l] * volume_j[l];
+                }
+            }
+            extension_out[local..local + LANES].copy_from_slice(&extension);
         }
-        theta[local] = 3.0 * sum / view.weighted_volume[i];
-        damage[local] = if initial[i] == 0 { 0.0 } else { 1.0 - intact[i] as f32 / initial[i] as f32 };
+        for (l, theta) in theta.iter_mut().enumerate() {
+            *theta = 3.0 * sum[l] / view.weighted_volume[first_i + l];
+        }
     }
+    for (local, damage) in damage.iter_mut().enumerate() {
+        let i = first + local;
+        *damage = if initial[i] == 0 { 0.0 } else { 1.0 - intact[i] as f32 / initial[i] as f32 };
+    }
+}
+
+/// The displacements (lanes 0 to 2 of `record`) of the particles `index`, one per lane.
+#[inline(always)]
+fn gather_displacement(record: &[[f32; 4]], index: [u32; LANES]) -> [Lanes; 3] {
+    let mut u = [[0.0; LANES]; 3];
+    for l in 0..LANES {
+        let r = record[index[l] as usize];
+        (u[0][l], u[1][l], u[2][l]) = (r[0], r[1], r[2]);
+    }
+    u
 }
 
 /// One end's force scalar of a bond and its new plastic extension: `constants` the end's
@@ -117,7 +193,13 @@ fn force_scalar(
     if t_dev.abs() > yield_force {
         plastic_extension = deviatoric_extension - yield_force.copysign(t_dev) / stiffness;
     }
-    plastic_extension = plastic_extension.clamp(-cap, cap);
+    // `clamp` without its check that -cap <= cap (a panic path that keeps the lanes scalar)
+    if plastic_extension < -cap {
+        plastic_extension = -cap;
+    }
+    if plastic_extension > cap {
+        plastic_extension = cap;
+    }
     if plastic_extension != plastic {
         t_dev = stiffness * (deviatoric_extension - plastic_extension);
     }
@@ -157,9 +239,13 @@ pub struct ChunkOutputs<'a> {
     pub breaks: &'a mut Vec<u64>,
 }
 
-/// Pass 2 over particles `first..first + out.intact.len()`: both ends' force scalars, the plastic
-/// return map, the break test and the bond forces. A bond that breaks exerts no force this step.
-pub fn bond_forces(
+/// Pass 2 over particles `first..first + out.intact.len()` (`first` a multiple of [`LANES`]):
+/// both ends' force scalars, the plastic return map, the break test and the bond forces. A bond
+/// that breaks exerts no force this step. The chunk's breaks come out in id order.
+///
+/// `PLASTIC` false is for a model without yield whose plastic extensions are all zero: they
+/// stay zero, so the pass neither reads nor writes them (the same bits, half the gathers).
+pub fn bond_forces<const PLASTIC: bool>(
     view: &FamilyView,
     constants: &StateBasedConstants,
     inputs: &ForceInputs,
@@ -170,51 +256,135 @@ pub fn bond_forces(
     let strengthening = constants.damage_strengthening as f32;
     let cap_ratio = constants.plastic_cap_ratio as f32;
     let record = inputs.record;
-    for local in 0..out.intact.len() {
-        let i = first + local;
-        let (u_i, theta_i) = ([record[i][0], record[i][1], record[i][2]], record[i][3]);
-        let constants_i = view.particle[i];
-        let mut sum = [0.0f32; 3];
-        for slot in local * stride..(local + 1) * stride {
-            let omega = out.influence[slot];
-            if omega == 0.0 {
+    let last = record.len() - 1;
+    for group in 0..out.intact.len().div_ceil(LANES) {
+        let first_i = first + group * LANES;
+        let own: [u32; LANES] = std::array::from_fn(|l| (first_i + l).min(last) as u32);
+        let mine = Ends::gather(view, inputs, own);
+        let mut sum = [[0.0f32; LANES]; 3];
+        for k in 0..stride {
+            let at = view.entry(first_i, k);
+            let slot = at - first * stride;
+            let omega: Lanes = load(out.influence, slot);
+            if omega == [0.0; LANES] {
                 continue;
             }
-            let e = i * stride + slot - local * stride;
-            let back = view.reverse[e] as usize;
-            let j = view.neighbor[e] as usize;
-            let (u_j, theta_j) = ([record[j][0], record[j][1], record[j][2]], record[j][3]);
-            let rest = view.rest_length_m[e];
-            // the deformed bond y = xi + u_j - u_i, whose length is |xi| + e
-            let extension = inputs.extension[e];
-            let y = [0, 1, 2].map(|a| view.rest_vector[a][e] + (u_j[a] - u_i[a]));
-            let length = rest + extension;
-            let cap = cap_ratio * rest;
-            let (t_ij, plastic_ij) = force_scalar(constants_i, theta_i, omega, rest, extension, inputs.plastic[e], cap);
-            let omega_ji = view.reverse_influence[e];
-            let (t_ji, plastic_ji) =
-                force_scalar(view.particle[j], theta_j, omega_ji, rest, extension, inputs.plastic[back], cap);
-            out.plastic[slot] = plastic_ij;
-            let plastic_mean = 0.5 * (plastic_ij + plastic_ji);
-            let damage_mean = 0.5 * (inputs.damage[i] + inputs.damage[j]);
-            let threshold = inputs.threshold[e] * (1.0 + strengthening * damage_mean);
-            if (extension - plastic_mean) * inputs.break_scale[e] > threshold {
-                out.influence[slot] = 0.0;
-                out.intact[local] -= 1;
-                if i < j {
-                    out.breaks.push(inputs.file_offset[i] + (e - i * stride) as u64);
+            let partner = load(view.neighbor, at);
+            let theirs = Ends::gather(view, inputs, partner);
+            let plastic_ji: Lanes = if PLASTIC {
+                let back = load(view.reverse, at);
+                std::array::from_fn(|l| inputs.plastic[back[l] as usize])
+            } else {
+                [0.0; LANES]
+            };
+            let xi = [0, 1, 2].map(|axis| load(view.rest_vector[axis], at));
+            let rest = load(view.rest_length_m, at);
+            let extension = load(inputs.extension, at);
+            let plastic_ij = if PLASTIC { load(inputs.plastic, at) } else { [0.0; LANES] };
+            let omega_ji = load(view.reverse_influence, at);
+            let threshold = load(inputs.threshold, at);
+            let break_scale = load(inputs.break_scale, at);
+            let mut plastic_next = if PLASTIC { load(out.plastic, slot) } else { [0.0; LANES] };
+            let mut broken = [false; LANES];
+            for l in 0..LANES {
+                if omega[l] == 0.0 {
+                    continue;
                 }
-                continue;
+                // the deformed bond y = xi + u_j - u_i, whose length is |xi| + e
+                let y = [0, 1, 2].map(|a| xi[a][l] + (theirs.u[a][l] - mine.u[a][l]));
+                let length = rest[l] + extension[l];
+                let cap = cap_ratio * rest[l];
+                let (t_ij, new_ij) =
+                    force_scalar(mine.constants(l), mine.theta[l], omega[l], rest[l], extension[l], plastic_ij[l], cap);
+                let (t_ji, new_ji) = force_scalar(
+                    theirs.constants(l),
+                    theirs.theta[l],
+                    omega_ji[l],
+                    rest[l],
+                    extension[l],
+                    plastic_ji[l],
+                    cap,
+                );
+                plastic_next[l] = new_ij;
+                let plastic_mean = 0.5 * (new_ij + new_ji);
+                let damage_mean = 0.5 * (mine.damage[l] + theirs.damage[l]);
+                let threshold = threshold[l] * (1.0 + strengthening * damage_mean);
+                broken[l] = (extension[l] - plastic_mean) * break_scale[l] > threshold;
+                if !broken[l] {
+                    // the same bits at both ends, opposite signs: the pair's momentum is exact
+                    let magnitude = (t_ij + t_ji) * (mine.volume[l] * theirs.volume[l]) / length;
+                    for axis in 0..3 {
+                        sum[axis][l] += magnitude * y[axis];
+                    }
+                }
             }
-            // the same bits at both ends, opposite signs: the pair's momentum is exact
-            let magnitude = (t_ij + t_ji) * (constants_i[0] * view.particle[j][0]) / length;
-            for axis in 0..3 {
-                sum[axis] += magnitude * y[axis];
+            if PLASTIC {
+                out.plastic[slot..slot + LANES].copy_from_slice(&plastic_next);
+            }
+            if broken != [false; LANES] {
+                for l in (0..LANES).filter(|&l| broken[l]) {
+                    let i = first_i + l;
+                    out.influence[slot + l] = 0.0;
+                    out.intact[i - first] -= 1;
+                    if i < partner[l] as usize {
+                        out.breaks.push(inputs.file_offset[i] + k as u64);
+                    }
+                }
             }
         }
         for axis in 0..3 {
-            out.force[axis][local] = sum[axis];
+            let force = &mut out.force[axis][first_i - first..];
+            for (l, f) in force.iter_mut().take(LANES).enumerate() {
+                *f = sum[axis][l];
+            }
         }
+    }
+    // a lane group logs its breaks entry row by entry row; one particle at a time logs them in
+    // id order
+    out.breaks.sort_unstable();
+}
+
+/// One end of eight bonds, lane by lane: its particles' displacements, dilatations, damage and
+/// constants.
+struct Ends {
+    u: [Lanes; 3],
+    theta: Lanes,
+    damage: Lanes,
+    volume: Lanes,
+    deviatoric: Lanes,
+    dilatational: Lanes,
+    yield_force: Lanes,
+}
+
+impl Ends {
+    /// The values of particles `index`, one per lane.
+    #[inline(always)]
+    fn gather(view: &FamilyView, inputs: &ForceInputs, index: [u32; LANES]) -> Ends {
+        let mut ends = Ends {
+            u: [[0.0; LANES]; 3],
+            theta: [0.0; LANES],
+            damage: [0.0; LANES],
+            volume: [0.0; LANES],
+            deviatoric: [0.0; LANES],
+            dilatational: [0.0; LANES],
+            yield_force: [0.0; LANES],
+        };
+        for l in 0..LANES {
+            let i = index[l] as usize;
+            let [ux, uy, uz, theta] = inputs.record[i];
+            (ends.u[0][l], ends.u[1][l], ends.u[2][l], ends.theta[l]) = (ux, uy, uz, theta);
+            ends.damage[l] = inputs.damage[i];
+            let [volume, deviatoric, dilatational, yield_force] = view.particle[i];
+            (ends.volume[l], ends.deviatoric[l], ends.dilatational[l], ends.yield_force[l]) =
+                (volume, deviatoric, dilatational, yield_force);
+        }
+        ends
+    }
+
+    /// Lane l's constants, as [`FamilyView::particle`] holds them.
+    #[inline(always)]
+    fn constants(&self, l: usize) -> [f32; 4] {
+        [self.volume[l], self.deviatoric[l], self.dilatational[l], self.yield_force[l]]
     }
 }
 
@@ -228,10 +398,9 @@ pub fn energy_j(
     disp: [&[f32]; 3],
     i: usize,
 ) -> f64 {
-    let stride = view.stride;
     let m = f64::from(view.weighted_volume[i]);
     let u = |k: usize| [disp[0][k], disp[1][k], disp[2][k]];
-    let intact = || (i * stride..(i + 1) * stride).filter(|&e| influence[e] > 0.0);
+    let intact = || view.family(i).filter(|&e| influence[e] > 0.0);
     let terms = |e: usize| {
         let j = view.neighbor[e] as usize;
         let (extension, _, _) = extension(view, e, u(i), u(j));
@@ -259,12 +428,11 @@ pub fn energy_j(
 /// V_i V_j 15 mu omega (1 / m_i + 1 / m_j) summed, plus the dilatational coupling
 /// V_i 9 K (sum_j omega |xi| V_j)^2 / m_i^2, doubled for the neighbours' dilatations.
 pub fn stiffness_n_m(view: &FamilyView, constants: &StateBasedConstants, influence: &[f32], i: usize) -> f64 {
-    let stride = view.stride;
     let (bulk, shear) = (constants.bulk_modulus_pa, constants.shear_modulus_pa);
     let m_i = f64::from(view.weighted_volume[i]);
     let v_i = f64::from(view.particle[i][0]);
     let (mut springs, mut reach) = (0.0f64, 0.0f64);
-    for e in i * stride..(i + 1) * stride {
+    for e in view.family(i) {
         let omega = f64::from(influence[e]);
         if omega > 0.0 {
             let j = view.neighbor[e] as usize;

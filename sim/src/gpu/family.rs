@@ -10,6 +10,7 @@ use shatter_gpu::{GpuContext, GpuError, wgpu};
 
 use super::wgsl_structs::{FamilyParams, SLICE};
 use crate::elastoplastic::FamilyTable;
+use crate::elastoplastic::passes::FamilyView;
 use crate::model::Grip;
 
 /// The model's buffers (see `family_dilatation.wgsl` and `family_forces.wgsl`).
@@ -38,9 +39,11 @@ pub(super) struct GpuFamily {
     pub(super) buffers: FamilyBuffers,
 }
 
-/// The sliced-layout entry of the host table's entry `e` (particle e / stride, bond e % stride).
+/// The sliced-layout entry of the host table's entry `e` (a table of `stride` entries per
+/// particle).
 fn sliced(rows: &[[u32; 4]], stride: usize, e: usize) -> usize {
-    rows[e / stride][0] as usize + (e % stride) * SLICE
+    let (i, k) = FamilyView::place_of(stride, e);
+    rows[i][0] as usize + k * SLICE
 }
 
 /// The first step at which time step * dt_s reaches `release_s` (u32::MAX: never).
@@ -80,7 +83,7 @@ impl FamilyArrays {
         };
         for (i, row) in rows.iter().enumerate() {
             for k in 0..row[2] as usize {
-                let e = i * stride + k;
+                let e = table.entry(i, k);
                 let g = sliced(rows, stride, e);
                 arrays.entry[g] =
                     [table.influence[e], table.reverse_influence[e], table.rest_length_m[e], table.break_scale[e]];
@@ -151,8 +154,8 @@ impl GpuFamily {
         let mut plastic = vec![[0.0f32; 2]; entries];
         for (i, row) in rows.iter().enumerate() {
             for k in 0..row[2] as usize {
-                let value = self.table.plastic_m[i * stride + k];
-                plastic[sliced(rows, stride, i * stride + k)] = [value, value];
+                let e = self.table.entry(i, k);
+                plastic[sliced(rows, stride, e)] = [self.table.plastic_m[e]; 2];
             }
         }
         ctx.write_buffer(&self.buffers.plastic, 0, &plastic)
@@ -171,7 +174,8 @@ impl GpuFamily {
         let stride = self.table.stride;
         for (i, row) in rows.iter().enumerate() {
             for k in 0..row[2] as usize {
-                self.table.plastic_m[i * stride + k] = plastic[sliced(rows, stride, i * stride + k)][1];
+                let e = self.table.entry(i, k);
+                self.table.plastic_m[e] = plastic[sliced(rows, stride, e)][1];
             }
         }
         self.table.mark_broken(broken);
