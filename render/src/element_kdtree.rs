@@ -390,11 +390,26 @@ fn planes_at_bounds(
     }
     lows.sort_unstable_by(f32::total_cmp);
     highs.sort_unstable_by(f32::total_cmp);
-    for &position in lows.iter().chain(highs.iter()) {
-        if position > lo && position < hi {
-            let left_count = lows.partition_point(|&x| x < position);
-            let right_count = highs.len() - highs.partition_point(|&x| x <= position);
-            weigh(position, left_count, right_count);
+    // The lower bounds in order, then the upper ones: each run ascends, so the counts follow
+    // with two pointers. A position equal to the one before weighs the same and cannot win
+    // (ties keep the first), so it is skipped: in a grid most bounds are shared.
+    let (lows, highs) = (&*lows, &*highs);
+    for run in [lows, highs] {
+        let (mut below, mut through, mut previous) = (0, 0, None);
+        for &position in run {
+            if previous == Some(position.to_bits()) {
+                continue;
+            }
+            previous = Some(position.to_bits());
+            if position > lo && position < hi {
+                while below < lows.len() && lows[below] < position {
+                    below += 1;
+                }
+                while through < highs.len() && highs[through] <= position {
+                    through += 1;
+                }
+                weigh(position, below, highs.len() - through);
+            }
         }
     }
 }
@@ -414,6 +429,40 @@ mod tests {
                 Aabb { min: [c[0] - h[0], c[1] - h[1], c[2] - h[2]], max: [c[0] + h[0], c[1] + h[1], c[2] + h[2]] }
             })
             .collect()
+    }
+
+    /// The sweep's planes and counts: every distinct item bound inside the span, with the items
+    /// reaching below and above it counted one by one, lower bounds first, each in order.
+    #[test]
+    fn the_plane_sweep_counts_like_brute_force() {
+        for seed in 0..40 {
+            // boxes on a coarse grid, so that many bounds are shared
+            let items: Vec<Aabb> = boxes(seed, 1 + (seed as usize * 7) % EXACT_ITEMS)
+                .iter()
+                .map(|b| Aabb {
+                    min: b.min.map(|x| (x * 2.0).round() / 2.0),
+                    max: b.max.map(|x| (x * 2.0).round() / 2.0 + 0.5),
+                })
+                .collect();
+            let ids: Vec<u32> = (0..items.len() as u32).collect();
+            for axis in 0..3 {
+                let span = (1.0, 9.0);
+                let mut swept = Vec::new();
+                planes_at_bounds(&items, &ids, axis, span, &mut |p, l, r| swept.push((p, l, r)));
+                let mut expected = Vec::new();
+                for ends in [|b: &Aabb, a: usize| b.min[a], |b: &Aabb, a: usize| b.max[a]] {
+                    let mut positions: Vec<f32> = items.iter().map(|b| ends(b, axis)).collect();
+                    positions.sort_by(f32::total_cmp);
+                    positions.dedup();
+                    for p in positions.into_iter().filter(|p| *p > span.0 && *p < span.1) {
+                        let left = items.iter().filter(|b| b.min[axis] < p).count();
+                        let right = items.iter().filter(|b| b.max[axis] > p).count();
+                        expected.push((p, left, right));
+                    }
+                }
+                assert_eq!(swept, expected, "seed {seed}, axis {axis}");
+            }
+        }
     }
 
     fn entry(b: &Aabb, origin: [f32; 3], direction: [f32; 3]) -> f32 {
