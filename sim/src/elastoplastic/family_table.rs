@@ -13,7 +13,9 @@ use shatter_core::config::material::Normalisation;
 use shatter_core::particles::ParticleSet;
 
 use super::StateBasedConstants;
-use super::passes::{ChunkOutputs, FamilyView, ForceInputs, LANES, bond_forces, dilatation, energy_j, stiffness_n_m};
+use super::passes::{
+    ChunkOutputs, FamilyView, ForceInputs, LANES, Record, bond_forces, dilatation, energy_j, stiffness_n_m,
+};
 use crate::SimError;
 
 /// The bonds, their state, and the per-particle values the passes share.
@@ -62,8 +64,9 @@ pub struct FamilyTable {
     pub weighted_volume: Vec<f32>,
     /// Each particle's [V, 15 mu / m, 3 K / m, yield force] (see [`FamilyView::particle`]).
     pub particle: Vec<[f32; 4]>,
-    /// Each particle's displacement and dilatation for the force pass (scratch).
-    pub record: Vec<[f32; 4]>,
+    /// What the passes gather of each partner, one 32-byte record per particle (see
+    /// [`super::passes::Record`]).
+    pub record: Vec<[f32; 8]>,
     /// Dilatation theta_i at the last force evaluation (scratch).
     pub dilatation: Vec<f32>,
     /// Damage phi_i = 1 - intact / initial bonds, as of the step's start (scratch).
@@ -117,7 +120,7 @@ impl FamilyTable {
             volume: particles.volume_m3.clone(),
             weighted_volume: vec![0.0; n],
             particle: vec![[0.0; 4]; n],
-            record: vec![[0.0; 4]; n],
+            record: vec![[0.0; 8]; n],
             dilatation: vec![0.0; n],
             damage: vec![0.0; n],
             intact: (0..n).map(|i| bonds.row(i).len() as u32).collect(),
@@ -189,6 +192,10 @@ impl FamilyTable {
             })
             .collect();
         table.weighted_volume = weighted;
+        for (record, particle) in table.record.iter_mut().zip(&table.particle) {
+            [record[Record::VOLUME], record[Record::DEVIATORIC], record[Record::DILATATIONAL]] =
+                [particle[0], particle[1], particle[2]];
+        }
         Ok(table)
     }
 
@@ -279,7 +286,7 @@ impl FamilyTable {
         self.record.par_chunks_mut(size).enumerate().for_each(|(c, record)| {
             for (local, r) in record.iter_mut().enumerate() {
                 let i = c * size + local;
-                *r = [disp[0][i], disp[1][i], disp[2][i], 0.0];
+                (r[0], r[1], r[2]) = (disp[0][i], disp[1][i], disp[2][i]);
             }
         });
         // the view borrows the geometry; the passes' outputs are taken out meanwhile
@@ -301,10 +308,11 @@ impl FamilyTable {
                 .for_each(|(c, (theta, damage, extension))| {
                     dilatation(&view, influence_all, record_all, counts, c * size, theta, damage, extension);
                 });
-            record.par_iter_mut().zip(theta.par_iter()).for_each(|(r, theta)| r[3] = *theta);
+            record.par_iter_mut().zip(theta.par_iter().zip(&damage)).for_each(|(r, (theta, damage))| {
+                (r[Record::THETA], r[Record::DAMAGE]) = (*theta, *damage);
+            });
             let inputs = ForceInputs {
                 record: &record,
-                damage: &damage,
                 extension: &extension,
                 plastic: &self.plastic_m,
                 threshold: &self.threshold,

@@ -48,6 +48,24 @@ fn load<T: Copy + Default>(values: &[T], at: usize) -> [T; LANES] {
     lanes
 }
 
+/// The lanes of a particle's 32-byte record, all that a pass gathers of a partner (one cache
+/// line): displacement x, y, z, volume V, dilatation theta, damage phi, and the constants
+/// 15 mu / m and 3 K / m.
+pub struct Record;
+
+impl Record {
+    /// Volume V, m^3.
+    pub const VOLUME: usize = 3;
+    /// Dilatation theta (written after the first pass).
+    pub const THETA: usize = 4;
+    /// Damage phi (written after the first pass).
+    pub const DAMAGE: usize = 5;
+    /// 15 mu / m.
+    pub const DEVIATORIC: usize = 6;
+    /// 3 K / m.
+    pub const DILATATIONAL: usize = 7;
+}
+
 /// What every pass reads of the bonds and particles (none of it changes while a run lasts).
 /// Per-entry arrays are indexed by [`FamilyView::entry`].
 #[derive(Debug, Clone, Copy)]
@@ -109,13 +127,13 @@ fn extension(view: &FamilyView, e: usize, u_i: [f32; 3], u_j: [f32; 3]) -> (f32,
 
 /// Pass 1 over particles `first..first + theta.len()` (`first` a multiple of [`LANES`]):
 /// dilatation theta_i and damage phi_i, and each intact entry's extension (into
-/// `extension_out`, the chunk's run of entries; the force pass reuses it). `record` holds each
-/// particle's displacement in its first three lanes.
+/// `extension_out`, the chunk's run of entries; the force pass reuses it). It reads the
+/// displacements and volumes of `record` ([`Record`]).
 #[allow(clippy::too_many_arguments)]
 pub fn dilatation(
     view: &FamilyView,
     influence: &[f32],
-    record: &[[f32; 4]],
+    record: &[[f32; 8]],
     counts: (&[u32], &[u32]),
     first: usize,
     theta: &mut [f32],
@@ -135,8 +153,12 @@ pub fn dilatation(
                 continue;
             }
             let j = load(view.neighbor, at);
-            let u_j = gather_displacement(record, j);
-            let volume_j: Lanes = std::array::from_fn(|l| view.particle[j[l] as usize][0]);
+            let mut u_j = [[0.0; LANES]; 3];
+            let mut volume_j: Lanes = [0.0; LANES];
+            for l in 0..LANES {
+                let r = &record[j[l] as usize];
+                (u_j[0][l], u_j[1][l], u_j[2][l], volume_j[l]) = (r[0], r[1], r[2], r[Record::VOLUME]);
+            }
             let xi = [0, 1, 2].map(|axis| load(view.rest_vector[axis], at));
             let rest = load(view.rest_length_m, at);
             let local = at - first * stride;
@@ -163,7 +185,7 @@ pub fn dilatation(
 
 /// The displacements (lanes 0 to 2 of `record`) of the particles `index`, one per lane.
 #[inline(always)]
-fn gather_displacement(record: &[[f32; 4]], index: [u32; LANES]) -> [Lanes; 3] {
+fn gather_displacement(record: &[[f32; 8]], index: [u32; LANES]) -> [Lanes; 3] {
     let mut u = [[0.0; LANES]; 3];
     for l in 0..LANES {
         let r = record[index[l] as usize];
@@ -209,10 +231,8 @@ fn force_scalar(
 /// What [`bond_forces`] reads of the state besides the geometry.
 #[derive(Debug, Clone, Copy)]
 pub struct ForceInputs<'a> {
-    /// Each particle's displacement (lanes 0 to 2) and dilatation (lane 3).
-    pub record: &'a [[f32; 4]],
-    /// Each particle's damage phi.
-    pub damage: &'a [f32],
+    /// Each particle's [`Record`], its dilatation and damage filled in.
+    pub record: &'a [[f32; 8]],
     /// Each intact entry's extension, metres, from [`dilatation`].
     pub extension: &'a [f32],
     /// Plastic extensions of the previous evaluation, every entry.
@@ -260,7 +280,7 @@ pub fn bond_forces<const PLASTIC: bool>(
     for group in 0..out.intact.len().div_ceil(LANES) {
         let first_i = first + group * LANES;
         let own: [u32; LANES] = std::array::from_fn(|l| (first_i + l).min(last) as u32);
-        let mine = Ends::gather(view, inputs, own);
+        let mine = Ends::gather::<PLASTIC>(view, inputs, own);
         let mut sum = [[0.0f32; LANES]; 3];
         for k in 0..stride {
             let at = view.entry(first_i, k);
@@ -270,7 +290,7 @@ pub fn bond_forces<const PLASTIC: bool>(
                 continue;
             }
             let partner = load(view.neighbor, at);
-            let theirs = Ends::gather(view, inputs, partner);
+            let theirs = Ends::gather::<PLASTIC>(view, inputs, partner);
             let plastic_ji: Lanes = if PLASTIC {
                 let back = load(view.reverse, at);
                 std::array::from_fn(|l| inputs.plastic[back[l] as usize])
@@ -357,9 +377,9 @@ struct Ends {
 }
 
 impl Ends {
-    /// The values of particles `index`, one per lane.
+    /// The values of particles `index`, one per lane (without yield forces unless `PLASTIC`).
     #[inline(always)]
-    fn gather(view: &FamilyView, inputs: &ForceInputs, index: [u32; LANES]) -> Ends {
+    fn gather<const PLASTIC: bool>(view: &FamilyView, inputs: &ForceInputs, index: [u32; LANES]) -> Ends {
         let mut ends = Ends {
             u: [[0.0; LANES]; 3],
             theta: [0.0; LANES],
@@ -370,14 +390,13 @@ impl Ends {
             yield_force: [0.0; LANES],
         };
         for l in 0..LANES {
-            let i = index[l] as usize;
-            let [ux, uy, uz, theta] = inputs.record[i];
-            (ends.u[0][l], ends.u[1][l], ends.u[2][l], ends.theta[l]) = (ux, uy, uz, theta);
-            ends.damage[l] = inputs.damage[i];
-            let [volume, deviatoric, dilatational, yield_force] = view.particle[i];
-            (ends.volume[l], ends.deviatoric[l], ends.dilatational[l], ends.yield_force[l]) =
-                (volume, deviatoric, dilatational, yield_force);
+            let [ux, uy, uz, volume, theta, damage, deviatoric, dilatational] = inputs.record[index[l] as usize];
+            (ends.u[0][l], ends.u[1][l], ends.u[2][l], ends.volume[l]) = (ux, uy, uz, volume);
+            (ends.theta[l], ends.damage[l], ends.deviatoric[l], ends.dilatational[l]) =
+                (theta, damage, deviatoric, dilatational);
         }
+        ends.yield_force =
+            if PLASTIC { std::array::from_fn(|l| view.particle[index[l] as usize][3]) } else { [f32::INFINITY; LANES] };
         ends
     }
 
