@@ -126,8 +126,8 @@ fn extension(view: &FamilyView, e: usize, u_i: [f32; 3], u_j: [f32; 3]) -> (f32,
 }
 
 /// Pass 1 over particles `first..first + theta.len()` (`first` a multiple of [`LANES`]):
-/// dilatation theta_i and damage phi_i, and each intact entry's extension (into
-/// `extension_out`, the chunk's run of entries; the force pass reuses it). It reads the
+/// dilatation theta_i and damage phi_i, and each entry's extension (into `extension_out`, the
+/// chunk's run of entries; the force pass reuses the intact ones'). It reads the
 /// displacements and volumes of `record` ([`Record`]).
 #[allow(clippy::too_many_arguments)]
 pub fn dilatation(
@@ -161,16 +161,17 @@ pub fn dilatation(
             }
             let xi = [0, 1, 2].map(|axis| load(view.rest_vector[axis], at));
             let rest = load(view.rest_length_m, at);
-            let local = at - first * stride;
-            let mut extension = load(extension_out, local);
+            // every lane's extension is written (the force pass reads only intact entries')
+            let mut extension: Lanes = [0.0; LANES];
             for l in 0..LANES {
+                let eta = [u_j[0][l] - u_i[0][l], u_j[1][l] - u_i[1][l], u_j[2][l] - u_i[2][l]];
+                let (s, _, _) = stretch([xi[0][l], xi[1][l], xi[2][l]], eta, rest[l]);
+                extension[l] = s * rest[l];
                 if omega[l] != 0.0 {
-                    let eta = [u_j[0][l] - u_i[0][l], u_j[1][l] - u_i[1][l], u_j[2][l] - u_i[2][l]];
-                    let (s, _, _) = stretch([xi[0][l], xi[1][l], xi[2][l]], eta, rest[l]);
-                    extension[l] = s * rest[l];
                     sum[l] += omega[l] * rest[l] * extension[l] * volume_j[l];
                 }
             }
+            let local = at - first * stride;
             extension_out[local..local + LANES].copy_from_slice(&extension);
         }
         for (l, theta) in theta.iter_mut().enumerate() {
