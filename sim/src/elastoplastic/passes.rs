@@ -32,21 +32,9 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::StateBasedConstants;
+pub use crate::kernels::lanes::LANES;
+use crate::kernels::lanes::{Lanes, load};
 use crate::kernels::stretch;
-
-/// Particles per lane group: one 256-bit register of f32.
-pub const LANES: usize = 8;
-
-/// Eight f32 lanes.
-type Lanes = [f32; LANES];
-
-/// Eight consecutive values of `values` from `at`.
-#[inline(always)]
-fn load<T: Copy + Default>(values: &[T], at: usize) -> [T; LANES] {
-    let mut lanes = [T::default(); LANES];
-    lanes.copy_from_slice(&values[at..at + LANES]);
-    lanes
-}
 
 /// The lanes of a particle's 32-byte record, all that a pass gathers of a partner (one cache
 /// line): displacement x, y, z, volume V, dilatation theta, damage phi, and the constants
@@ -144,7 +132,7 @@ pub fn dilatation(
     let stride = view.stride;
     for (group, theta) in theta.chunks_mut(LANES).enumerate() {
         let first_i = first + group * LANES;
-        let u_i = gather_displacement(record, std::array::from_fn(|l| (first_i + l).min(record.len() - 1) as u32));
+        let (u_i, _) = gather_motion(record, std::array::from_fn(|l| (first_i + l).min(record.len() - 1) as u32));
         let mut sum: Lanes = [0.0; LANES];
         for k in 0..stride {
             let at = view.entry(first_i, k);
@@ -152,13 +140,7 @@ pub fn dilatation(
             if omega == [0.0; LANES] {
                 continue;
             }
-            let j = load(view.neighbor, at);
-            let mut u_j = [[0.0; LANES]; 3];
-            let mut volume_j: Lanes = [0.0; LANES];
-            for l in 0..LANES {
-                let r = &record[j[l] as usize];
-                (u_j[0][l], u_j[1][l], u_j[2][l], volume_j[l]) = (r[0], r[1], r[2], r[Record::VOLUME]);
-            }
+            let (u_j, volume_j) = gather_motion(record, load(view.neighbor, at));
             let xi = [0, 1, 2].map(|axis| load(view.rest_vector[axis], at));
             let rest = load(view.rest_length_m, at);
             // every lane's extension is written (the force pass reads only intact entries')
@@ -184,15 +166,15 @@ pub fn dilatation(
     }
 }
 
-/// The displacements (lanes 0 to 2 of `record`) of the particles `index`, one per lane.
+/// The displacements and volumes ([`Record`]) of the particles `index`, one per lane.
 #[inline(always)]
-fn gather_displacement(record: &[[f32; 8]], index: [u32; LANES]) -> [Lanes; 3] {
-    let mut u = [[0.0; LANES]; 3];
+fn gather_motion(record: &[[f32; 8]], index: [u32; LANES]) -> ([Lanes; 3], Lanes) {
+    let (mut u, mut volume) = ([[0.0; LANES]; 3], [0.0; LANES]);
     for l in 0..LANES {
-        let r = record[index[l] as usize];
-        (u[0][l], u[1][l], u[2][l]) = (r[0], r[1], r[2]);
+        let r = &record[index[l] as usize];
+        (u[0][l], u[1][l], u[2][l], volume[l]) = (r[0], r[1], r[2], r[Record::VOLUME]);
     }
-    u
+    (u, volume)
 }
 
 /// One end's force scalar of a bond and its new plastic extension: `constants` the end's

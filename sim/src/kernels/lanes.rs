@@ -10,6 +10,14 @@ pub use crate::bond_layouts::row_layout::LANES;
 /// Eight f32 lanes.
 pub type Lanes = [f32; LANES];
 
+/// Eight consecutive values of `values` from `at`.
+#[inline(always)]
+pub fn load<T: Copy + Default>(values: &[T], at: usize) -> [T; LANES] {
+    let mut lanes = [T::default(); LANES];
+    lanes.copy_from_slice(&values[at..at + LANES]);
+    lanes
+}
+
 /// a + b, lane by lane.
 #[inline(always)]
 pub fn add(a: Lanes, b: Lanes) -> Lanes {

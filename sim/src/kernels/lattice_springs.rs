@@ -6,17 +6,9 @@
 
 use shatter_core::config::sim::BreakRule;
 
-use super::lanes::{BondLanes, LANES, Lanes, add, bond_lanes, min, mul, sub};
+use super::lanes::{BondLanes, LANES, Lanes, add, bond_lanes, load, min, mul, sub};
 use super::springs::{ChunkForces, break_bound, effective_threshold};
 use crate::bond_layouts::lattice_layout::{LatticeBlock, LatticeChunk, SlotInputs};
-
-/// Eight consecutive values of `values` from `start`.
-#[inline(always)]
-fn load(values: &[f32], start: usize) -> Lanes {
-    let mut lanes = [0.0; LANES];
-    lanes.copy_from_slice(&values[start..start + LANES]);
-    lanes
-}
 
 /// Spring forces (the paper's `springforces`) of one chunk of the lattice layout: for every
 /// intact bond, the stretch, the break test against the effective threshold, and the PMB force.

@@ -5,7 +5,7 @@
 // Indexed loops, as in the WGSL kernels of the same passes.
 #![allow(clippy::needless_range_loop)]
 
-mod lanes;
+pub(crate) mod lanes;
 mod lattice_springs;
 mod springs;
 #[cfg(target_arch = "x86_64")]
