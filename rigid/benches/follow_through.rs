@@ -31,6 +31,7 @@ use shatter_core::rigid_checkpoint::RigidCheckpoint;
 use shatter_core::{OutputLayout, PipelineConfig};
 use shatter_geometry::PointKdTree;
 use shatter_rigid::rigid_driver::hand_over;
+use shatter_rigid::shapes::ElementGeometry;
 
 const FRAME_S: f64 = 1.0 / 24.0;
 const FOLLOW_THROUGH_FRAMES: u32 = 84;
@@ -57,6 +58,8 @@ fn main() {
     let particles = ParticleSet::read(&paper_layout.particles()).expect("paper particles");
     let read_s = started.elapsed().as_secs_f64();
 
+    // FOLLOW_THROUGH_VERBOSE=1: the pieces' hulls, and each frame's awake pieces and time
+    let verbose = std::env::var_os("FOLLOW_THROUGH_VERBOSE").is_some();
     // FOLLOW_THROUGH_DUST=grains: the small shot's dust stays in grains of its size
     let split_dust = std::env::var("FOLLOW_THROUGH_DUST").map_or(true, |dust| dust != "grains");
     let started = Instant::now();
@@ -65,6 +68,9 @@ fn main() {
     let cut_s = started.elapsed().as_secs_f64();
 
     let rigid = paper.rigid.as_ref().expect("[rigid]");
+    if verbose {
+        print_shapes(&particles, &handoff, rigid.hull_volume_factor, rigid.dust_max_elements as usize);
+    }
     let started = Instant::now();
     let (mut world, conservation) = hand_over(&paper, rigid, &particles, &handoff, &points);
     let build_s = started.elapsed().as_secs_f64();
@@ -73,13 +79,32 @@ fn main() {
     let mut steps = 0;
     let mut asleep_from = None;
     for frame in 1..=FOLLOW_THROUGH_FRAMES {
+        let frame_started = Instant::now();
         steps += world.advance(FRAME_S, rigid.max_step_s);
+        if verbose {
+            println!(
+                "  frame {frame}: {} awake, {:.2} s",
+                world.awake_pieces().len(),
+                frame_started.elapsed().as_secs_f64()
+            );
+        }
         if world.all_asleep() {
             asleep_from = Some(frame);
             break;
         }
     }
     let step_s = started.elapsed().as_secs_f64();
+    if verbose {
+        for piece in world.awake_pieces() {
+            let (v, w) = world.velocities()[piece];
+            println!(
+                "  awake at the end: piece {piece} of {} elements, {:.4} m/s, {:.4} rad/s",
+                handoff.elements[piece],
+                v.length(),
+                w.length()
+            );
+        }
+    }
 
     let pieces = handoff.fragment_count();
     let dust = handoff.elements.iter().filter(|&&n| n <= rigid.dust_max_elements).count();
@@ -99,16 +124,40 @@ fn main() {
     );
     let simulated = asleep_from.unwrap_or(FOLLOW_THROUGH_FRAMES);
     println!(
-        "  {simulated} frames ({:.2} s) in {steps} steps; {}; {} retired, {} awake at the end",
+        "  {simulated} frames ({:.2} s) in {steps} steps; {}; {} retired, {} awake at the end; \
+         deepest overlap {:.2} mm",
         f64::from(simulated) * FRAME_S,
         asleep_from.map_or("not every piece asleep".to_string(), |f| format!("every piece asleep from frame {f}")),
         world.retired_pieces(),
-        world.awake_pieces().len()
+        world.awake_pieces().len(),
+        world.deepest_penetration_m() * 1e3
     );
     println!(
         "  read {read_s:.1} s, cut {cut_s:.1} s, build (mass, shapes, fit) {build_s:.1} s, step {step_s:.1} s: \
          follow-through {:.1} s",
         build_s + step_s
+    );
+}
+
+/// How many hulls (and their points) the pieces that are not dust collide as.
+fn print_shapes(particles: &ParticleSet, handoff: &FragmentFrame, hull_volume_factor: f64, dust_max_elements: usize) {
+    let geometry = ElementGeometry::of(particles);
+    let mut members: Vec<Vec<u32>> = vec![Vec::new(); handoff.fragment_count()];
+    for (element, &piece) in handoff.fragment_of.iter().enumerate() {
+        members[piece as usize].push(element as u32);
+    }
+    let shapes: Vec<_> = members
+        .iter()
+        .filter(|members| members.len() > dust_max_elements)
+        .map(|members| geometry.piece_shape(members, hull_volume_factor))
+        .collect();
+    let hulls: usize = shapes.iter().map(|shape| shape.hulls.len()).sum();
+    let most = shapes.iter().map(|shape| shape.hulls.len()).max().unwrap_or(0);
+    let points: usize = shapes.iter().flat_map(|shape| shape.hulls.iter().map(Vec::len)).sum();
+    println!(
+        "  {} pieces that are not dust collide as {hulls} hulls (at most {most} a piece) of {points} points \
+         (hull_volume_factor {hull_volume_factor})",
+        shapes.len()
     );
 }
 

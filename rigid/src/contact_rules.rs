@@ -105,6 +105,9 @@ impl ContactRules {
         // grains on the floor, a map of every pair's overlap cost a sixteenth of each step
         self.allowance_m.retain(|&(a, b), allowance| {
             let [a, b] = [a, b].map(|(index, generation)| ColliderHandle::from_raw_parts(index, generation));
+            // rapier finds a pair by walking its first collider's list of pairs: never the
+            // floor's, which holds every grain lying on it
+            let (a, b) = if Some(a) == self.floor { (b, a) } else { (a, b) };
             let depth = narrow_phase.contact_pair(a, b).map_or(0.0, pair_depth);
             *allowance = allowance.min(depth);
             depth > 0.0

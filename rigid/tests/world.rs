@@ -95,15 +95,20 @@ fn free_fall_follows_the_parabola() {
 
 #[test]
 fn a_box_settles_on_the_floor_at_its_height() {
-    let half = Vector::new(0.02, 0.01, 0.015);
-    let piece = box_piece(Vector::ZERO, half, Vector::new(0.0, 0.1, 0.0), Vector::new(0.3, 0.0, 0.0), 2200.0);
-    let mut world = RigidWorld::new(&settings(), Some(0.0), &[], &[piece]);
-    run_until(&mut world, 2.0);
-    let centre = world.centres()[0];
-    assert!((centre.y - half.y).abs() < 5e-4, "rests at {} instead of {}", centre.y, half.y);
-    let (v, w) = world.velocities()[0];
-    assert!(v.length() < 1e-3 && w.length() * half.length() < 1e-3, "still moving: {v:?} {w:?}");
-    assert!(world.all_asleep(), "the box should sleep");
+    // as a piece and as dust (which meets only the floor and the spheres)
+    for dust in [false, true] {
+        let half = Vector::new(0.02, 0.01, 0.015);
+        let mut piece = box_piece(Vector::ZERO, half, Vector::new(0.0, 0.1, 0.0), Vector::new(0.3, 0.0, 0.0), 2200.0);
+        piece.dust = dust;
+        let mut world = RigidWorld::new(&settings(), Some(0.0), &[], &[piece]);
+        run_until(&mut world, 2.0);
+        let centre = world.centres()[0];
+        assert!((centre.y - half.y).abs() < 5e-4, "dust {dust}: rests at {} instead of {}", centre.y, half.y);
+        assert!(centre.x > 0.01, "dust {dust}: slid to {} only", centre.x);
+        let (v, w) = world.velocities()[0];
+        assert!(v.length() < 1e-3 && w.length() * half.length() < 1e-3, "dust {dust}: still moving: {v:?} {w:?}");
+        assert!(world.all_asleep(), "dust {dust}: the box should sleep");
+    }
 }
 
 fn pile() -> Vec<PieceBody> {
@@ -382,4 +387,25 @@ fn a_piece_flung_out_through_the_side_is_retired_where_it_lands() {
     assert_eq!(world.retired_pieces(), 1, "not retired at {:?}", world.centres()[0]);
     let at = world.centres()[0];
     assert!(at.y < 0.01 && at.x > 1.8 && at.x < 3.0, "retired at {at:?}, not on the floor where it landed");
+}
+
+#[test]
+fn a_fast_grain_does_not_sink_into_the_floor() {
+    // a 4 mm grain flung at the floor at 6 m/s, as dust and as a piece: it rests on the floor,
+    // not in it
+    for dust in [false, true] {
+        let half = Vector::splat(0.002);
+        let velocity = Vector::new(1.0, -6.0, 0.5);
+        let mut piece = box_piece(Vector::ZERO, half, Vector::new(0.0, 0.05, 0.0), velocity, 2500.0);
+        piece.dust = dust;
+        let mut world = RigidWorld::new(&settings(), Some(0.0), &[], &[piece]);
+        let mut deepest: f64 = 0.0;
+        for _ in 0..48 {
+            world.advance(1.0 / 24.0, 1.0 / 960.0);
+            deepest = deepest.max(world.deepest_penetration_m());
+        }
+        let centre = world.centres()[0];
+        assert!(deepest < 5e-4, "dust {dust}: {deepest} m into the floor");
+        assert!(centre.y > half.y - 5e-4, "dust {dust}: rests at {} m", centre.y);
+    }
 }
