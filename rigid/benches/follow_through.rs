@@ -95,8 +95,9 @@ fn main() {
     }
     let step_s = started.elapsed().as_secs_f64();
     if verbose {
+        let velocities = world.velocities();
         for piece in world.awake_pieces() {
-            let (v, w) = world.velocities()[piece];
+            let (v, w) = velocities[piece];
             println!(
                 "  awake at the end: piece {piece} of {} elements, {:.4} m/s, {:.4} rad/s",
                 handoff.elements[piece],
