@@ -83,7 +83,12 @@ pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
                     let fastest = awake.iter().copied().max_by(|a, b| speed(a).total_cmp(&speed(b)));
                     let farthest = awake.iter().map(reach).fold(0.0, f64::max);
                     let airborne = awake.iter().filter(|&&i| world.clearance_m(i) > 0.0).count();
+                    // rolling (spin times its reach near speed) or sliding, and how big
+                    let spin = |i: &usize| velocities[*i].1.length();
+                    let masses = world.masses_kg();
                     summary["awake"] = json!({"fastest_piece": fastest, "fastest_m_s": fastest.as_ref().map(speed),
+                        "fastest_spin_rad_s": fastest.as_ref().map(spin),
+                        "fastest_mass_kg": fastest.map(|i| masses[i]),
                         "farthest_from_axis_m": farthest, "airborne": airborne});
                 }
                 if let Some((a, b, depth)) = world.overlaps().first() {

@@ -35,6 +35,9 @@ pub fn pair_key(a: ColliderHandle, b: ColliderHandle) -> PairKey {
 pub struct ContactRules {
     /// The floor's collider, if there is a floor.
     pub floor: Option<ColliderHandle>,
+    /// The floor's plane that dust rests on, if there is a floor and dust.
+    #[serde(default)]
+    pub dust_floor: Option<ColliderHandle>,
     /// Friction coefficient between a piece and the floor.
     pub floor_friction: f64,
     /// Restitution of a bounce on the floor.
@@ -64,6 +67,7 @@ impl Clone for ContactRules {
 impl PartialEq for ContactRules {
     fn eq(&self, other: &Self) -> bool {
         self.floor == other.floor
+            && self.dust_floor == other.dust_floor
             && self.allowance_m == other.allowance_m
             && self.at_handoff == other.at_handoff
             && [self.floor_friction, self.floor_restitution, self.piece_friction, self.piece_restitution]
@@ -73,14 +77,16 @@ impl PartialEq for ContactRules {
 }
 
 impl ContactRules {
-    /// Rules with these coefficients and no allowances yet (the first step finds them).
+    /// Rules with these coefficients and no allowances yet (the first step finds them), for
+    /// the floor's collider and its plane for dust.
     pub fn new(
-        floor: Option<ColliderHandle>,
+        [floor, dust_floor]: [Option<ColliderHandle>; 2],
         [floor_friction, floor_restitution, piece_friction, piece_restitution]: [f64; 4],
         max_mass_ratio: f64,
     ) -> ContactRules {
         ContactRules {
             floor,
+            dust_floor,
             floor_friction,
             floor_restitution,
             piece_friction,
@@ -139,7 +145,8 @@ impl PhysicsHooks for ContactRules {
     }
 
     fn modify_solver_contacts(&self, context: &mut ContactModificationContext) {
-        let on_floor = self.floor.is_some_and(|floor| context.collider1 == floor || context.collider2 == floor);
+        let is_floor = |collider| Some(collider) == self.floor || Some(collider) == self.dust_floor;
+        let on_floor = is_floor(context.collider1) || is_floor(context.collider2);
         let key = pair_key(context.collider1, context.collider2);
         let Some(manifold) = context.rigid_mut() else { return };
         let allowance = if self.at_handoff {

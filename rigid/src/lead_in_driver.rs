@@ -84,6 +84,7 @@ pub fn run_lead_in(config: &PipelineConfig, progress: &dyn Progress) -> Result<L
         sleep_speed_m_s: -1.0,
         bounds_m: None,
         rolling_damping_per_s: 0.0,
+        rolling_resistance_m_s2: 0.0,
         ..world_settings(config, &rigid, particles.meta.lambda_m)
     };
     let floor = config.sim.floor.as_ref().map(|floor| floor.height_m);

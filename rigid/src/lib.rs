@@ -18,6 +18,7 @@ pub mod contact_rules;
 pub mod handoff;
 pub mod lead_in_driver;
 pub mod mass;
+pub mod plane_contacts;
 pub mod rigid_driver;
 pub mod shapes;
 pub mod shot_usd;

@@ -438,6 +438,7 @@ pub fn world_settings(config: &PipelineConfig, rigid: &RigidConfig, lambda_m: f6
         max_mass_ratio: rigid.max_mass_ratio,
         bounds_m: rigid.bounds_m,
         rolling_damping_per_s: rigid.rolling_damping_per_s,
+        rolling_resistance_m_s2: rigid.rolling_resistance_m_s2,
     }
 }
 

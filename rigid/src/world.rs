@@ -10,6 +10,7 @@ use shatter_core::disjoint_sets::DisjointSets;
 
 use crate::contact_rules::{ContactRules, pair_depth, pair_key};
 use crate::mass::MassProps;
+use crate::plane_contacts;
 
 /// Half the floor slab's width, metres: far beyond any shot.
 const FLOOR_HALF_WIDTH_M: f64 = 1.0e3;
@@ -50,6 +51,9 @@ pub struct WorldSettings {
     pub bounds_m: Option<[[f64; 3]; 2]>,
     /// The decay rate of a touching piece's spin, 1/s (rolling resistance).
     pub rolling_damping_per_s: f64,
+    /// The constant part of rolling resistance: a touching piece's spin slows by this much
+    /// speed at its farthest point every second, m/s^2, so that rocking stops in finite time.
+    pub rolling_resistance_m_s2: f64,
 }
 
 /// A piece as it enters the rigid world.
@@ -104,6 +108,8 @@ pub struct RigidWorld {
     sleep_after_s: f64,
     bounds_m: Option<[[f64; 3]; 2]>,
     rolling_damping_per_s: f64,
+    #[serde(default)]
+    rolling_resistance_m_s2: f64,
 }
 
 /// Where a piece was when its current still spell began, and how long that has lasted.
@@ -138,15 +144,18 @@ impl RigidWorld {
         // the jumps (measured: a 24-hull shard still at 1.3 rad/s after 3 s with clustering, at
         // rest at once without; the vase shot's last pieces sleep 12 frames earlier)
         world.integration_parameters.contact_clustering = false;
+        world.narrow_phase.set_query_dispatcher(plane_contacts::dispatcher());
         let hooks = ActiveHooks::MODIFY_SOLVER_CONTACTS;
+        let any_dust = pieces.iter().any(|piece| piece.dust && piece.shape.is_some());
         let floor = floor_height_m.map(|height| {
             // a slab, not a half-space: on a half-space the plate shot's largest shard (9,330
-            // cubes, a compound of hulls) sank 29 mm through the floor and stayed there
+            // cubes, a compound of hulls) sank 29 mm through the floor and stayed there; dust
+            // meets the plane at its top instead (below)
             let top = Vector::new(0.0, height - FLOOR_HALF_THICKNESS_M, 0.0);
             let body = world.insert_body(RigidBodyBuilder::fixed().translation(top));
             let slab = SharedShape::cuboid(FLOOR_HALF_WIDTH_M, FLOOR_HALF_THICKNESS_M, FLOOR_HALF_WIDTH_M);
-            let collider =
-                ColliderBuilder::new(slab).active_hooks(hooks).collision_groups(groups(ENVIRONMENT, Group::ALL));
+            let filter = if any_dust { Group::ALL.difference(DUST) } else { Group::ALL };
+            let collider = ColliderBuilder::new(slab).active_hooks(hooks).collision_groups(groups(ENVIRONMENT, filter));
             world.insert_collider(collider, Some(body))
         });
         for sphere in spheres {
@@ -187,9 +196,21 @@ impl RigidWorld {
             }
             handles.push(handle);
         }
+        // Dust rests on a plane at the slab's top, met in closed form (see `plane_contacts`),
+        // not on the slab, which parry meets with GJK and EPA: tens of thousands of grains
+        // rest on the floor of the paper-scale vase. Inserted after the pieces, so that rapier
+        // files each grain's pair under the grain (it walks the lower collider's list of pairs
+        // to find one) and the floor's and pieces' colliders keep their handles.
+        let dust_floor = floor_height_m.filter(|_| any_dust).map(|height| {
+            let body = world.insert_body(RigidBodyBuilder::fixed().translation(Vector::new(0.0, height, 0.0)));
+            let collider = ColliderBuilder::new(SharedShape::halfspace(Vector::Y))
+                .active_hooks(hooks)
+                .collision_groups(groups(ENVIRONMENT, DUST));
+            world.insert_collider(collider, Some(body))
+        });
         let coefficients =
             [settings.floor_friction, settings.floor_restitution, settings.piece_friction, settings.piece_restitution];
-        let rules = ContactRules::new(floor, coefficients, settings.max_mass_ratio);
+        let rules = ContactRules::new([floor, dust_floor], coefficients, settings.max_mass_ratio);
         let watch = handles
             .iter()
             .zip(pieces)
@@ -218,6 +239,7 @@ impl RigidWorld {
             sleep_after_s: settings.sleep_after_s,
             bounds_m: settings.bounds_m,
             rolling_damping_per_s: settings.rolling_damping_per_s,
+            rolling_resistance_m_s2: settings.rolling_resistance_m_s2,
         }
     }
 
@@ -274,16 +296,26 @@ impl RigidWorld {
         index.get(&body.into_raw_parts()).copied()
     }
 
-    /// Rolling resistance: a piece that touches something has its spin damped at
-    /// `rolling_damping_per_s` through the next frame; in flight it spins freely. rapier has
-    /// no rolling friction, and a curved shard of the vase (94 g, lying on its back on a
-    /// compound of 256 hulls) rocked by a degree or more each frame for as long as it was
-    /// simulated.
+    /// Rolling resistance: a piece that touches something has its spin damped through the
+    /// next frame, at `rolling_damping_per_s` and by `rolling_resistance_m_s2` more, taken as
+    /// a rate at the frame's start (the deceleration over the spin's speed at its farthest
+    /// point); in flight it spins freely. rapier has no rolling friction: a curved shard of
+    /// the vase (94 g, lying on its back on a compound of 256 hulls) rocked by a degree or
+    /// more each frame for as long as it was simulated, and with the rate alone a 3,436-tet
+    /// shard still rocked at 1.2 rad/s after 2.5 s (the rate slows the slow rocking slowly).
     fn resist_rolling(&mut self, touching: &[bool]) {
-        for (&handle, &touches) in self.pieces.iter().zip(touching) {
-            let damping = if touches { self.rolling_damping_per_s } else { 0.0 };
+        for ((&handle, &touches), watch) in self.pieces.iter().zip(touching).zip(&self.watch) {
             // read first: indexing rapier's set mutably marks a body modified
-            if self.world.bodies[handle].angular_damping() != damping {
+            let body = &self.world.bodies[handle];
+            let rim_speed_m_s = body.angvel().length() * watch.reach_m;
+            let damping = match touches {
+                false => 0.0,
+                true if rim_speed_m_s > 0.0 => {
+                    self.rolling_damping_per_s + self.rolling_resistance_m_s2 / rim_speed_m_s
+                }
+                true => self.rolling_damping_per_s,
+            };
+            if body.angular_damping() != damping {
                 self.world.bodies[handle].set_angular_damping(damping);
             }
         }
@@ -373,6 +405,11 @@ impl RigidWorld {
         self.pieces.iter().map(|&h| (self.world.bodies[h].linvel(), self.world.bodies[h].angvel())).collect()
     }
 
+    /// Each piece's mass, kg.
+    pub fn masses_kg(&self) -> Vec<f64> {
+        self.pieces.iter().map(|&h| self.world.bodies[h].mass()).collect()
+    }
+
     /// Each piece's centre of mass in the world, metres.
     pub fn centres(&self) -> Vec<Vector> {
         self.pieces.iter().map(|&h| self.world.bodies[h].center_of_mass()).collect()
@@ -458,6 +495,9 @@ impl RigidWorld {
 
     /// A world from [`RigidWorld::snapshot`].
     pub fn restore(bytes: &[u8]) -> Result<RigidWorld, rmp_serde::decode::Error> {
-        rmp_serde::from_slice(bytes)
+        let mut world: RigidWorld = rmp_serde::from_slice(bytes)?;
+        // the dispatcher is code, not state: rapier does not serialise it
+        world.world.narrow_phase.set_query_dispatcher(plane_contacts::dispatcher());
+        Ok(world)
     }
 }

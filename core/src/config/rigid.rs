@@ -69,6 +69,10 @@ pub struct RigidConfig {
     /// touches the floor or another piece decays at this rate, 1/s; a piece in flight spins
     /// freely. A curved shard lying on its back otherwise rocks for seconds.
     pub rolling_damping_per_s: f64,
+    /// The constant part of rolling resistance, m/s^2: the spin of a touching piece also
+    /// slows by this much speed at its farthest point every second (as Coulomb friction
+    /// does, not in proportion to the spin), so rocking and rolling stop in finite time.
+    pub rolling_resistance_m_s2: f64,
     /// A checkpoint (the rapier world, for resume) is written every this many frames.
     pub checkpoint_every_frames: u32,
 }
@@ -94,6 +98,7 @@ impl Default for RigidConfig {
             sleep_after_s: 0.2,
             bounds_m: None,
             rolling_damping_per_s: 4.0,
+            rolling_resistance_m_s2: 0.2,
             checkpoint_every_frames: 24,
         }
     }
@@ -142,6 +147,7 @@ impl RigidConfig {
         check.non_negative("rigid.sleep_speed_m_s", self.sleep_speed_m_s, "m/s")?;
         check.non_negative("rigid.sleep_after_s", self.sleep_after_s, "seconds")?;
         check.non_negative("rigid.rolling_damping_per_s", self.rolling_damping_per_s, "a rate, 1/s")?;
+        check.non_negative("rigid.rolling_resistance_m_s2", self.rolling_resistance_m_s2, "m/s^2")?;
         if let Some([low, high]) = self.bounds_m {
             let shown = format!("{:?}", [low, high]);
             check.that(
