@@ -8,7 +8,17 @@
 # - CPU-vs-GPU agreement: the simulation's state after the same steps on both backends, and the
 #   tracer's images against the CPU's.
 #
-#   scripts/gpu-bench.sh [all|build|run]
+#   scripts/gpu-bench.sh [all|build|run|shots]
+#
+# `shots` runs the paper-scale real-speed shots end to end with the `shatter` binary that
+# `build` also packs (the GPU simulates; the follow-through runs on the machine's cores), each
+# bounded in time, and prints each stage's time and what `shatter inspect` says of the
+# follow-through's end (pieces still awake, the deepest overlap):
+#   SHATTER_GPU_SHOTS         scene configs (default: vase_drop_paper, glass_plate_shot_paper,
+#                             dragon_drop_paper)
+#   SHATTER_GPU_SHOT_S        bound on each shot's run (default 300 s; vase_drop_paper reaches
+#                             its render in about 250 s on an H200)
+#   SHATTER_GPU_SHOT_UNTIL    the last stage run (default rigid; render for the frames too)
 #
 # `build` compiles the two benchmarks (sim's gpu_steps, render's render) in release mode and puts
 # them, stripped and compressed, in .gpu-bench/ (ignored by git). `run` runs them from there and
@@ -43,6 +53,9 @@ build() {
     strip -o "$bench_dir/$bench" "$exe"
     gzip -9 -f "$bench_dir/$bench"
   done
+  cargo build --locked --release --bin shatter 2>/dev/null || { echo "gpu-bench: could not build shatter" >&2; exit 1; }
+  strip -o "$bench_dir/shatter" target/release/shatter
+  gzip -9 -f "$bench_dir/shatter"
   echo "gpu-bench: built $(ls "$bench_dir")  in .gpu-bench/ ($(du -sh "$bench_dir" | cut -f1))"
 }
 
@@ -128,9 +141,40 @@ table() {
   ' "$2"
 }
 
+# The paper-scale shots end to end, each bounded; the figures for docs/PERFORMANCE.md.
+shots() {
+  vulkan
+  [ -f "$bench_dir/shatter.gz" ] || { echo "gpu-bench: .gpu-bench/shatter.gz is missing: run '$0 build' first" >&2; exit 1; }
+  local bin
+  bin=$(mktemp -d)
+  gunzip -c "$bench_dir/shatter.gz" >"$bin/shatter"
+  chmod +x "$bin/shatter"
+  local scenes=${SHATTER_GPU_SHOTS:-assets/scenes/vase_drop_paper.toml assets/scenes/glass_plate_shot_paper.toml assets/scenes/dragon_drop_paper.toml}
+  local bound=${SHATTER_GPU_SHOT_S:-300} until=${SHATTER_GPU_SHOT_UNTIL:-rigid}
+  local scene log output
+  for scene in $scenes; do
+    echo "== shot $scene (until $until, at most $bound s)"
+    log=$(mktemp)
+    local rc=0
+    timeout "$bound" "$bin/shatter" run --config "$root/$scene" --until "$until" >"$log" 2>&1 || rc=$?
+    if [ "$rc" = 124 ]; then
+      echo "gpu-bench: $scene did not finish in $bound s (SHATTER_GPU_SHOT_S); where it got to:"
+    elif [ "$rc" != 0 ]; then
+      echo "gpu-bench: $scene failed (exit $rc):"
+    fi
+    # the stage lines, not the progress lines
+    grep -v '^\[' "$log" | grep -v '^\s*$' | tail -n 40
+    output=$(sed -n 's/^output_dir = "\(.*\)"/\1/p' "$root/$scene")
+    if [ -n "$output" ] && [ -f "$(dirname "$root/$scene")/$output/rigid/rigid.checkpoint.shp" ]; then
+      "$bin/shatter" inspect "$(dirname "$root/$scene")/$output/rigid/rigid.checkpoint.shp"
+    fi
+  done
+}
+
 case "$mode" in
   build) build ;;
   run) run ;;
+  shots) shots ;;
   all) build && run ;;
-  *) echo "usage: $0 [all|build|run]" >&2; exit 2 ;;
+  *) echo "usage: $0 [all|build|run|shots]" >&2; exit 2 ;;
 esac
