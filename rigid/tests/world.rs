@@ -54,6 +54,28 @@ fn box_piece(rest_centre: Vector, half: Vector, centre: Vector, velocity: Vector
     }
 }
 
+/// The mass properties of the convex hull of `points`, of ceramic (2,200 kg/m^3).
+fn hull_mass(points: &[Vector]) -> MassProps {
+    let (vertices, faces) = rapier3d_f64::parry::transformation::convex_hull(points);
+    let triangles: Vec<[Vector; 3]> = faces.iter().map(|f| f.map(|i| vertices[i as usize])).collect();
+    let (volume, centre, second) = solid_of_triangles(&triangles, Vector::ZERO).expect("a hull with a volume");
+    MassProps { mass_kg: volume * 2200.0, centre_m: centre, second_moment: second * 2200.0 }
+}
+
+/// The hull of `points` (a body of revolution about z, of `radius`) on the floor, rolling
+/// along x at `speed_m_s`.
+fn rolling_on_the_floor(points: &[Vector], radius: f64, speed_m_s: f64) -> PieceBody {
+    PieceBody {
+        mass: hull_mass(points),
+        rotation: Rotation::IDENTITY,
+        translation_m: Vector::new(0.0, radius, 0.0),
+        linear_m_s: Vector::new(speed_m_s, 0.0, 0.0),
+        angular_rad_s: Vector::new(0.0, 0.0, -speed_m_s / radius),
+        shape: PieceShape { hulls: vec![points.to_vec()] }.shared_shape(),
+        dust: false,
+    }
+}
+
 fn run_until(world: &mut RigidWorld, seconds: f64) {
     let frames = (seconds * 24.0).round() as u32;
     for _ in 0..frames {
@@ -295,9 +317,7 @@ fn curved_shard(tilt_rad: f64, parts: usize) -> PieceBody {
         points
     };
     let whole = arc(-60.0, 60.0, 48);
-    let (vertices, faces) = rapier3d_f64::parry::transformation::convex_hull(&whole);
-    let triangles: Vec<[Vector; 3]> = faces.iter().map(|f| f.map(|i| vertices[i as usize])).collect();
-    let (volume, centre, second) = solid_of_triangles(&triangles, Vector::ZERO).expect("shard");
+    let mass = hull_mass(&whole);
     let hulls = if parts == 1 {
         vec![whole]
     } else {
@@ -307,7 +327,7 @@ fn curved_shard(tilt_rad: f64, parts: usize) -> PieceBody {
     let rotation = Rotation::from_rotation_z(tilt_rad);
     let contact = Vector::new(radius * tilt_rad.sin(), radius - radius * tilt_rad.cos(), 0.0);
     PieceBody {
-        mass: MassProps { mass_kg: volume * 2200.0, centre_m: centre, second_moment: second * 2200.0 },
+        mass,
         rotation,
         translation_m: -(rotation * contact) + Vector::new(0.0, 1e-5, 0.0),
         linear_m_s: Vector::ZERO,
@@ -353,18 +373,7 @@ fn rolling_resistance_damps_spin_on_contact_only() {
                 [-half_length, half_length].map(|z| Vector::new(radius * angle.cos(), radius * angle.sin(), z))
             })
             .collect();
-        let (vertices, faces) = rapier3d_f64::parry::transformation::convex_hull(&points);
-        let triangles: Vec<[Vector; 3]> = faces.iter().map(|f| f.map(|i| vertices[i as usize])).collect();
-        let (volume, centre, second) = solid_of_triangles(&triangles, Vector::ZERO).expect("cylinder");
-        let cylinder = PieceBody {
-            mass: MassProps { mass_kg: volume * 2200.0, centre_m: centre, second_moment: second * 2200.0 },
-            rotation: Rotation::IDENTITY,
-            translation_m: Vector::new(0.0, radius, 0.0),
-            linear_m_s: Vector::new(0.5, 0.0, 0.0),
-            angular_rad_s: Vector::new(0.0, 0.0, -0.5 / radius),
-            shape: PieceShape { hulls: vec![points] }.shared_shape(),
-            dust: false,
-        };
+        let cylinder = rolling_on_the_floor(&points, radius, 0.5);
         let settings = WorldSettings { rolling_damping_per_s: damping, sleep_speed_m_s: -1.0, ..settings() };
         let mut world = RigidWorld::new(&settings, Some(0.0), &[], &[cylinder]);
         run_until(&mut world, 0.5);
@@ -427,11 +436,9 @@ fn prism(sides: usize, height_m: f64, tilt_rad: f64) -> (PieceBody, Vec<Vector>)
             [-half_height, half_height].map(|y| Vector::new(radius * angle.cos(), y, radius * angle.sin()))
         })
         .collect();
-    let (vertices, faces) = rapier3d_f64::parry::transformation::convex_hull(&corners);
-    let triangles: Vec<[Vector; 3]> = faces.iter().map(|f| f.map(|i| vertices[i as usize])).collect();
-    let (volume, centre, second) = solid_of_triangles(&triangles, Vector::ZERO).expect("prism");
+    let mass = hull_mass(&corners);
     let piece = PieceBody {
-        mass: MassProps { mass_kg: volume * 2200.0, centre_m: centre, second_moment: second * 2200.0 },
+        mass,
         rotation: Rotation::from_rotation_x(tilt_rad) * Rotation::from_rotation_z(0.5 * tilt_rad),
         translation_m: Vector::new(0.0, height_m, 0.0),
         linear_m_s: Vector::new(0.2, 0.0, 0.0),
@@ -480,19 +487,8 @@ fn rolling_resistance_stops_a_roll_in_finite_time() {
             radius * Vector::new(r * angle.cos(), y, r * angle.sin())
         })
         .collect();
-    let (vertices, faces) = rapier3d_f64::parry::transformation::convex_hull(&points);
-    let triangles: Vec<[Vector; 3]> = faces.iter().map(|f| f.map(|i| vertices[i as usize])).collect();
-    let (volume, centre, second) = solid_of_triangles(&triangles, Vector::ZERO).expect("ball");
     let speeds = |resistance: f64| {
-        let ball = PieceBody {
-            mass: MassProps { mass_kg: volume * 2200.0, centre_m: centre, second_moment: second * 2200.0 },
-            rotation: Rotation::IDENTITY,
-            translation_m: Vector::new(0.0, radius, 0.0),
-            linear_m_s: Vector::new(0.1, 0.0, 0.0),
-            angular_rad_s: Vector::new(0.0, 0.0, -0.1 / radius),
-            shape: PieceShape { hulls: vec![points.clone()] }.shared_shape(),
-            dust: false,
-        };
+        let ball = rolling_on_the_floor(&points, radius, 0.1);
         let settings = WorldSettings { rolling_resistance_m_s2: resistance, sleep_speed_m_s: -1.0, ..settings() };
         let mut world = RigidWorld::new(&settings, Some(0.0), &[], &[ball]);
         // its speed every quarter second for 2.5 s
