@@ -118,15 +118,18 @@ fn free_fall_follows_the_parabola() {
 
 #[test]
 fn a_box_settles_on_the_floor_at_its_height() {
-    // as a piece and as dust (which meets only the floor and the spheres)
-    for dust in [false, true] {
+    // as a piece and as dust (which meets only the floor's plane and the spheres), on a floor
+    // at 0 and at -0.3 m
+    for (dust, floor) in [(false, 0.0), (true, 0.0), (false, -0.3), (true, -0.3)] {
         let half = Vector::new(0.02, 0.01, 0.015);
-        let mut piece = box_piece(Vector::ZERO, half, Vector::new(0.0, 0.1, 0.0), Vector::new(0.3, 0.0, 0.0), 2200.0);
+        let start = Vector::new(0.0, floor + 0.1, 0.0);
+        let mut piece = box_piece(Vector::ZERO, half, start, Vector::new(0.3, 0.0, 0.0), 2200.0);
         piece.dust = dust;
-        let mut world = RigidWorld::new(&settings(), Some(0.0), &[], &[piece]);
+        let mut world = RigidWorld::new(&settings(), Some(floor), &[], &[piece]);
         run_until(&mut world, 2.0);
         let centre = world.centres()[0];
-        assert!((centre.y - half.y).abs() < 5e-4, "dust {dust}: rests at {} instead of {}", centre.y, half.y);
+        let height = centre.y - floor;
+        assert!((height - half.y).abs() < 5e-4, "dust {dust}: rests {height} above the floor, not {}", half.y);
         assert!(centre.x > 0.01, "dust {dust}: slid to {} only", centre.x);
         let (v, w) = world.velocities()[0];
         assert!(v.length() < 1e-3 && w.length() * half.length() < 1e-3, "dust {dust}: still moving: {v:?} {w:?}");
