@@ -38,13 +38,6 @@ pub struct ContactRules {
     /// The floor's plane that dust rests on, if there is a floor and dust.
     #[serde(default)]
     pub dust_floor: Option<ColliderHandle>,
-    /// A grain whose centre of mass is further above the dust's plane than its reach (which
-    /// its collider's `user_data` holds, as f64 bits) plus this many metres has no corner
-    /// within the contact prediction distance: the pair is skipped before its contacts are
-    /// computed. A half-space's bounding box is infinite, so the broad phase pairs the plane
-    /// with every grain, in flight too.
-    #[serde(default)]
-    pub dust_floor_margin_m: f64,
     /// Friction coefficient between a piece and the floor.
     pub floor_friction: f64,
     /// Restitution of a bounce on the floor.
@@ -75,7 +68,6 @@ impl PartialEq for ContactRules {
     fn eq(&self, other: &Self) -> bool {
         self.floor == other.floor
             && self.dust_floor == other.dust_floor
-            && self.dust_floor_margin_m == other.dust_floor_margin_m
             && self.allowance_m == other.allowance_m
             && self.at_handoff == other.at_handoff
             && [self.floor_friction, self.floor_restitution, self.piece_friction, self.piece_restitution]
@@ -86,18 +78,15 @@ impl PartialEq for ContactRules {
 
 impl ContactRules {
     /// Rules with these coefficients and no allowances yet (the first step finds them), for
-    /// the floor's collider and its plane for dust (grains further above it than their reach
-    /// plus `dust_floor_margin_m` are not met).
+    /// the floor's collider and its plane for dust.
     pub fn new(
         [floor, dust_floor]: [Option<ColliderHandle>; 2],
-        dust_floor_margin_m: f64,
         [floor_friction, floor_restitution, piece_friction, piece_restitution]: [f64; 4],
         max_mass_ratio: f64,
     ) -> ContactRules {
         ContactRules {
             floor,
             dust_floor,
-            dust_floor_margin_m,
             floor_friction,
             floor_restitution,
             piece_friction,
@@ -142,35 +131,10 @@ fn deepest(distances: impl Iterator<Item = f64>) -> f64 {
     distances.fold(0.0, |deepest: f64, dist| deepest.max(-dist))
 }
 
-impl ContactRules {
-    /// Whether the pair is a grain and the dust's plane, with the grain too high above the
-    /// plane for any of its corners to be within the contact prediction distance.
-    fn grain_far_above_its_plane(&self, context: &PairFilterContext) -> bool {
-        let Some(plane) = self.dust_floor else { return false };
-        let (grain, body) = if context.collider2 == plane {
-            (context.collider1, context.rigid_body1)
-        } else if context.collider1 == plane {
-            (context.collider2, context.rigid_body2)
-        } else {
-            return false;
-        };
-        let (Some(grain), Some(body), Some(plane)) =
-            (context.colliders.get(grain), body.and_then(|b| context.bodies.get(b)), context.colliders.get(plane))
-        else {
-            return false;
-        };
-        let reach_m = f64::from_bits(grain.user_data as u64);
-        body.center_of_mass().y - plane.position().translation.y > reach_m + self.dust_floor_margin_m
-    }
-}
-
 impl PhysicsHooks for ContactRules {
     /// Two pieces whose masses differ by more than `max_mass_ratio` pass through each other:
     /// the light one could not hold the heavy one up (see `rigid.max_mass_ratio`).
     fn filter_contact_pair(&self, context: &PairFilterContext) -> Option<SolverFlags> {
-        if self.grain_far_above_its_plane(context) {
-            return None;
-        }
         let dynamic_mass = |body: Option<RigidBodyHandle>| {
             body.map(|b| &context.bodies[b]).filter(|b| b.is_dynamic()).map(|b| b.mass())
         };

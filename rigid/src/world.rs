@@ -85,13 +85,6 @@ fn groups(memberships: Group, filter: Group) -> InteractionGroups {
     InteractionGroups::new(memberships, filter, InteractionTestMode::And)
 }
 
-/// The distance from a piece's centre of mass to the farthest point of its shape (at most:
-/// the far side of the shape's bounding sphere), metres.
-fn reach_m(shape: &SharedShape, mass: &MassProps) -> f64 {
-    let sphere = shape.compute_local_bounding_sphere();
-    (sphere.center() - mass.centre_m).length() + sphere.radius()
-}
-
 /// A sphere on a straight path (a projectile or an indenter).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct KinematicSphere {
@@ -195,12 +188,10 @@ impl RigidWorld {
             activation.time_until_sleep = settings.sleep_after_s;
             if let Some(shape) = &piece.shape {
                 let group = if piece.dust { groups(DUST, ENVIRONMENT) } else { groups(PIECES, PIECES | ENVIRONMENT) };
-                // the reach, for skipping a grain high above the dust's plane (`ContactRules`)
                 let collider = ColliderBuilder::new(shape.clone())
                     .density(0.0)
                     .active_hooks(hooks | ActiveHooks::FILTER_CONTACT_PAIRS)
-                    .collision_groups(group)
-                    .user_data(u128::from(reach_m(shape, &piece.mass).to_bits()));
+                    .collision_groups(group);
                 world.insert_collider(collider, Some(handle));
             }
             handles.push(handle);
@@ -219,15 +210,16 @@ impl RigidWorld {
         });
         let coefficients =
             [settings.floor_friction, settings.floor_restitution, settings.piece_friction, settings.piece_restitution];
-        // twice the prediction distance: a grain skipped is surely further than it
-        let margin_m = 2.0 * world.integration_parameters.prediction_distance();
-        let rules = ContactRules::new([floor, dust_floor], margin_m, coefficients, settings.max_mass_ratio);
+        let rules = ContactRules::new([floor, dust_floor], coefficients, settings.max_mass_ratio);
         let watch = handles
             .iter()
             .zip(pieces)
             .map(|(&handle, piece)| {
                 let body = &world.bodies[handle];
-                let reach_m = piece.shape.as_ref().map_or(0.0, |shape| reach_m(shape, &piece.mass));
+                let reach_m = piece.shape.as_ref().map_or(0.0, |shape| {
+                    let sphere = shape.compute_local_bounding_sphere();
+                    (sphere.center() - piece.mass.centre_m).length() + sphere.radius()
+                });
                 let rotation = *body.rotation();
                 RestWatch {
                     centre_m: body.center_of_mass().to_array(),
