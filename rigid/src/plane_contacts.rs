@@ -212,7 +212,7 @@ impl<'a> PlanePair<'a> {
 }
 
 /// A corner of the solid near the plane.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy)]
 struct Corner {
     /// Its number among the solid's corners (the contact's feature, for carrying impulses over).
     id: u32,

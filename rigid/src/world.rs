@@ -308,12 +308,12 @@ impl RigidWorld {
             // read first: indexing rapier's set mutably marks a body modified
             let body = &self.world.bodies[handle];
             let rim_speed_m_s = body.angvel().length() * watch.reach_m;
-            let damping = match touches {
-                false => 0.0,
-                true if rim_speed_m_s > 0.0 => {
-                    self.rolling_damping_per_s + self.rolling_resistance_m_s2 / rim_speed_m_s
-                }
-                true => self.rolling_damping_per_s,
+            let damping = if !touches {
+                0.0
+            } else if rim_speed_m_s > 0.0 {
+                self.rolling_damping_per_s + self.rolling_resistance_m_s2 / rim_speed_m_s
+            } else {
+                self.rolling_damping_per_s
             };
             if body.angular_damping() != damping {
                 self.world.bodies[handle].set_angular_damping(damping);
