@@ -7,10 +7,13 @@
 #   elastoplastic model (`elastoplastic_updates`);
 # - Delaunay tetrahedralization against TetGen (PyPI `tetgen`) and qhull (scipy) on the same
 #   200,000 points in three layouts;
-# - primary rays against Embree 4 (PyPI `embreex`) on the render bench's scene and rays, on one
-#   thread (one process) and on all cores (as many processes).
+# - nearest hits of camera rays against Embree 4 (PyPI `embreex`) on the render bench's scene
+#   and rays, on one thread (one process) and on all cores (as many processes); our shaded
+#   primary rays beside them.
 #
-#   scripts/compare-peers.sh [RUNS]
+#   scripts/compare-peers.sh [RUNS [GROUPS]]
+#
+# GROUPS (comma-separated; default all) picks comparisons: lattice, elastoplastic, delaunay, render.
 #
 # It installs what is missing: lammps with apt-get (as root), the Python peers into .peers-venv/
 # (ignored by git). Takes about 4 minutes a run on 2 cores.
@@ -34,4 +37,4 @@ fi
 cargo bench --locked -p shatter-sim --bench bond_updates --bench elastoplastic_updates --no-run -q
 cargo bench --locked -p shatter-preprocess --bench delaunay --no-run -q
 cargo bench --locked -p shatter-render --bench render --no-run -q
-exec "$venv/bin/python" scripts/peers/compare.py "$runs"
+exec "$venv/bin/python" scripts/peers/compare.py "$runs" ${2:+"$2"}

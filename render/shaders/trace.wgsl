@@ -202,34 +202,47 @@ fn plane_normal(e: u32, plane: u32) -> vec3<f32> {
     return planes[plane_offsets[e] + plane].xyz;
 }
 
-// primitives.rs trimtope_hit, as trace.rs element_hit returns it
-fn trimtope_hit(e: u32, origin: vec3<f32>, direction: vec3<f32>, t_min: f32) -> Hit {
+// How a ray first meets an element (primitives.rs TrimtopeHit): kind ENTRY_MISS, ENTRY_FACE
+// (index: the element's plane) or ENTRY_SURFACE (index: into the whole triangle array).
+struct Entry {
+    t: f32,
+    kind: u32,
+    index: u32,
+}
+
+const ENTRY_MISS: u32 = 0u;
+const ENTRY_FACE: u32 = 1u;
+const ENTRY_SURFACE: u32 = 2u;
+
+fn no_entry() -> Entry {
+    return Entry(infinity(), ENTRY_MISS, NONE);
+}
+
+// primitives.rs trimtope_hit
+fn trimtope_entry(e: u32, origin: vec3<f32>, direction: vec3<f32>, t_min: f32) -> Entry {
     let slack = params.scene_min.w;
     let span = polytope_span(e, slack, origin, direction);
     if (!span.hit) {
-        return miss();
+        return no_entry();
     }
     let t_out = max(span.t_out, span.t_in);
     let t_in = max(span.t_in, t_min);
     if (t_in > t_out) {
-        return miss();
+        return no_entry();
     }
     let first = first_triangle(e, origin, direction, t_in, t_out);
     if (first.index != NONE) {
         if (first.front) {
-            let k = first.index;
-            let a = triangles[3u * k].xyz;
-            let n = cross3(triangles[3u * k + 1u].xyz - a, triangles[3u * k + 2u].xyz - a);
-            return Hit(first.t, e, n / sqrt(dot3(n, n)), false);
+            return Entry(first.t, ENTRY_SURFACE, first.index);
         }
-        return Hit(t_in, e, plane_normal(e, span.plane_in), true);
+        return Entry(t_in, ENTRY_FACE, span.plane_in);
     }
     let entry = origin + t_in * direction;
     let nearest = first_triangle(e, entry, sites[e].xyz - entry, 0.0, 1.0);
     if (nearest.index != NONE && nearest.front) {
-        return miss();
+        return no_entry();
     }
-    return Hit(t_in, e, plane_normal(e, span.plane_in), true);
+    return Entry(t_in, ENTRY_FACE, span.plane_in);
 }
 
 struct FirstTriangle {
@@ -279,14 +292,28 @@ fn segment_meets_box(origin: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32, 
     return near <= far + 1e-5 * abs(far);
 }
 
-// trace.rs element_hit
-fn element_hit(e: u32, origin: vec3<f32>, direction: vec3<f32>, t_min: f32) -> Hit {
+// trace.rs element_entry
+fn element_entry(e: u32, origin: vec3<f32>, direction: vec3<f32>, t_min: f32) -> Entry {
     if (params.counts.y == 2u) {
-        return trimtope_hit(e, origin, direction, t_min);
+        return trimtope_entry(e, origin, direction, t_min);
     }
     let span = polytope_span(e, params.scene_min.w, origin, direction);
     if (span.hit && span.t_in >= t_min && span.plane_in != NONE) {
-        return Hit(span.t_in, e, plane_normal(e, span.plane_in), is_fracture_face(e, span.plane_in));
+        return Entry(span.t_in, ENTRY_FACE, span.plane_in);
+    }
+    return no_entry();
+}
+
+// trace.rs resolve: element e's entry as a hit, with its normal and fracture flag
+fn resolve(e: u32, entry: Entry) -> Hit {
+    if (entry.kind == ENTRY_FACE) {
+        return Hit(entry.t, e, plane_normal(e, entry.index), is_fracture_face(e, entry.index));
+    }
+    if (entry.kind == ENTRY_SURFACE) {
+        let k = entry.index;
+        let a = triangles[3u * k].xyz;
+        let n = cross3(triangles[3u * k + 1u].xyz - a, triangles[3u * k + 2u].xyz - a);
+        return Hit(entry.t, e, n / sqrt(dot3(n, n)), false);
     }
     return miss();
 }
@@ -302,7 +329,9 @@ fn inverse_component(d: f32) -> f32 {
 
 // trace.rs closest_hit through element_kdtree.rs traverse (short stack, push-down, kd-restart)
 fn closest_hit(origin: vec3<f32>, direction: vec3<f32>, t_min_ray: f32) -> Hit {
-    var best = miss();
+    // trace.rs Nearest: the nearest entry so far, resolved into a hit at the end
+    var best = no_entry();
+    var best_element = NONE;
     let inverse = vec3<f32>(inverse_component(direction.x), inverse_component(direction.y), inverse_component(direction.z));
     // clip to the scene bounds
     var near = t_min_ray;
@@ -320,7 +349,7 @@ fn closest_hit(origin: vec3<f32>, direction: vec3<f32>, t_min_ray: f32) -> Hit {
         }
     }
     if (!(near <= far)) {
-        return best;
+        return miss();
     }
     let scene_max = far;
     var stack_node: array<u32, 4>;
@@ -370,13 +399,14 @@ fn closest_hit(origin: vec3<f32>, direction: vec3<f32>, t_min_ray: f32) -> Hit {
         let first = entry.x >> 2u;
         for (var k = first; k < first + entry.y; k++) {
             let e = items[k];
-            let hit = element_hit(e, origin, direction, t_min_ray);
-            if (hit.t < best.t || (hit.t == best.t && hit.element < best.element)) {
-                best = hit;
+            let entry = element_entry(e, origin, direction, t_min_ray);
+            if (entry.t < best.t || (entry.t == best.t && e < best_element)) {
+                best = entry;
+                best_element = e;
             }
         }
         if (best.t <= t_max) {
-            return best;
+            return resolve(best_element, best);
         }
         if (stack_len > 0u) {
             stack_len -= 1u;
@@ -385,7 +415,7 @@ fn closest_hit(origin: vec3<f32>, direction: vec3<f32>, t_min_ray: f32) -> Hit {
             t_max = stack_max[stack_len];
             push_down = false;
         } else if (t_max >= scene_max) {
-            return best;
+            return resolve(best_element, best);
         } else {
             t_min = t_max;
             t_max = scene_max;
@@ -393,7 +423,7 @@ fn closest_hit(origin: vec3<f32>, direction: vec3<f32>, t_min_ray: f32) -> Hit {
             push_down = true;
         }
     }
-    return best;
+    return resolve(best_element, best);
 }
 
 // trace.rs element_at through element_kdtree.rs for_each_at

@@ -50,32 +50,24 @@ pub(crate) fn along(origin: [f32; 3], direction: [f32; 3], t: f32) -> [f32; 3] {
 pub fn polytope_span(planes: &[Plane], slack: f32, origin: [f32; 3], direction: [f32; 3]) -> Option<Span> {
     let mut span = Span { t_in: f32::NEG_INFINITY, t_out: f32::INFINITY, plane_in: u32::MAX, plane_out: u32::MAX };
     let (mut wide_in, mut wide_out) = (f32::NEG_INFINITY, f32::INFINITY);
+    let mut outside = false;
     for (index, plane) in planes.iter().enumerate() {
         let normal = [plane[0], plane[1], plane[2]];
         let facing = dot(normal, direction);
         let room = plane[3] - dot(normal, origin);
-        if facing == 0.0 {
-            if room + slack < 0.0 {
-                return None;
-            }
-            continue;
-        }
         let (t, wide) = (room / facing, (room + slack) / facing);
-        if facing < 0.0 {
-            wide_in = wide_in.max(wide);
-            if t > span.t_in {
-                span.t_in = t;
-                span.plane_in = index as u32;
-            }
-        } else {
-            wide_out = wide_out.min(wide);
-            if t < span.t_out {
-                span.t_out = t;
-                span.plane_out = index as u32;
-            }
-        }
+        outside |= facing == 0.0 && room + slack < 0.0;
+        let (entering, leaving) = (facing < 0.0, facing > 0.0);
+        wide_in = if entering { wide_in.max(wide) } else { wide_in };
+        wide_out = if leaving { wide_out.min(wide) } else { wide_out };
+        let later = entering && t > span.t_in;
+        span.t_in = if later { t } else { span.t_in };
+        span.plane_in = if later { index as u32 } else { span.plane_in };
+        let sooner = leaving && t < span.t_out;
+        span.t_out = if sooner { t } else { span.t_out };
+        span.plane_out = if sooner { index as u32 } else { span.plane_out };
     }
-    (wide_in <= wide_out).then_some(span)
+    (!outside && wide_in <= wide_out).then_some(span)
 }
 
 /// Whether `point` lies inside the polytope widened by `slack`.
@@ -137,7 +129,7 @@ pub fn triangle_hit(origin: [f32; 3], direction: [f32; 3], triangle: &[[f32; 3];
     Some((t, det > 0.0))
 }
 
-/// How a ray meets a trimtope.
+/// How a ray meets a trimtope (and, as a face entry or a miss, any other polytope).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum TrimtopeHit {
     /// The ray passes: the cell's entry point is outside the surface (Fig. 4, ray A).

@@ -13,6 +13,7 @@
 use rayon::prelude::*;
 use shatter_core::particles::ElementType;
 
+use crate::element_kdtree::{PACKET, each_ray};
 use crate::lighting::{EnvironmentMap, KeyLight, sh_irradiance};
 use crate::mattes::{MatteCounts, SURFACE_FLOOR, SURFACE_FRACTURE, SURFACE_NONE, SURFACE_OUTER};
 use crate::primitives::{TrimtopeHit, along, dot, polytope_contains, polytope_span, trimtope_hit};
@@ -38,51 +39,97 @@ impl Hit {
     const MISS: Hit = Hit { t: f32::INFINITY, element: NONE, normal: [0.0; 3], fracture: false };
 }
 
-/// Element `e`'s nearest surface along the ray from `t_min` on: a polytope's entry (or, for a
-/// trimtope, the rules of Fig. 4).
-pub fn element_hit(scene: &SceneGeometry, e: usize, origin: [f32; 3], direction: [f32; 3], t_min: f32) -> Hit {
+/// Where the ray first meets element `e` from `t_min` on: a polytope's entry (or, for a
+/// trimtope, the rules of Fig. 4), as the plane or triangle it meets there; [`resolve`] turns it
+/// into a [`Hit`]. Nearest-hit searches compare entries and resolve
+/// only the nearest (a normal and a fracture-face lookup for one element, not for every one).
+fn element_entry(scene: &SceneGeometry, e: usize, origin: [f32; 3], direction: [f32; 3], t_min: f32) -> TrimtopeHit {
     let planes = scene.planes_of(e);
     if scene.element_type == ElementType::Trimtope {
         let (triangles, groups) = (scene.triangles_of(e), scene.triangle_groups_of(e));
-        let hit = trimtope_hit(planes, triangles, groups, scene.sites[e], scene.slack, origin, direction, t_min);
-        return match hit {
-            TrimtopeHit::Miss => Hit::MISS,
-            TrimtopeHit::Face { t, plane } => {
-                let p = planes[plane as usize];
-                Hit { t, element: e as u32, normal: [p[0], p[1], p[2]], fracture: true }
-            }
-            TrimtopeHit::Surface { t, triangle } => {
-                let tri = scene.triangles_of(e)[triangle as usize];
-                let n = crate::primitives::cross(
-                    crate::primitives::sub(tri[1], tri[0]),
-                    crate::primitives::sub(tri[2], tri[0]),
-                );
-                let length = dot(n, n).sqrt();
-                Hit { t, element: e as u32, normal: n.map(|v| v / length), fracture: false }
-            }
-        };
+        return trimtope_hit(planes, triangles, groups, scene.sites[e], scene.slack, origin, direction, t_min);
     }
     match polytope_span(planes, scene.slack, origin, direction) {
         Some(span) if span.t_in >= t_min && span.plane_in != NONE => {
-            let p = planes[span.plane_in as usize];
-            let fracture = scene.is_fracture_face(e, span.plane_in);
-            Hit { t: span.t_in, element: e as u32, normal: [p[0], p[1], p[2]], fracture }
+            TrimtopeHit::Face { t: span.t_in, plane: span.plane_in }
         }
-        _ => Hit::MISS,
+        _ => TrimtopeHit::Miss,
+    }
+}
+
+/// The ray parameter of an entry (infinity for a miss).
+fn entry_t(entry: TrimtopeHit) -> f32 {
+    match entry {
+        TrimtopeHit::Miss => f32::INFINITY,
+        TrimtopeHit::Face { t, .. } | TrimtopeHit::Surface { t, .. } => t,
+    }
+}
+
+/// The hit of element `e`'s entry: its normal and whether it is a fracture face.
+fn resolve(scene: &SceneGeometry, e: u32, entry: TrimtopeHit) -> Hit {
+    match entry {
+        TrimtopeHit::Miss => Hit::MISS,
+        TrimtopeHit::Face { t, plane } => {
+            let p = scene.planes_of(e as usize)[plane as usize];
+            Hit { t, element: e, normal: [p[0], p[1], p[2]], fracture: scene.is_fracture_face(e as usize, plane) }
+        }
+        TrimtopeHit::Surface { t, triangle } => {
+            let tri = scene.triangles_of(e as usize)[triangle as usize];
+            let n = crate::primitives::cross(
+                crate::primitives::sub(tri[1], tri[0]),
+                crate::primitives::sub(tri[2], tri[0]),
+            );
+            let length = dot(n, n).sqrt();
+            Hit { t, element: e, normal: n.map(|v| v / length), fracture: false }
+        }
+    }
+}
+
+/// The nearest entry offered so far along one ray (ties go to the lower element).
+#[derive(Clone, Copy)]
+struct Nearest {
+    t: f32,
+    element: u32,
+    entry: TrimtopeHit,
+}
+
+impl Nearest {
+    const NONE: Nearest = Nearest { t: f32::INFINITY, element: NONE, entry: TrimtopeHit::Miss };
+
+    /// Keeps element `e`'s `entry` if it is nearer (or as near, from a lower element).
+    fn offer(&mut self, e: u32, entry: TrimtopeHit) {
+        let t = entry_t(entry);
+        if t < self.t || (t == self.t && e < self.element) {
+            *self = Nearest { t, element: e, entry };
+        }
     }
 }
 
 /// The nearest element surface along the ray from `t_min` on (ties go to the lower element).
 pub fn closest_hit(scene: &SceneGeometry, origin: [f32; 3], direction: [f32; 3], t_min: f32) -> Hit {
-    let mut best = Hit::MISS;
+    let mut nearest = Nearest::NONE;
     scene.tree.traverse(origin, direction, t_min, f32::INFINITY, |e, _, _| {
-        let hit = element_hit(scene, e as usize, origin, direction, t_min);
-        if hit.t < best.t || (hit.t == best.t && hit.element < best.element) {
-            best = hit;
-        }
-        best.t
+        nearest.offer(e, element_entry(scene, e as usize, origin, direction, t_min));
+        nearest.t
     });
-    best
+    resolve(scene, nearest.element, nearest.entry)
+}
+
+/// The nearest element surfaces along a packet of rays from one `origin` (at most
+/// [`PACKET`] `directions`, t from 0 on), into `hits`: each exactly what [`closest_hit`] gives
+/// its ray, found in one traversal of the k-d tree for them all (see
+/// [`crate::element_kdtree::KdTree::traverse_packet`]).
+pub fn closest_hits(scene: &SceneGeometry, origin: [f32; 3], directions: &[[f32; 3]], hits: &mut [Hit]) {
+    let mut nearest = [Nearest::NONE; PACKET];
+    let traversed = scene.tree.traverse_packet(origin, directions, 0.0, |e, rays| {
+        for r in each_ray(rays) {
+            nearest[r].offer(e, element_entry(scene, e as usize, origin, directions[r], 0.0));
+        }
+        nearest.map(|n| n.t)
+    });
+    for ((hit, &direction), n) in hits.iter_mut().zip(directions).zip(nearest) {
+        *hit = if traversed { resolve(scene, n.element, n.entry) } else { closest_hit(scene, origin, direction, 0.0) };
+    }
 }
 
 /// The element (other than `except`) holding `point`, if any.
@@ -348,6 +395,19 @@ pub fn trace_ray(
     pixel: u32,
     sample: u32,
 ) -> Pixel {
+    trace_path(scene, look, origin, direction, pixel, sample, closest_hit(scene, origin, direction, 0.0))
+}
+
+/// [`trace_ray`] given the ray's nearest hit (`first`), found beforehand.
+fn trace_path(
+    scene: &SceneGeometry,
+    look: &Look,
+    origin: [f32; 3],
+    direction: [f32; 3],
+    pixel: u32,
+    sample: u32,
+    first_hit: Hit,
+) -> Pixel {
     let mut result = Pixel::EMPTY;
     let eps = 4.0 * scene.slack;
     let glass = scene.element_type == ElementType::Cube && !look.opaque_cubes;
@@ -386,7 +446,7 @@ pub fn trace_ray(
                 }
                 continue;
             }
-            let hit = closest_hit(scene, o, d, 0.0);
+            let hit = if first { first_hit } else { closest_hit(scene, o, d, 0.0) };
             let t_floor = floor_t(look, o, d);
             if t_floor < hit.t {
                 let p = along(o, d, t_floor);
@@ -495,34 +555,114 @@ pub fn sample_offset(pixel: u32, sample: u32, samples: u32) -> (f32, f32) {
 
 /// Traces every pixel of `camera`'s image with `samples` samples each (the first through the
 /// pixel centre gives the depth, normal and fragment layers), counting each sample's first
-/// surface in the pixel's mattes. Rows in parallel; deterministic.
+/// surface in the pixel's mattes. Bands of [`TILE_ROWS`] rows in parallel; each sample's camera
+/// rays of a tile find their first surfaces as one packet. Deterministic: each
+/// pixel's samples are summed in order, whatever the bands and threads.
 pub fn render(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32) -> Rendered {
     let (width, height) = (camera.width as usize, camera.height as usize);
     let mut pixels = vec![Pixel::EMPTY; width * height];
     let mut mattes = vec![MatteCounts::default(); width * height];
-    pixels.par_chunks_mut(width).zip(mattes.par_chunks_mut(width)).enumerate().for_each(|(y, (row, matte_row))| {
-        for (x, (out, matte)) in row.iter_mut().zip(matte_row.iter_mut()).enumerate() {
-            let pixel = (y * width + x) as u32;
-            let mut sum = [0.0f32; 3];
-            let mut alpha = 0.0;
+    let band = width * TILE_ROWS;
+    pixels.par_chunks_mut(band).zip(mattes.par_chunks_mut(band)).enumerate().for_each(|(b, (rows, matte_rows))| {
+        let top = b * TILE_ROWS;
+        let mut sums = [[0.0f32; 3]; PACKET];
+        let mut alphas = [0.0f32; PACKET];
+        let mut directions = [[0.0f32; 3]; PACKET];
+        let mut hits = [Hit::MISS; PACKET];
+        for tile in Tile::across(width, rows.len() / width) {
+            let count = tile.len();
+            sums[..count].fill([0.0; 3]);
+            alphas[..count].fill(0.0);
             for sample in 0..samples {
-                let (jx, jy) = sample_offset(pixel, sample, samples);
-                let d = camera.direction(x as f32 + jx, y as f32 + jy);
-                let traced = trace_ray(scene, look, camera.origin, d, pixel, sample);
-                if sample == 0 {
-                    *out = traced;
+                for (k, direction) in directions[..count].iter_mut().enumerate() {
+                    let (x, row) = tile.pixel(k);
+                    let (jx, jy) = sample_offset(((top + row) * width + x) as u32, sample, samples);
+                    *direction = camera.direction(x as f32 + jx, (top + row) as f32 + jy);
                 }
-                matte.add(traced.fragment, traced.surface);
-                for c in 0..3 {
-                    sum[c] += traced.color[c];
+                closest_hits(scene, camera.origin, &directions[..count], &mut hits[..count]);
+                for k in 0..count {
+                    let (x, row) = tile.pixel(k);
+                    let pixel = ((top + row) * width + x) as u32;
+                    let traced = trace_path(scene, look, camera.origin, directions[k], pixel, sample, hits[k]);
+                    let local = row * width + x;
+                    if sample == 0 {
+                        rows[local] = traced;
+                    }
+                    matte_rows[local].add(traced.fragment, traced.surface);
+                    for c in 0..3 {
+                        sums[k][c] += traced.color[c];
+                    }
+                    alphas[k] += traced.alpha;
                 }
-                alpha += traced.alpha;
             }
-            out.color = sum.map(|v| v / samples as f32);
-            out.alpha = alpha / samples as f32;
+            for k in 0..count {
+                let (x, row) = tile.pixel(k);
+                let out = &mut rows[row * width + x];
+                out.color = sums[k].map(|v| v / samples as f32);
+                out.alpha = alphas[k] / samples as f32;
+            }
         }
     });
     Rendered { pixels, mattes }
+}
+
+/// A tile of a band of image rows: `width` columns from `left`, `height` rows; its rays are
+/// numbered row by row.
+#[derive(Clone, Copy)]
+struct Tile {
+    left: usize,
+    width: usize,
+    height: usize,
+}
+
+impl Tile {
+    /// The tiles of a band `height` rows tall across an image `image_width` pixels wide.
+    fn across(image_width: usize, height: usize) -> impl Iterator<Item = Tile> {
+        (0..image_width).step_by(PACKET / TILE_ROWS).map(move |left| Tile {
+            left,
+            width: (PACKET / TILE_ROWS).min(image_width - left),
+            height,
+        })
+    }
+
+    /// Number of rays.
+    fn len(&self) -> usize {
+        self.width * self.height
+    }
+
+    /// Column and row in the band of ray `k`.
+    fn pixel(&self, k: usize) -> (usize, usize) {
+        (self.left + k % self.width, k / self.width)
+    }
+}
+
+/// Rows of the tiles whose camera rays [`render`] and [`pixel_hits`] trace as one packet
+/// ([`PACKET`] / `TILE_ROWS` columns each).
+pub const TILE_ROWS: usize = 2;
+
+/// The nearest element surface along each pixel's centre ray (row-major, top row first), each
+/// exactly what [`closest_hit`] gives it, traced in packets as [`render`] traces first surfaces:
+/// what a ray-casting query answers, without shading.
+pub fn pixel_hits(scene: &SceneGeometry, camera: &Camera) -> Vec<Hit> {
+    let width = camera.width as usize;
+    let mut hits = vec![Hit::MISS; width * camera.height as usize];
+    hits.par_chunks_mut(width * TILE_ROWS).enumerate().for_each(|(b, rows)| {
+        let mut directions = [[0.0f32; 3]; PACKET];
+        let mut tile_hits = [Hit::MISS; PACKET];
+        for tile in Tile::across(width, rows.len() / width) {
+            let count = tile.len();
+            for (k, direction) in directions[..count].iter_mut().enumerate() {
+                let (x, row) = tile.pixel(k);
+                *direction = camera.direction(x as f32 + 0.5, (b * TILE_ROWS + row) as f32 + 0.5);
+            }
+            closest_hits(scene, camera.origin, &directions[..count], &mut tile_hits[..count]);
+            for (k, hit) in tile_hits[..count].iter().enumerate() {
+                let (x, row) = tile.pixel(k);
+                rows[row * width + x] = *hit;
+            }
+        }
+    });
+    hits
 }
 
 #[cfg(test)]
@@ -635,6 +775,54 @@ mod tests {
             }
         }
         assert!(checked > 300, "{checked} pixels on the cube");
+    }
+
+    /// Camera rays traced in packets find exactly what each finds alone: on a grid of touching
+    /// cubes (rays along the seams meet exact ties), on scattered tetrahedra, and from an eye on
+    /// the tree's first split plane (where packets whose rays cross it both ways go alone).
+    #[test]
+    fn packets_of_camera_rays_find_what_single_rays_find() {
+        let grid: Vec<[f32; 3]> =
+            (0..6 * 6 * 3).map(|k| [(k % 6) as f32, ((k / 6) % 6) as f32, (k / 36) as f32]).collect();
+        let mut rng = shatter_core::random::SplitMix64::new(4);
+        let mut r = move || rng.next_f64() as f32;
+        let tets: Vec<[[f32; 3]; 4]> = (0..200)
+            .map(|_| {
+                let c = [r() * 4.0, r() * 4.0, r() * 4.0];
+                [0, 1, 2, 3].map(|k| {
+                    let corner = [[0.0, 0.0, 0.0], [0.6, 0.0, 0.0], [0.0, 0.6, 0.0], [0.0, 0.0, 0.6]][k];
+                    [c[0] + corner[0], c[1] + corner[1], c[2] + corner[2]]
+                })
+            })
+            .collect();
+        let tet_set = set(tets.iter().map(|t| t[0]).collect(), Elements::Tets { vertices_m: tets.clone() });
+        let scenes = [cubes(grid), SceneGeometry::build(&tet_set, None)];
+        for (s, scene) in scenes.iter().enumerate() {
+            let [a, b] = scene.tree.nodes[0];
+            let (axis, split) = ((a & 3) as usize, f32::from_bits(b));
+            let mut on_split = DVec3::new(2.5, 2.5, 9.0);
+            on_split[axis] = f64::from(split);
+            let mut looking = DVec3::new(2.5, 2.5, 1.0);
+            looking[axis] = f64::from(split);
+            for (eye, target) in [
+                (DVec3::new(2.5, 2.5, 9.0), DVec3::new(2.5, 2.5, 1.0)),
+                (DVec3::new(-3.0, 8.0, 7.0), DVec3::new(2.0, 2.0, 1.0)),
+                (on_split, looking),
+            ] {
+                let camera = Camera::look_at(eye, target, DVec3::Y, 50.0, 61, 47);
+                let hits = pixel_hits(scene, &camera);
+                let mut seen = 0;
+                for y in 0..47 {
+                    for x in 0..61 {
+                        let d = camera.direction(x as f32 + 0.5, y as f32 + 0.5);
+                        let alone = closest_hit(scene, camera.origin, d, 0.0);
+                        assert_eq!(hits[y * 61 + x], alone, "scene {s}, eye {eye}, pixel ({x}, {y})");
+                        seen += usize::from(alone.element != NONE);
+                    }
+                }
+                assert!(seen > 100, "scene {s}, eye {eye}: {seen} pixels see an element");
+            }
+        }
     }
 
     #[test]
