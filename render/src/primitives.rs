@@ -51,24 +51,34 @@ pub fn polytope_span(planes: &[Plane], slack: f32, origin: [f32; 3], direction: 
     let mut span = Span { t_in: f32::NEG_INFINITY, t_out: f32::INFINITY, plane_in: u32::MAX, plane_out: u32::MAX };
     let (mut wide_in, mut wide_out) = (f32::NEG_INFINITY, f32::INFINITY);
     let mut outside = false;
-    for (index, plane) in planes.iter().enumerate() {
-        let normal = [plane[0], plane[1], plane[2]];
-        let facing = dot(normal, direction);
-        let room = plane[3] - dot(normal, origin);
-        let (t, wide) = (room / facing, (room + slack) / facing);
-        outside |= facing == 0.0 && room + slack < 0.0;
-        let (entering, leaving) = (facing < 0.0, facing > 0.0);
-        wide_in = if entering { wide_in.max(wide) } else { wide_in };
-        wide_out = if leaving { wide_out.min(wide) } else { wide_out };
-        let later = entering && t > span.t_in;
-        span.t_in = if later { t } else { span.t_in };
-        span.plane_in = if later { index as u32 } else { span.plane_in };
-        let sooner = leaving && t < span.t_out;
-        span.t_out = if sooner { t } else { span.t_out };
-        span.plane_out = if sooner { index as u32 } else { span.plane_out };
+    for (c, chunk) in planes.chunks(SPAN_LANES).enumerate() {
+        // the arithmetic lane by lane (padded with the chunk's last plane), then the choices in order
+        let plane = |k: usize| chunk[k.min(chunk.len() - 1)];
+        let facing: [f32; SPAN_LANES] =
+            std::array::from_fn(|k| dot([plane(k)[0], plane(k)[1], plane(k)[2]], direction));
+        let room: [f32; SPAN_LANES] =
+            std::array::from_fn(|k| plane(k)[3] - dot([plane(k)[0], plane(k)[1], plane(k)[2]], origin));
+        let t: [f32; SPAN_LANES] = std::array::from_fn(|k| room[k] / facing[k]);
+        let wide: [f32; SPAN_LANES] = std::array::from_fn(|k| (room[k] + slack) / facing[k]);
+        for k in 0..chunk.len() {
+            let index = (c * SPAN_LANES + k) as u32;
+            outside |= facing[k] == 0.0 && room[k] + slack < 0.0;
+            let (entering, leaving) = (facing[k] < 0.0, facing[k] > 0.0);
+            wide_in = if entering { wide_in.max(wide[k]) } else { wide_in };
+            wide_out = if leaving { wide_out.min(wide[k]) } else { wide_out };
+            let later = entering && t[k] > span.t_in;
+            span.t_in = if later { t[k] } else { span.t_in };
+            span.plane_in = if later { index } else { span.plane_in };
+            let sooner = leaving && t[k] < span.t_out;
+            span.t_out = if sooner { t[k] } else { span.t_out };
+            span.plane_out = if sooner { index } else { span.plane_out };
+        }
     }
     (!outside && wide_in <= wide_out).then_some(span)
 }
+
+/// Planes whose arithmetic [`polytope_span`] does side by side (a cube's 6 fit).
+const SPAN_LANES: usize = 8;
 
 /// Whether `point` lies inside the polytope widened by `slack`.
 pub fn polytope_contains(planes: &[Plane], slack: f32, point: [f32; 3]) -> bool {
