@@ -398,7 +398,7 @@ pub fn trace_ray(
     trace_path(scene, look, origin, direction, pixel, sample, closest_hit(scene, origin, direction, 0.0))
 }
 
-/// [`trace_ray`] given the ray's nearest hit (`first`), found beforehand.
+/// [`trace_ray`] given the ray's nearest hit (`first_hit`), found beforehand.
 fn trace_path(
     scene: &SceneGeometry,
     look: &Look,
