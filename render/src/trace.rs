@@ -1,6 +1,8 @@
 //! The CPU ray tracer, step for step the twin of `shaders/trace.wgsl`: nearest hits through the
 //! k-d tree with CSG union semantics, glass paths through unions of touching cubes, opaque
-//! tetrahedra and trimtopes, the floor and the environment.
+//! tetrahedra and trimtopes, the floor and the environment. One difference of method, not of
+//! result: [`render`] finds its camera rays' first surfaces in packets ([`closest_hits`]), each
+//! exactly what the shader's single-ray search finds.
 //!
 //! Union semantics: a ray from outside first meets the union of elements at the nearest entry
 //! of any element, so inner faces are never seen. Inside glass, the ray walks from element to
