@@ -154,7 +154,7 @@ impl KdTree {
     }
 }
 
-/// Rays in a packet: a 4 x 4 tile of camera rays.
+/// Rays in a packet: a tile of camera rays (`trace::TILE_ROWS` rows).
 pub const PACKET: usize = 16;
 
 /// Interval bounds of a packet's rays.
@@ -647,7 +647,6 @@ mod tests {
         assert_eq!(calls, 0);
     }
 
-    /// The parallel build splices its subtrees into exactly the sequential depth-first layout.
     /// A packet takes each ray through the leaves it meets alone, in the same order, and stops
     /// it after the same leaf; on a split plane that its rays cross both ways, it gives up.
     #[test]
@@ -702,6 +701,7 @@ mod tests {
         assert!(tree.traverse_packet(origin, &[down, down], 0.0, |_, _| [f32::INFINITY; PACKET]));
     }
 
+    /// The parallel build splices its subtrees into exactly the sequential depth-first layout.
     #[test]
     fn the_parallel_build_lays_the_tree_out_as_the_sequential_one() {
         let bounds = boxes(5, 20_000);

@@ -43,8 +43,8 @@ impl Hit {
 
 /// Where the ray first meets element `e` from `t_min` on: a polytope's entry (or, for a
 /// trimtope, the rules of Fig. 4), as the plane or triangle it meets there; [`resolve`] turns it
-/// into a [`Hit`]. Nearest-hit searches compare entries and resolve
-/// only the nearest (a normal and a fracture-face lookup for one element, not for every one).
+/// into a [`Hit`]. Nearest-hit searches compare entries and resolve only the nearest (a normal
+/// and a fracture-face lookup for one element, not for every one).
 fn element_entry(scene: &SceneGeometry, e: usize, origin: [f32; 3], direction: [f32; 3], t_min: f32) -> TrimtopeHit {
     let planes = scene.planes_of(e);
     if scene.element_type == ElementType::Trimtope {
