@@ -53,11 +53,10 @@ pub fn polytope_span(planes: &[Plane], slack: f32, origin: [f32; 3], direction: 
     let mut outside = false;
     for (c, chunk) in planes.chunks(SPAN_LANES).enumerate() {
         // the arithmetic lane by lane (padded with the chunk's last plane), then the choices in order
-        let plane = |k: usize| chunk[k.min(chunk.len() - 1)];
-        let facing: [f32; SPAN_LANES] =
-            std::array::from_fn(|k| dot([plane(k)[0], plane(k)[1], plane(k)[2]], direction));
-        let room: [f32; SPAN_LANES] =
-            std::array::from_fn(|k| plane(k)[3] - dot([plane(k)[0], plane(k)[1], plane(k)[2]], origin));
+        let plane: [Plane; SPAN_LANES] = std::array::from_fn(|k| chunk[k.min(chunk.len() - 1)]);
+        let normal = |k: usize| [plane[k][0], plane[k][1], plane[k][2]];
+        let facing: [f32; SPAN_LANES] = std::array::from_fn(|k| dot(normal(k), direction));
+        let room: [f32; SPAN_LANES] = std::array::from_fn(|k| plane[k][3] - dot(normal(k), origin));
         let t: [f32; SPAN_LANES] = std::array::from_fn(|k| room[k] / facing[k]);
         let wide: [f32; SPAN_LANES] = std::array::from_fn(|k| (room[k] + slack) / facing[k]);
         for k in 0..chunk.len() {

@@ -571,22 +571,17 @@ pub fn render(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32)
         let mut alphas = [0.0f32; PACKET];
         let mut directions = [[0.0f32; 3]; PACKET];
         let mut hits = [Hit::MISS; PACKET];
-        for tile in Tile::across(width, rows.len() / width) {
+        for tile in Tile::across(width, top, rows.len() / width) {
             let count = tile.len();
             sums[..count].fill([0.0; 3]);
             alphas[..count].fill(0.0);
             for sample in 0..samples {
-                for (k, direction) in directions[..count].iter_mut().enumerate() {
-                    let (x, row) = tile.pixel(k);
-                    let (jx, jy) = sample_offset(((top + row) * width + x) as u32, sample, samples);
-                    *direction = camera.direction(x as f32 + jx, (top + row) as f32 + jy);
-                }
-                closest_hits(scene, camera.origin, &directions[..count], &mut hits[..count]);
+                tile.first_hits(scene, camera, (sample, samples), &mut directions, &mut hits);
                 for k in 0..count {
-                    let (x, row) = tile.pixel(k);
-                    let pixel = ((top + row) * width + x) as u32;
+                    let (x, y) = tile.pixel(k);
+                    let pixel = (y * width + x) as u32;
                     let traced = trace_path(scene, look, camera.origin, directions[k], pixel, sample, hits[k]);
-                    let local = row * width + x;
+                    let local = (y - top) * width + x;
                     if sample == 0 {
                         rows[local] = traced;
                     }
@@ -598,8 +593,8 @@ pub fn render(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32)
                 }
             }
             for k in 0..count {
-                let (x, row) = tile.pixel(k);
-                let out = &mut rows[row * width + x];
+                let (x, y) = tile.pixel(k);
+                let out = &mut rows[(y - top) * width + x];
                 out.color = sums[k].map(|v| v / samples as f32);
                 out.alpha = alphas[k] / samples as f32;
             }
@@ -608,20 +603,22 @@ pub fn render(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32)
     Rendered { pixels, mattes }
 }
 
-/// A tile of a band of image rows: `width` columns from `left`, `height` rows; its rays are
+/// A tile of image pixels: `width` columns from `left`, `height` rows from `top`; its rays are
 /// numbered row by row.
 #[derive(Clone, Copy)]
 struct Tile {
     left: usize,
+    top: usize,
     width: usize,
     height: usize,
 }
 
 impl Tile {
-    /// The tiles of a band `height` rows tall across an image `image_width` pixels wide.
-    fn across(image_width: usize, height: usize) -> impl Iterator<Item = Tile> {
+    /// The tiles of the band of `height` rows from `top` across an image `image_width` wide.
+    fn across(image_width: usize, top: usize, height: usize) -> impl Iterator<Item = Tile> {
         (0..image_width).step_by(PACKET / TILE_ROWS).map(move |left| Tile {
             left,
+            top,
             width: (PACKET / TILE_ROWS).min(image_width - left),
             height,
         })
@@ -632,9 +629,28 @@ impl Tile {
         self.width * self.height
     }
 
-    /// Column and row in the band of ray `k`.
+    /// Image column and row of ray `k`.
     fn pixel(&self, k: usize) -> (usize, usize) {
-        (self.left + k % self.width, k / self.width)
+        (self.left + k % self.width, self.top + k / self.width)
+    }
+
+    /// Sample `sample` (of `samples`) of the tile's camera rays, into `directions`, and each
+    /// one's nearest hit, into `hits`, as one packet.
+    fn first_hits(
+        &self,
+        scene: &SceneGeometry,
+        camera: &Camera,
+        (sample, samples): (u32, u32),
+        directions: &mut [[f32; 3]; PACKET],
+        hits: &mut [Hit; PACKET],
+    ) {
+        let count = self.len();
+        for (k, direction) in directions[..count].iter_mut().enumerate() {
+            let (x, y) = self.pixel(k);
+            let (jx, jy) = sample_offset((y * camera.width as usize + x) as u32, sample, samples);
+            *direction = camera.direction(x as f32 + jx, y as f32 + jy);
+        }
+        closest_hits(scene, camera.origin, &directions[..count], &mut hits[..count]);
     }
 }
 
@@ -649,18 +665,13 @@ pub fn pixel_hits(scene: &SceneGeometry, camera: &Camera) -> Vec<Hit> {
     let width = camera.width as usize;
     let mut hits = vec![Hit::MISS; width * camera.height as usize];
     hits.par_chunks_mut(width * TILE_ROWS).enumerate().for_each(|(b, rows)| {
-        let mut directions = [[0.0f32; 3]; PACKET];
-        let mut tile_hits = [Hit::MISS; PACKET];
-        for tile in Tile::across(width, rows.len() / width) {
-            let count = tile.len();
-            for (k, direction) in directions[..count].iter_mut().enumerate() {
-                let (x, row) = tile.pixel(k);
-                *direction = camera.direction(x as f32 + 0.5, (b * TILE_ROWS + row) as f32 + 0.5);
-            }
-            closest_hits(scene, camera.origin, &directions[..count], &mut tile_hits[..count]);
-            for (k, hit) in tile_hits[..count].iter().enumerate() {
-                let (x, row) = tile.pixel(k);
-                rows[row * width + x] = *hit;
+        let (top, mut directions, mut tile_hits) = (b * TILE_ROWS, [[0.0f32; 3]; PACKET], [Hit::MISS; PACKET]);
+        for tile in Tile::across(width, top, rows.len() / width) {
+            // sample 0 of 1 goes through the pixel's centre
+            tile.first_hits(scene, camera, (0, 1), &mut directions, &mut tile_hits);
+            for (k, hit) in tile_hits[..tile.len()].iter().enumerate() {
+                let (x, y) = tile.pixel(k);
+                rows[(y - top) * width + x] = *hit;
             }
         }
     });
