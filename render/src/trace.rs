@@ -388,20 +388,10 @@ fn split(
     true
 }
 
-/// Radiance along one camera ray, and its first-surface layers.
-pub fn trace_ray(
-    scene: &SceneGeometry,
-    look: &Look,
-    origin: [f32; 3],
-    direction: [f32; 3],
-    pixel: u32,
-    sample: u32,
-) -> Pixel {
-    trace_path(scene, look, origin, direction, pixel, sample, closest_hit(scene, origin, direction, 0.0))
-}
-
-/// [`trace_ray`] given the ray's nearest hit (`first_hit`), found beforehand.
-fn trace_path(
+/// Radiance along one camera ray, and its first-surface layers, given its nearest hit
+/// (`first_hit`, as [`closest_hit`] finds it from t = 0; [`render`] finds them in packets). The
+/// shader's `trace_ray` finds it itself.
+fn trace_ray(
     scene: &SceneGeometry,
     look: &Look,
     origin: [f32; 3],
@@ -580,7 +570,7 @@ pub fn render(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32)
                 for k in 0..count {
                     let (x, y) = tile.pixel(k);
                     let pixel = (y * width + x) as u32;
-                    let traced = trace_path(scene, look, camera.origin, directions[k], pixel, sample, hits[k]);
+                    let traced = trace_ray(scene, look, camera.origin, directions[k], pixel, sample, hits[k]);
                     let local = (y - top) * width + x;
                     if sample == 0 {
                         rows[local] = traced;
