@@ -33,8 +33,10 @@
 #   SHATTER_GPU_BENCH_STEPS   steps timed per case (default 200; 20 on a software adapter)
 #   SHATTER_GPU_ADAPTER       pick an adapter by name; SHATTER_GPU_BANDWIDTH_GBS: its nominal bandwidth
 #   SHATTER_GPU_BENCH_TRACER_S  bound on the tracer benchmark's run (default 300 s)
-# A bare machine without a Vulkan loader: put Debian's libvulkan1 .deb in .gl/ (the device tool's
-# README says how); `run` unpacks it and points the loader at NVIDIA's driver when it finds it.
+# A bare machine without a Vulkan loader: put Debian's libvulkan1 and libglvnd0 .debs in .gl/ (the
+# device tool's README says how; NVIDIA's Vulkan driver is libGLX_nvidia, which needs glvnd's
+# libGLdispatch: without it the loader finds no adapter); `run` and `shots` unpack them and point
+# the loader at NVIDIA's driver when they find it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
@@ -60,7 +62,9 @@ build() {
 }
 
 vulkan() {
-  if ! ldconfig -p 2>/dev/null | grep -q 'libvulkan.so.1' && ls .gl/*.deb >/dev/null 2>&1; then
+  local libs
+  libs=$(ldconfig -p 2>/dev/null || true)
+  if { ! grep -q 'libvulkan.so.1' <<<"$libs" || ! grep -q 'libGLdispatch.so.0' <<<"$libs"; } && ls .gl/*.deb >/dev/null 2>&1; then
     for f in .gl/*.deb; do dpkg -x "$f" /; done
     ldconfig
   fi
