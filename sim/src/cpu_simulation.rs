@@ -10,11 +10,11 @@ use shatter_core::particles::{Bonds, ParticleSet};
 
 use crate::backend::{Backend, DeviceError};
 use crate::bond_layouts::EntryValues;
-use crate::bond_layouts::lattice_layout::{LatticeTable, NO_PARTICLE, SlotInputs, SlotViews};
+use crate::bond_layouts::lattice_layout::{LatticeTable, NO_PARTICLE, PmbSlot, SlotInputs, SlotViews};
 use crate::bond_layouts::layout_choice::{LayoutChoice, SpringTable};
 use crate::bond_layouts::row_layout::chunk_size;
 use crate::contact::ContactList;
-use crate::elastoplastic::FamilyTable;
+use crate::elastoplastic::FamilyBonds;
 use crate::kernels::{self, BodyForces, BondLookup, ChunkForces, ParticleRecord, PassRules, SphereNow};
 use crate::material_bonds::MaterialBonds;
 use crate::model::{Model, MovingSphere, hold_grips};
@@ -112,7 +112,8 @@ impl CpuSimulation {
         let values = EntryValues::new(particles, constant, scale, factors, correction, model.rules.partial_volumes);
         let bonds = match model.elastoplastic {
             Some(constants) => {
-                let table = FamilyTable::new(particles, constants, chunk_size(n), |k| values.threshold(k))?;
+                let lattice = layout == LayoutChoice::Fastest;
+                let table = FamilyBonds::new(particles, constants, chunk_size(n), |k| values.threshold(k), lattice)?;
                 MaterialBonds::Elastoplastic(Box::new(table))
             }
             None => {
@@ -197,13 +198,17 @@ impl CpuSimulation {
     pub fn bond_entries(&self) -> (usize, usize) {
         match &self.bonds {
             MaterialBonds::Pmb(table) => table.entries(),
-            MaterialBonds::Elastoplastic(table) => (0, table.initial.iter().map(|c| *c as usize).sum()),
+            MaterialBonds::Elastoplastic(table) => (0, table.bond_entries()),
         }
     }
 
-    /// True when the force pass runs on the lattice layout ([`crate::bond_layouts::lattice_layout`]).
+    /// True when the force pass runs on the lattice layout ([`crate::bond_layouts::lattice_layout`]),
+    /// for either material model.
     pub fn on_lattice(&self) -> bool {
-        matches!(self.bonds, MaterialBonds::Pmb(SpringTable::Lattice(_)))
+        match &self.bonds {
+            MaterialBonds::Pmb(table) => matches!(table, SpringTable::Lattice(_)),
+            MaterialBonds::Elastoplastic(table) => table.on_lattice(),
+        }
     }
 
     /// The model.
@@ -471,7 +476,7 @@ impl CpuSimulation {
                 let first = c * size;
                 if let Some((slot_of, slots)) = lattice_totals {
                     // The lattice kernel's outputs, from slot to particle order.
-                    let [sx, sy, sz, smallest] = [4, 5, 6, 7].map(|k| slots.array(k));
+                    let [sx, sy, sz, smallest] = [0, 1, 2, 3].map(|k| slots.array(PmbSlot::FORCE + k));
                     for local in 0..fx.len() {
                         let slot = slot_of[first + local] as usize;
                         (fx[local], fy[local], fz[local]) = (sx[slot], sy[slot], sz[slot]);
@@ -553,7 +558,7 @@ fn lattice_forces(lattice: &mut LatticeTable, disp: [&[f32]; 3], boost: &[f32], 
         .enumerate()
         .zip(chunks.par_iter())
         .for_each(|((c, (ux, uy, uz, slot_boost)), chunk)| {
-            for local in 0..chunk.slots {
+            for local in 0..chunk.shape.slots {
                 let p = particle_of[c * size + local];
                 if p != NO_PARTICLE {
                     let p = p as usize;

@@ -6,7 +6,7 @@
 //! art direction and frame loop do not change.
 
 use crate::bond_layouts::layout_choice::{SpringTable, StoredBond};
-use crate::elastoplastic::FamilyTable;
+use crate::elastoplastic::FamilyBonds;
 use crate::kernels;
 
 /// The bonds of a run, by material model.
@@ -15,7 +15,7 @@ pub enum MaterialBonds {
     /// Bond-based PMB: one spring per bond, broken by stretch.
     Pmb(SpringTable),
     /// State-based elastoplastic: families with dilatation and plastic extensions.
-    Elastoplastic(Box<FamilyTable>),
+    Elastoplastic(Box<FamilyBonds>),
 }
 
 impl MaterialBonds {
@@ -28,10 +28,10 @@ impl MaterialBonds {
     }
 
     /// Calls `f` with each bond broken in the last force evaluation, in a fixed order.
-    pub fn for_each_break(&self, mut f: impl FnMut(u64)) {
+    pub fn for_each_break(&self, f: impl FnMut(u64)) {
         match self {
             MaterialBonds::Pmb(table) => table.for_each_break(f),
-            MaterialBonds::Elastoplastic(table) => table.breaks.iter().flatten().for_each(|id| f(*id)),
+            MaterialBonds::Elastoplastic(table) => table.for_each_break(f),
         }
     }
 

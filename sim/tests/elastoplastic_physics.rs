@@ -5,7 +5,7 @@
 
 use shatter_core::config::PipelineConfig;
 use shatter_core::particles::ParticleSet;
-use shatter_sim::{Backend, CpuSimulation};
+use shatter_sim::{Backend, CpuSimulation, LayoutChoice};
 
 mod elastoplastic_scenes;
 
@@ -526,4 +526,57 @@ fn a_beam_stretched_by_grips_thins_by_its_poisson_ratio() {
         eprintln!("grip work {work:.4e} J, energy {energy:.4e} J");
         assert!((energy / work - 1.0).abs() < 0.02, "energy {energy:e} J against the grips' work {work:e} J");
     }
+}
+
+/// The lattice layout (each bond once for both ends) and the family table (each bond from both
+/// ends) are the same model summed in different orders: on a struck plate with plasticity,
+/// fracture and fibres (so both ends' influences differ), their forces, energies and stable
+/// steps agree to rounding at the first evaluation, and their runs stay close; the plastic
+/// state round-trips through the particle file's order on the lattice.
+#[test]
+fn the_lattice_layout_and_the_family_table_agree() {
+    let fibres = "critical_stretch = 0.004\n[material.anisotropy]\nfibre_direction = [0.0, 1.0, 0.0]\nratio = 3.0";
+    let (config, particles) = struck_plate(fibres);
+    let mut lattice = simulation(&config, &particles);
+    assert!(lattice.on_lattice(), "a grid block runs on the lattice layout");
+    let mut rows =
+        CpuSimulation::from_config_with_layout(&config, &particles, LayoutChoice::RowsOnly).expect("simulation");
+    assert!(!rows.on_lattice());
+    let wobble = |i: usize, _| {
+        let h = shatter_core::random::splitmix64(i as u64);
+        [0, 1, 2].map(|k| (((h >> (16 * k)) & 0xffff) as f32 / 65535.0 - 0.5) * 4e-6)
+    };
+    lattice.set_displacement(wobble);
+    rows.set_displacement(wobble);
+    let largest = max_force(&rows);
+    let [a, b] = [&lattice, &rows].map(|sim| &sim.dynamics().force);
+    let force_gap = (0..rows.len())
+        .map(|i| (0..3).map(|axis| f64::from(a[axis][i] - b[axis][i]).powi(2)).sum::<f64>().sqrt())
+        .fold(0.0, f64::max);
+    eprintln!("first evaluation: largest force {largest:e} N, largest difference {force_gap:e} N");
+    assert!(largest > 0.0 && force_gap <= 1e-4 * largest, "forces differ by {force_gap:e} of {largest:e} N");
+    let [energy_lattice, energy_rows] = [&lattice, &rows].map(|sim| sim.energy().bond_j);
+    assert!((energy_lattice / energy_rows - 1.0).abs() < 1e-5, "energies {energy_lattice:e} and {energy_rows:e} J");
+    let [dt_lattice, dt_rows] = [&lattice, &rows].map(|sim| sim.stable_dt_s());
+    assert!((dt_lattice / dt_rows - 1.0).abs() < 1e-12, "stable steps {dt_lattice:e} and {dt_rows:e} s");
+    let mut broken = [0usize; 2];
+    for _ in 0..12 {
+        for (sim, count) in [&mut lattice, &mut rows].into_iter().zip(&mut broken) {
+            for _ in 0..25 {
+                sim.step();
+            }
+            *count += sim.take_breaks().len();
+        }
+    }
+    eprintln!("after 300 steps: {} and {} bonds broken", broken[0], broken[1]);
+    assert!(broken[1] > 100, "the plate should crack");
+    assert!(broken[0].abs_diff(broken[1]) * 20 < broken[1], "{} against {} bonds broken", broken[0], broken[1]);
+    let [state_lattice, state_rows] = [&lattice, &rows].map(|sim| sim.bond_state());
+    assert_eq!(state_lattice.len(), particles.bonds.neighbor.len());
+    let yielded = state_rows.iter().filter(|p| **p != 0.0).count();
+    let both = state_lattice.iter().zip(&state_rows).filter(|(a, b)| **a != 0.0 && **b != 0.0).count();
+    eprintln!("{yielded} entries yielded in the family table, {both} in both");
+    assert!(yielded > 100 && both * 10 > yielded * 9, "{both} of {yielded} yielded entries in both");
+    lattice.set_bond_state(&state_rows).expect("a state of the right length");
+    assert_eq!(lattice.bond_state(), state_rows, "the plastic state round-trips");
 }

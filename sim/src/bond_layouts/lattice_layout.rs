@@ -63,9 +63,10 @@ impl LatticeBlock {
         LatticeBlock { threshold: [f32::INFINITY; LANES], stiffness: [0.0; LANES], rest_length_m: [1.0; LANES] };
 }
 
-/// One chunk: its slots, and its bonds in blocks grouped by brick.
+/// Where one chunk's bonds sit, whatever they carry: its slots, its bricks and their blocks,
+/// and each block's partners. Both material models' lattice tables are built on it.
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct LatticeChunk {
+pub struct ChunkShape {
     /// First slot of the chunk.
     pub first_slot: usize,
     /// Slots of the chunk's rows (from the first; the chunk owns [`LatticeTable::chunk_slots`]).
@@ -78,20 +79,27 @@ pub struct LatticeChunk {
     pub internal_end: Vec<u32>,
     /// Slot of the partner of each block's first lane; lane l's partner is this + l.
     pub partner_slot: Vec<u32>,
+}
+
+impl ChunkShape {
+    /// Brick `brick`'s blocks, each with whether it is internal.
+    pub fn brick_blocks(&self, brick: usize) -> impl Iterator<Item = (usize, bool)> + use<> {
+        let (start, middle) = (self.brick_start[brick] as usize, self.internal_end[brick] as usize);
+        (start..self.brick_start[brick + 1] as usize).map(move |block| (block, block < middle))
+    }
+}
+
+/// One chunk of the PMB model's lattice layout: its shape, and its bonds in blocks.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LatticeChunk {
+    /// Where its bonds sit.
+    pub shape: ChunkShape,
     /// The blocks.
     pub blocks: Vec<LatticeBlock>,
     /// Each lane's bond id (see [`super::row_layout::BondChunk::bond_id`]).
     pub bond_id: Vec<u64>,
     /// Ids of bonds this chunk saw break in the current step, each once (scratch, reused).
     pub breaks: Vec<u64>,
-}
-
-impl LatticeChunk {
-    /// Brick `brick`'s blocks, each with whether it is internal.
-    pub fn brick_blocks(&self, brick: usize) -> impl Iterator<Item = (usize, bool)> + use<> {
-        let (start, middle) = (self.brick_start[brick] as usize, self.internal_end[brick] as usize);
-        (start..self.brick_start[brick + 1] as usize).map(move |block| (block, block < middle))
-    }
 }
 
 /// What the lattice kernel reads of every slot: the displacement and the compression boost,
@@ -108,11 +116,14 @@ pub struct SlotInputs<'a> {
 /// How much further into a 4 KiB page each array of [`SlotArrays`] starts than the one before.
 const SKEW_BYTES: usize = 256;
 
-/// The lattice kernel's per-slot arrays in one allocation: its inputs (displacement x, y, z and
-/// boost), its outputs (force x, y, z, newtons, and the smallest stretch of the slot's intact
-/// bonds) and the rest positions (x, y, z). Each array starts `SKEW_BYTES` further into a 4 KiB page than the one before, so
-/// that a load from one array never waits on a store to another at the same slot because their
-/// addresses agree in the low 12 bits (4K aliasing), wherever the allocator puts them.
+/// Per-slot arrays in one allocation. Each array starts `SKEW_BYTES` further into a 4 KiB page
+/// than the one before, so that a load from one array never waits on a store to another at the
+/// same slot because their addresses agree in the low 12 bits (4K aliasing), wherever the
+/// allocator puts them.
+///
+/// The PMB kernel's eleven ([`PmbSlot`]): its inputs (displacement x, y, z and boost), its
+/// outputs (force x, y, z, newtons, and the smallest stretch of the slot's intact bonds) and the
+/// rest positions (x, y, z).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SlotArrays {
     data: Vec<f32>,
@@ -120,35 +131,53 @@ pub struct SlotArrays {
     stride: usize,
 }
 
+/// The PMB kernel's slot arrays, by index into [`SlotArrays`].
+pub struct PmbSlot;
+
+impl PmbSlot {
+    /// Arrays in all.
+    const COUNT: usize = 11;
+    /// Force x (then y, z; the smallest stretch after them).
+    pub const FORCE: usize = 4;
+    /// Rest position x (then y, z).
+    pub const REST: usize = 8;
+}
+
 impl SlotArrays {
-    /// Eleven zeroed arrays of `len` slots.
-    fn new(len: usize) -> SlotArrays {
+    /// `count` zeroed arrays of `len` slots.
+    pub(crate) fn new(len: usize, count: usize) -> SlotArrays {
         let stride = len.next_multiple_of(1024) + SKEW_BYTES / 4;
-        SlotArrays { data: vec![0.0; 11 * stride], len, stride }
+        SlotArrays { data: vec![0.0; count * stride], len, stride }
     }
 
-    /// Array `k`: 0 to 2 displacement, 3 boost, 4 to 6 force, 7 smallest stretch, 8 to 10 rest
-    /// position.
+    /// Array `k`.
     pub fn array(&self, k: usize) -> &[f32] {
         &self.data[k * self.stride..k * self.stride + self.len]
     }
 
-    /// The four per-step input arrays and the four output arrays, writable, and the three rest
-    /// position arrays.
-    pub fn split_mut(&mut self) -> SlotViews<'_> {
+    /// All arrays, writable, in order.
+    pub fn arrays_mut(&mut self) -> impl Iterator<Item = &mut [f32]> {
         let len = self.len;
-        let mut arrays = self.data.chunks_exact_mut(self.stride).map(|array| &mut array[..len]);
+        self.data.chunks_exact_mut(self.stride).map(move |array| &mut array[..len])
+    }
+
+    /// The PMB kernel's four per-step input arrays and four output arrays, writable, and its
+    /// three rest position arrays.
+    pub fn split_mut(&mut self) -> SlotViews<'_> {
+        let mut arrays = self.arrays_mut();
         let mut next = || arrays.next().unwrap_or_else(|| unreachable!("eleven arrays"));
         let (inputs, outputs) = ([next(), next(), next(), next()], [next(), next(), next(), next()]);
         SlotViews { inputs, outputs, rest: [next(), next(), next()].map(|array| &*array) }
     }
 
-    /// The rest position arrays, writable.
-    fn rest_mut(&mut self) -> [&mut [f32]; 3] {
-        let len = self.len;
-        let mut arrays = self.data.chunks_exact_mut(self.stride).skip(8).map(|array| &mut array[..len]);
-        let mut next = || arrays.next().unwrap_or_else(|| unreachable!("eleven arrays"));
-        [next(), next(), next()]
+    /// Fills arrays `first..first + 3` with the rest positions of the particles in `slot_of`'s
+    /// slots.
+    pub(crate) fn set_rest(&mut self, first: usize, slot_of: &[u32], particles: &ParticleSet) {
+        for (axis, array) in self.arrays_mut().skip(first).take(3).enumerate() {
+            for (i, slot) in slot_of.iter().enumerate() {
+                array[*slot as usize] = particles.rest_position_m[i][axis];
+            }
+        }
     }
 }
 
@@ -214,10 +243,27 @@ fn lattice_sites(particles: &ParticleSet) -> Option<Vec<Site>> {
     reach_ok.then_some(sites)
 }
 
-impl LatticeTable {
-    /// The lattice layout of `particles` with the bond values of `values`, or `None` when the
-    /// particles are not on a cubic lattice (see [`lattice_sites`]) or fill too few lanes.
-    pub(crate) fn new(particles: &ParticleSet, values: &EntryValues) -> Option<LatticeTable> {
+/// Where a particle set's sites and bonds go on the lattice, whatever a bond carries: the slots
+/// and each chunk's shape, with the particle-file entry of every block lane. Both material
+/// models build their lattice tables from it.
+#[derive(Debug, Clone)]
+pub(crate) struct LatticePlan {
+    /// Slots per chunk (see [`LatticeTable::chunk_slots`]).
+    pub(crate) chunk_slots: usize,
+    /// Each particle's slot.
+    pub(crate) slot_of: Vec<u32>,
+    /// Each slot's particle, or [`NO_PARTICLE`].
+    pub(crate) particle_of: Vec<u32>,
+    /// The chunks in slot order: each one's shape and the file entry of each of its lanes (lane
+    /// l of block b at 8 b + l; [`PADDING`] for none), a bond of the particle in slot
+    /// `brick_slot + l` of the block's brick.
+    pub(crate) chunks: Vec<(ChunkShape, Vec<u64>)>,
+}
+
+impl LatticePlan {
+    /// The plan for `particles`, or `None` when they are not on a cubic lattice (see
+    /// [`lattice_sites`]) or fill too few lanes.
+    pub(crate) fn new(particles: &ParticleSet) -> Option<LatticePlan> {
         let sites = lattice_sites(particles)?;
         let width = sites.iter().map(|s| s[0]).max().unwrap_or(0) as usize + 1;
         let stride = GHOST + width.div_ceil(LANES) * LANES + GHOST;
@@ -256,25 +302,66 @@ impl LatticeTable {
         for (i, slot) in slot_of.iter().enumerate() {
             particle_of[*slot as usize] = i as u32;
         }
-        let chunks: Vec<LatticeChunk> = tiles
+        let chunks: Vec<(ChunkShape, Vec<u64>)> = tiles
             .par_iter()
             .enumerate()
             .map(|(c, (_, count))| {
-                build_chunk(particles, values, &sites, &slot_of, &particle_of, c * chunk_slots, count * stride)
+                plan_chunk(particles, &sites, &slot_of, &particle_of, c * chunk_slots, count * stride)
             })
             .collect();
-        let lanes: usize = chunks.iter().map(|c| c.bond_id.len()).sum();
-        let filled = chunks.iter().flat_map(|c| &c.bond_id).filter(|id| **id != PADDING).count();
+        let lanes: usize = chunks.iter().map(|(_, entries)| entries.len()).sum();
+        let filled = chunks.iter().flat_map(|(_, entries)| entries).filter(|k| **k != PADDING).count();
         if lanes > 0 && (filled as f64) < MIN_FILL * lanes as f64 {
             return None;
         }
-        let mut slots = SlotArrays::new(slot_count);
-        let mut rest = slots.rest_mut();
-        for (i, slot) in slot_of.iter().enumerate() {
-            for (axis, array) in rest.iter_mut().enumerate() {
-                array[*slot as usize] = particles.rest_position_m[i][axis];
+        Some(LatticePlan { chunk_slots, slot_of, particle_of, chunks })
+    }
+
+    /// Calls `lane(block, lane, i, k)` for every lane of chunk `shape` that holds a bond: particle
+    /// i's file entry k.
+    pub(crate) fn for_each_lane(
+        &self,
+        shape: &ChunkShape,
+        entries: &[u64],
+        mut lane: impl FnMut(usize, usize, usize, usize),
+    ) {
+        for (brick, &own) in shape.brick_slot.iter().enumerate() {
+            for (block, _) in shape.brick_blocks(brick) {
+                for l in 0..LANES {
+                    let k = entries[block * LANES + l];
+                    if k != PADDING {
+                        lane(block, l, self.particle_of[own as usize + l] as usize, k as usize);
+                    }
+                }
             }
         }
+    }
+}
+
+impl LatticeTable {
+    /// The lattice layout of `particles` with the bond values of `values`, or `None` when the
+    /// particles are not on a cubic lattice (see [`lattice_sites`]) or fill too few lanes.
+    pub(crate) fn new(particles: &ParticleSet, values: &EntryValues) -> Option<LatticeTable> {
+        let plan = LatticePlan::new(particles)?;
+        let chunks = plan
+            .chunks
+            .par_iter()
+            .map(|(shape, entries)| {
+                let mut blocks = vec![LatticeBlock::PADDING; entries.len() / LANES];
+                let mut bond_id = vec![PADDING; entries.len()];
+                plan.for_each_lane(shape, entries, |block, lane, i, k| {
+                    let entry = BondEntry::new(particles, values, i, k);
+                    blocks[block].threshold[lane] = entry.threshold;
+                    blocks[block].stiffness[lane] = entry.stiffness;
+                    blocks[block].rest_length_m[lane] = entry.rest_length_m;
+                    bond_id[block * LANES + lane] = entry.bond_id;
+                });
+                LatticeChunk { shape: shape.clone(), blocks, bond_id, breaks: Vec::new() }
+            })
+            .collect();
+        let mut slots = SlotArrays::new(plan.particle_of.len(), PmbSlot::COUNT);
+        slots.set_rest(PmbSlot::REST, &plan.slot_of, particles);
+        let LatticePlan { chunk_slots, slot_of, particle_of, .. } = plan;
         Some(LatticeTable { chunk_slots, chunks, slot_of, particle_of, slots })
     }
 }
@@ -301,21 +388,22 @@ fn tile_size(rows: &[[i64; 2]]) -> [i64; 2] {
     best.0.map(|side| side as i64)
 }
 
-/// Builds the blocks of the chunk of slots `first_slot..first_slot + slots`, brick by brick.
-fn build_chunk(
+/// Plans the blocks of the chunk of slots `first_slot..first_slot + slots`, brick by brick: its
+/// shape and the file entry of each lane.
+fn plan_chunk(
     particles: &ParticleSet,
-    values: &EntryValues,
     sites: &[Site],
     slot_of: &[u32],
     particle_of: &[u32],
     first_slot: usize,
     slots: usize,
-) -> LatticeChunk {
+) -> (ChunkShape, Vec<u64>) {
     let bonds = &particles.bonds;
     let inside = |slot: usize| (first_slot..first_slot + slots).contains(&slot);
-    let mut chunk = LatticeChunk { first_slot, slots, brick_start: vec![0], ..LatticeChunk::default() };
-    // One brick's stored bonds: (external, offset (z, y, x), lane, entry).
-    let mut lanes: Vec<(bool, Site, usize, BondEntry)> = Vec::new();
+    let mut shape = ChunkShape { first_slot, slots, brick_start: vec![0], ..ChunkShape::default() };
+    let mut entries: Vec<u64> = Vec::new();
+    // One brick's stored bonds: (external, offset (z, y, x), lane, partner, file entry).
+    let mut lanes: Vec<(bool, Site, usize, usize, usize)> = Vec::new();
     for brick in (first_slot..first_slot + slots).step_by(LANES) {
         lanes.clear();
         for (lane, &i) in particle_of[brick..brick + LANES].iter().enumerate() {
@@ -330,35 +418,32 @@ fn build_chunk(
                 if internal && offset < [0; 3] {
                     continue; // stored at the opposite offset, in j's brick
                 }
-                lanes.push((!internal, offset, lane, BondEntry::new(particles, values, i, k)));
+                lanes.push((!internal, offset, lane, j, k));
             }
         }
         if lanes.is_empty() {
             continue;
         }
         // Internal blocks first, then external; one block per offset.
-        lanes.sort_unstable_by_key(|(external, offset, lane, _)| (*external, *offset, *lane));
-        chunk.brick_slot.push(brick as u32);
+        lanes.sort_unstable_by_key(|(external, offset, lane, _, _)| (*external, *offset, *lane));
+        shape.brick_slot.push(brick as u32);
         let mut internal_end = None;
         for group in lanes.chunk_by(|a, b| (a.0, a.1) == (b.0, b.1)) {
+            let block = shape.partner_slot.len();
             if group[0].0 && internal_end.is_none() {
-                internal_end = Some(chunk.blocks.len());
+                internal_end = Some(block);
             }
-            let mut block = LatticeBlock::PADDING;
             let mut ids = [PADDING; LANES];
-            for (_, _, lane, entry) in group {
-                block.threshold[*lane] = entry.threshold;
-                block.stiffness[*lane] = entry.stiffness;
-                block.rest_length_m[*lane] = entry.rest_length_m;
-                ids[*lane] = entry.bond_id;
+            for (_, _, lane, _, k) in group {
+                ids[*lane] = *k as u64;
             }
-            let (_, _, lane, entry) = &group[0];
-            chunk.partner_slot.push(slot_of[entry.neighbor as usize] - *lane as u32);
-            chunk.blocks.push(block);
-            chunk.bond_id.extend(ids);
+            let (_, _, lane, j, _) = group[0];
+            shape.partner_slot.push(slot_of[j] - lane as u32);
+            entries.extend(ids);
         }
-        chunk.internal_end.push(internal_end.unwrap_or(chunk.blocks.len()) as u32);
-        chunk.brick_start.push(chunk.blocks.len() as u32);
+        let blocks = shape.partner_slot.len();
+        shape.internal_end.push(internal_end.unwrap_or(blocks) as u32);
+        shape.brick_start.push(blocks as u32);
     }
-    chunk
+    (shape, entries)
 }

@@ -5,7 +5,7 @@ use rayon::prelude::*;
 use shatter_core::particles::ParticleSet;
 
 use super::EntryValues;
-use super::lattice_layout::LatticeTable;
+use super::lattice_layout::{LatticeTable, PmbSlot};
 use super::row_layout::{self, BondTable, LANES, PADDING};
 
 /// Which layouts a CPU simulation may run on: what [`SpringTable`] may choose from.
@@ -104,11 +104,12 @@ impl SpringTable {
             }
             SpringTable::Lattice(table) => {
                 let chunk = &table.chunks[c];
-                let rest = [8, 9, 10].map(|k| table.slots.array(k));
-                for brick in 0..chunk.brick_slot.len() {
-                    let own = chunk.brick_slot[brick] as usize;
-                    for (block, internal) in chunk.brick_blocks(brick) {
-                        let partner = chunk.partner_slot[block] as usize;
+                let rest = [0, 1, 2].map(|axis| table.slots.array(PmbSlot::REST + axis));
+                let shape = &chunk.shape;
+                for brick in 0..shape.brick_slot.len() {
+                    let own = shape.brick_slot[brick] as usize;
+                    for (block, internal) in shape.brick_blocks(brick) {
+                        let partner = shape.partner_slot[block] as usize;
                         let bonds = &chunk.blocks[block];
                         for lane in 0..LANES {
                             if chunk.bond_id[block * LANES + lane] != PADDING {

@@ -1,7 +1,9 @@
 //! The elastoplastic model's constants.
 
+use rayon::prelude::*;
 use shatter_core::PipelineConfig;
 use shatter_core::config::material::{AnisotropyConfig, Normalisation};
+use shatter_core::particles::ParticleSet;
 
 /// What the state-based passes need of the material besides the bonds.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -52,5 +54,55 @@ impl StateBasedConstants {
             normalisation: material.normalisation,
             anisotropy: material.anisotropy,
         }
+    }
+
+    /// Each particle's weighted volume m_i, m^5: the sum of omega |xi|^2 V_j over its family in
+    /// the particle file's order (or pi delta^5 with the analytic constants, and for a particle
+    /// without bonds, which feels no bond force: any m does).
+    pub fn weighted_volumes(&self, particles: &ParticleSet) -> Vec<f32> {
+        let delta = particles.meta.delta_m;
+        let analytic = (std::f64::consts::PI * delta.powi(5)) as f32;
+        let (bonds, position) = (&particles.bonds, &particles.rest_position_m);
+        (0..particles.len())
+            .into_par_iter()
+            .map(|i| match self.normalisation {
+                Normalisation::Analytic => analytic,
+                Normalisation::WeightedVolume => {
+                    let sum: f64 = bonds
+                        .row(i)
+                        .map(|k| {
+                            let j = bonds.neighbor[k] as usize;
+                            let xi = [0, 1, 2].map(|axis| position[j][axis] - position[i][axis]);
+                            let rest = f64::from(bonds.rest_length_m[k]);
+                            let v = f64::from(particles.volume_m3[j]);
+                            f64::from(self.influence(delta, position[i], xi)) * rest * rest * v
+                        })
+                        .sum();
+                    if sum > 0.0 { sum as f32 } else { analytic }
+                }
+            })
+            .collect()
+    }
+
+    /// Each particle's [V, 15 mu / m, 3 K / m, yield force] (volume m^3, the deviatoric and
+    /// dilatational constants, and the deviatoric force scalar at which its bonds yield) for
+    /// volumes `volume` and weighted volumes `weighted` at horizon `delta_m`.
+    pub fn particle_values(&self, volume: &[f32], weighted: &[f32], delta_m: f64) -> Vec<[f32; 4]> {
+        let sphere = std::f64::consts::PI * delta_m.powi(5);
+        volume
+            .iter()
+            .zip(weighted)
+            .map(|(v, m)| {
+                let m = f64::from(*m);
+                [
+                    *v,
+                    (15.0 * self.shear_modulus_pa / m) as f32,
+                    (3.0 * self.bulk_modulus_pa / m) as f32,
+                    // the yield force scales as the force does, so a cut family yields at the
+                    // same stress
+                    (self.yield_force_n_m6 * sphere / m) as f32,
+                ]
+            })
+            .collect()
     }
 }

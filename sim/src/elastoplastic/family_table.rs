@@ -9,7 +9,6 @@
 //! bond, so t_ij and t_ji differ.
 
 use rayon::prelude::*;
-use shatter_core::config::material::Normalisation;
 use shatter_core::particles::ParticleSet;
 
 use super::StateBasedConstants;
@@ -158,39 +157,8 @@ impl FamilyTable {
                 table.reverse_influence[e] = table.influence[back];
             }
         }
-        let analytic = (std::f64::consts::PI * delta.powi(5)) as f32;
-        let weighted: Vec<f32> = (0..n)
-            .into_par_iter()
-            .map(|i| match constants.normalisation {
-                Normalisation::Analytic => analytic,
-                Normalisation::WeightedVolume => {
-                    let sum: f64 = (0..stride)
-                        .map(|k| entry(i, k))
-                        .map(|e| {
-                            let xi = f64::from(table.rest_length_m[e]);
-                            let v = f64::from(table.volume[table.neighbor[e] as usize]);
-                            f64::from(table.influence[e]) * xi * xi * v
-                        })
-                        .sum();
-                    // a particle with no family feels no bond force; any m does
-                    if sum > 0.0 { sum as f32 } else { analytic }
-                }
-            })
-            .collect();
-        let sphere = std::f64::consts::PI * delta.powi(5);
-        table.particle = (0..n)
-            .map(|i| {
-                let m = f64::from(weighted[i]);
-                [
-                    table.volume[i],
-                    (15.0 * constants.shear_modulus_pa / m) as f32,
-                    (3.0 * constants.bulk_modulus_pa / m) as f32,
-                    // the yield force scales as the force does, so a cut family yields at the
-                    // same stress
-                    (constants.yield_force_n_m6 * sphere / m) as f32,
-                ]
-            })
-            .collect();
+        let weighted = constants.weighted_volumes(particles);
+        table.particle = constants.particle_values(&table.volume, &weighted, delta);
         table.weighted_volume = weighted;
         for (record, particle) in table.record.iter_mut().zip(&table.particle) {
             [record[Record::VOLUME], record[Record::DEVIATORIC], record[Record::DILATATIONAL]] =

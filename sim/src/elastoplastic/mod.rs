@@ -10,10 +10,20 @@
 //! - [`passes`]: the two passes of a force evaluation (dilatation; force scalars with the
 //!   plastic return map, the break test and the bond forces), eight particles at a time, and the
 //!   stored energy.
+//! - [`lattice_families`]: the same bonds on the lattice layout, for particles on a cubic
+//!   lattice: each bond stored once for both ends, and each particle's values per slot.
+//! - [`lattice_passes`]: the two passes on the lattice layout, each bond computed once for both
+//!   ends, eight bonds at a time without gathers.
+//! - [`family_bonds`]: which of the two layouts a CPU simulation runs on.
 
 pub mod constants;
+pub mod family_bonds;
 pub mod family_table;
+pub mod lattice_families;
+pub mod lattice_passes;
 pub mod passes;
 
 pub use constants::StateBasedConstants;
+pub use family_bonds::FamilyBonds;
 pub use family_table::FamilyTable;
+pub use lattice_families::LatticeFamilies;

@@ -88,6 +88,80 @@ pub fn where_positive(condition: Lanes, value: Lanes) -> Lanes {
     lanes
 }
 
+/// -a, lane by lane (x - a is x + (-a), bit for bit).
+#[inline(always)]
+pub fn neg(a: Lanes) -> Lanes {
+    mul(a, [-1.0; LANES])
+}
+
+/// |a|, lane by lane.
+#[inline(always)]
+pub fn abs(a: Lanes) -> Lanes {
+    let mut lanes = [0.0; LANES];
+    for l in 0..LANES {
+        lanes[l] = a[l].abs();
+    }
+    lanes
+}
+
+/// |a| with the sign of `sign`, lane by lane.
+#[inline(always)]
+pub fn copysign(a: Lanes, sign: Lanes) -> Lanes {
+    let mut lanes = [0.0; LANES];
+    for l in 0..LANES {
+        lanes[l] = a[l].copysign(sign[l]);
+    }
+    lanes
+}
+
+/// `then` where a > b, else `otherwise`, lane by lane: a blend through a bit mask, so that the
+/// compiler keeps it one vector instruction rather than a branch per lane around the work that
+/// `then` or `otherwise` took.
+#[inline(always)]
+pub fn pick_greater(a: Lanes, b: Lanes, then: Lanes, otherwise: Lanes) -> Lanes {
+    let mut mask = [0u32; LANES];
+    for l in 0..LANES {
+        mask[l] = if a[l] > b[l] { u32::MAX } else { 0 };
+    }
+    blend(mask, then, otherwise)
+}
+
+/// `then` where `mask` is all ones, else `otherwise`, lane by lane.
+#[inline(always)]
+fn blend(mask: [u32; LANES], then: Lanes, otherwise: Lanes) -> Lanes {
+    let mut lanes = [0.0; LANES];
+    for l in 0..LANES {
+        lanes[l] = f32::from_bits((then[l].to_bits() & mask[l]) | (otherwise[l].to_bits() & !mask[l]));
+    }
+    lanes
+}
+
+/// `then` where a < b, else `otherwise`, lane by lane.
+#[inline(always)]
+pub fn pick_less(a: Lanes, b: Lanes, then: Lanes, otherwise: Lanes) -> Lanes {
+    pick_greater(b, a, then, otherwise)
+}
+
+/// `then` where a == b, else `otherwise`, lane by lane (a blend, as [`pick_greater`]).
+#[inline(always)]
+pub fn pick_equal(a: Lanes, b: Lanes, then: Lanes, otherwise: Lanes) -> Lanes {
+    let mut mask = [0u32; LANES];
+    for l in 0..LANES {
+        mask[l] = if a[l] == b[l] { u32::MAX } else { 0 };
+    }
+    blend(mask, then, otherwise)
+}
+
+/// True where any lane of a exceeds b's.
+#[inline(always)]
+pub fn any_greater(a: Lanes, b: Lanes) -> bool {
+    let mut any = false;
+    for l in 0..LANES {
+        any |= a[l] > b[l];
+    }
+    any
+}
+
 /// a0 b0 + a1 b1 + a2 b2, lane by lane, summed in that order.
 #[inline(always)]
 pub fn dot(a: &[Lanes; 3], b: &[Lanes; 3]) -> Lanes {

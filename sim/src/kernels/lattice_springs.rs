@@ -6,9 +6,9 @@
 
 use shatter_core::config::sim::BreakRule;
 
-use super::lanes::{BondLanes, LANES, Lanes, add, bond_lanes, load, min, mul, sub};
+use super::lanes::{BondLanes, LANES, Lanes, add, bond_lanes, load, min, mul, neg, sub};
 use super::springs::{ChunkForces, break_bound, effective_threshold};
-use crate::bond_layouts::lattice_layout::{LatticeBlock, LatticeChunk, SlotInputs};
+use crate::bond_layouts::lattice_layout::{ChunkShape, LatticeBlock, LatticeChunk, SlotInputs};
 
 /// Spring forces (the paper's `springforces`) of one chunk of the lattice layout: for every
 /// intact bond, the stretch, the break test against the effective threshold, and the PMB force.
@@ -24,12 +24,7 @@ pub fn lattice_spring_forces(
     out: &mut ChunkForces,
 ) {
     let LatticeChunk {
-        first_slot: first,
-        slots,
-        brick_slot,
-        brick_start,
-        internal_end,
-        partner_slot,
+        shape: ChunkShape { first_slot: first, slots, brick_slot, brick_start, internal_end, partner_slot },
         blocks,
         bond_id,
         breaks,
@@ -97,12 +92,6 @@ pub fn lattice_spring_forces(
         }
         totals.add(own - first, &force_sum, smallest);
     }
-}
-
-/// -a, lane by lane.
-#[inline(always)]
-fn neg(a: Lanes) -> Lanes {
-    mul(a, [-1.0; LANES])
 }
 
 /// A chunk's force and smallest-stretch totals, each the chunk's slots long.
