@@ -12,9 +12,9 @@ use crate::SimError;
 #[derive(Debug, Clone)]
 pub enum FamilyBonds {
     /// Any particle set: each bond stored and computed at both ends.
-    Rows(FamilyTable),
+    Rows(Box<FamilyTable>),
     /// Particles on a cubic lattice: each bond computed once for both ends, without gathers.
-    Lattice(LatticeFamilies),
+    Lattice(Box<LatticeFamilies>),
 }
 
 impl FamilyBonds {
@@ -29,9 +29,9 @@ impl FamilyBonds {
         lattice: bool,
     ) -> Result<FamilyBonds, SimError> {
         if lattice && let Some(table) = LatticeFamilies::new(particles, constants, &threshold) {
-            return Ok(FamilyBonds::Lattice(table));
+            return Ok(FamilyBonds::Lattice(Box::new(table)));
         }
-        Ok(FamilyBonds::Rows(FamilyTable::new(particles, constants, chunk_size, threshold)?))
+        Ok(FamilyBonds::Rows(Box::new(FamilyTable::new(particles, constants, chunk_size, threshold)?)))
     }
 
     /// Marks bonds broken by id (sorted).
