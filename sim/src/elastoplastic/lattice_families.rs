@@ -221,22 +221,13 @@ impl LatticeFamilies {
 
     /// Counts each slot's intact bonds.
     fn count_intact(&mut self) {
-        let size = self.chunk_slots;
-        (self.chunks.par_iter(), self.intact.par_chunks_mut(size)).into_par_iter().for_each(|(chunk, intact)| {
+        let mut intact = std::mem::take(&mut self.intact);
+        intact.par_chunks_mut(self.chunk_slots).enumerate().for_each(|(c, intact)| {
             intact.fill(0);
-            let first = chunk.shape.first_slot;
-            for (brick, &own) in chunk.shape.brick_slot.iter().enumerate() {
-                for (block, internal) in chunk.shape.brick_blocks(brick) {
-                    let partner = chunk.shape.partner_slot[block] as usize;
-                    for l in (0..LANES).filter(|&l| chunk.blocks[block].influence[l] > 0.0) {
-                        intact[own as usize + l - first] += 1;
-                        if internal {
-                            intact[partner + l - first] += 1;
-                        }
-                    }
-                }
-            }
+            let first = self.chunks[c].shape.first_slot;
+            self.for_each_end(c, |end| intact[end.slot - first] += 1);
         });
+        self.intact = intact;
     }
 
     /// Marks bonds broken by id (sorted): both ends lose their influence, and the intact counts

@@ -19,8 +19,8 @@
 use super::lattice_families::FamilyChunk;
 use crate::bond_layouts::lattice_layout::ChunkShape;
 use crate::kernels::lanes::{
-    LANES, Lanes, abs, add, any_greater, copysign, div, dot, load, mul, neg, pick_equal, pick_greater, pick_less, sqrt,
-    sub,
+    LANES, Lanes, abs, add, any_greater, copysign, deformed_bonds, div, load, mul, neg, pick_equal, pick_greater,
+    pick_less, sub,
 };
 
 /// The per-slot arrays both passes read, each the whole layout long.
@@ -59,15 +59,14 @@ fn deformed(values: &SlotValues, own: usize, partner: usize, rest: Lanes) -> ([L
         sub(load(uy, partner), load(uy, own)),
         sub(load(uz, partner), load(uz, own)),
     ];
-    let y = [add(xi[0], eta[0]), add(xi[1], eta[1]), add(xi[2], eta[2])];
-    let length = sqrt(dot(&y, &y));
-    let growth = add(mul([2.0; LANES], dot(&xi, &eta)), dot(&eta, &eta));
+    let (y, length, growth) = deformed_bonds(&xi, &eta);
     (y, length, div(growth, add(length, rest)))
 }
 
 /// Pass 1 over one chunk: each bond's extension e = |y| - |xi| (pass 2 computes it again: that
-/// costs less than storing it and reading it back) and the dilatation theta = 3 / m sum omega |xi| e V_j of the chunk's slots (into `theta`, the
-/// chunk's run of slots; `weighted_volume` likewise). Broken and padding lanes add nothing.
+/// costs less than storing it and reading it back) and the dilatation
+/// theta = 3 / m sum omega |xi| e V_j of the chunk's slots (into `theta`, the chunk's run of
+/// slots; `weighted_volume` likewise). Broken and padding lanes add nothing.
 pub fn lattice_dilatation(chunk: &FamilyChunk, values: &SlotValues, weighted_volume: &[f32], theta: &mut [f32]) {
     let ChunkShape { first_slot: first, slots, brick_slot, .. } = &chunk.shape;
     let (first, slots) = (*first, *slots);

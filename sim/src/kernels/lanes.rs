@@ -178,14 +178,23 @@ pub struct BondLanes {
     pub scale: Lanes,
 }
 
+/// Eight bonds from their rest vectors xi and displacement differences eta: the deformed bonds
+/// y = xi + eta, their lengths |y| and the growth 2 xi . eta + eta . eta, which is
+/// |y|^2 - |xi|^2 without its cancellation (see [`super::stretch`]).
+#[inline(always)]
+pub fn deformed_bonds(xi: &[Lanes; 3], eta: &[Lanes; 3]) -> ([Lanes; 3], Lanes, Lanes) {
+    let y = [add(xi[0], eta[0]), add(xi[1], eta[1]), add(xi[2], eta[2])];
+    let length = sqrt(dot(&y, &y));
+    let growth = add(mul([2.0; LANES], dot(xi, eta)), dot(eta, eta));
+    (y, length, growth)
+}
+
 /// The PMB force of eight bonds from their rest vectors xi, displacement differences eta, rest
 /// lengths and stiffnesses: s = (2 xi . eta + eta . eta) / (L (|y| + L)) (see
 /// [`super::stretch`]), and the force k s y / |y| as `scale` y, with one division for both.
 #[inline(always)]
 pub fn bond_lanes(xi: &[Lanes; 3], eta: &[Lanes; 3], rest_length: Lanes, stiffness: Lanes) -> BondLanes {
-    let y = [add(xi[0], eta[0]), add(xi[1], eta[1]), add(xi[2], eta[2])];
-    let length = sqrt(dot(&y, &y));
-    let growth = add(mul([2.0; LANES], dot(xi, eta)), dot(eta, eta));
+    let (y, length, growth) = deformed_bonds(xi, eta);
     let denominator = mul(mul(rest_length, add(length, rest_length)), length);
     let inverse = where_positive(denominator, div([1.0; LANES], denominator));
     let stretch = where_positive(stiffness, mul(mul(growth, length), inverse));
