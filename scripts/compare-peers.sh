@@ -3,8 +3,9 @@
 # the min, median and max of each ratio (shatter's speed over the peer's) over RUNS runs
 # (default 3), the programs alternating within each run:
 # - the CPU simulation against LAMMPS (Debian's `lammps`): peri/pmb on a lattice (the
-#   `bond_updates` bench, which runs LAMMPS itself), peri/lps and peri/eps against the
-#   elastoplastic model (`elastoplastic_updates`);
+#   `bond_updates` bench, which runs LAMMPS itself) and on tet-shell and Voronoi particles
+#   (`irregular_bond_updates`, which writes them as a LAMMPS data file), peri/lps and peri/eps
+#   against the elastoplastic model (`elastoplastic_updates`);
 # - Delaunay tetrahedralization against TetGen (PyPI `tetgen`) and qhull (scipy) on the same
 #   200,000 points in three layouts;
 # - nearest hits of camera rays against Embree 4 (PyPI `embreex`) on the render bench's scene
@@ -13,7 +14,8 @@
 #
 #   scripts/compare-peers.sh [RUNS [GROUPS]]
 #
-# GROUPS (comma-separated; default all) picks comparisons: lattice, elastoplastic, delaunay, render.
+# GROUPS (comma-separated; default all) picks comparisons: lattice, irregular, elastoplastic, delaunay,
+# render.
 #
 # It installs what is missing: lammps with apt-get (as root), the Python peers into .peers-venv/
 # (ignored by git). Takes about 4 minutes a run on 2 cores.
@@ -34,7 +36,7 @@ if [ ! -x "$venv/bin/python" ]; then
 fi
 "$venv/bin/python" -c "import embreex, tetgen, scipy" 2>/dev/null \
   || "$venv/bin/pip" install -q embreex tetgen scipy numpy
-cargo bench --locked -p shatter-sim --bench bond_updates --bench elastoplastic_updates --no-run -q
+cargo bench --locked -p shatter-sim --bench bond_updates --bench irregular_bond_updates --bench elastoplastic_updates --no-run -q
 cargo bench --locked -p shatter-preprocess --bench delaunay --no-run -q
 cargo bench --locked -p shatter-render --bench render --no-run -q
 exec "$venv/bin/python" scripts/peers/compare.py "$runs" ${2:+"$2"}

@@ -4,7 +4,8 @@ Called by scripts/compare-peers.sh, which installs the peers first.
 
     python3 compare.py RUNS [GROUPS]
 
-GROUPS, comma-separated, picks comparisons (default all): lattice, elastoplastic, delaunay, render.
+GROUPS, comma-separated, picks comparisons (default all): lattice, irregular, elastoplastic, delaunay,
+render.
 """
 
 import os
@@ -45,7 +46,7 @@ def number(pattern, text, what):
     return float(found.group(1))
 
 
-GROUPS = ("lattice", "elastoplastic", "delaunay", "render")
+GROUPS = ("lattice", "irregular", "elastoplastic", "delaunay", "render")
 
 
 def one_run(ratios, cores, groups):
@@ -56,6 +57,11 @@ def one_run(ratios, cores, groups):
     if "lattice" in groups:
         text = bench("shatter-sim", "bond_updates", ["100"])
         add("CPU simulation vs LAMMPS peri/pmb, lattice, per core", number(r"per-core ratio, shatter 1 thread / LAMMPS: ([\d.]+)x", text, "LAMMPS ratio"))
+    if "irregular" in groups:
+        text = bench("shatter-sim", "irregular_bond_updates", ["20"])
+        for case in ("tet shell (filled core)", "Voronoi cells"):
+            pattern = rf"per-core ratio, shatter 1 thread / LAMMPS, {re.escape(case)}: ([\d.]+)x"
+            add(f"CPU simulation vs LAMMPS peri/pmb, {case}, per core", number(pattern, text, f"{case} ratio"))
     if "elastoplastic" in groups:
         text = bench("shatter-sim", "elastoplastic_updates", ["20"])
         for style in ("lps", "eps"):
@@ -102,7 +108,9 @@ def main():
         print(f"run {k + 1} of {runs}", flush=True)
         one_run(ratios, cores, groups)
     targets = {
-        "CPU simulation vs LAMMPS peri/pmb": ">= 15x",
+        "CPU simulation vs LAMMPS peri/pmb, lattice": ">= 15x",
+        "CPU simulation vs LAMMPS peri/pmb, tet": ">= 10x",
+        "CPU simulation vs LAMMPS peri/pmb, Voronoi": ">= 10x",
         "elastoplastic vs LAMMPS": ">= 10x",
         "Delaunay vs TetGen": ">= 1x",
         "nearest hits vs Embree": ">= 1x",

@@ -7,83 +7,42 @@
 //! bond update is one bond's force (stretch, break test, force) in one step; both codes are
 //! credited with unique bonds x steps, whatever their internal layout.
 
+#[path = "support/lammps_block.rs"]
+mod lammps_block;
 #[path = "support/lammps_run.rs"]
 mod lammps_run;
 
-use std::path::Path;
-use std::time::Instant;
+#[path = "support/bond_timing.rs"]
+mod bond_timing;
 
+use bond_timing::{config, time_ours};
 use shatter_core::NoProgress;
 use shatter_core::config::PipelineConfig;
-use shatter_sim::CpuSimulation;
 
-fn config(side: usize, rules: &str) -> PipelineConfig {
+/// The benchmark's block: `side`^3 cubes of 1 mm at N = 3, under `rules`.
+fn block(side: usize, rules: &str) -> PipelineConfig {
     let size = side as f64 * 0.001;
-    let text = format!(
-        r#"
-[scene]
-name = "bench"
-output_dir = "out"
-seed = 1
-[geometry]
-source = "box"
-box_size_m = [{size}, {size}, {size}]
-sampler = "grid"
-spacing_m = 0.001
-horizon_factor = 3.0
-[material]
-density_kg_m3 = 2200.0
-bulk_modulus_pa = 14.9e9
-[sim]
-gravity_m_s2 = [0.0, 0.0, 0.0]
-rules = "{rules}"
-"#
-    );
-    PipelineConfig::from_toml_str(&text, Path::new("/nonexistent/pipeline.toml")).expect("valid config")
-}
-
-/// Seconds for `steps` steps on `threads` threads: the median of batches of 10 steps, scaled,
-/// so that a noisy neighbour on a shared machine moves the figure less.
-fn time_ours(config: &PipelineConfig, particles: &shatter_core::ParticleSet, steps: usize, threads: usize) -> f64 {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("pool");
-    pool.install(|| {
-        let mut sim = CpuSimulation::from_config(config, particles).expect("simulation");
-        sim.set_velocity(|i, _| {
-            let h = shatter_core::random::splitmix64(i as u64);
-            [0, 1, 2].map(|k| ((h >> (16 * k)) & 0xffff) as f32 / 65535.0 * 2e-3 - 1e-3)
-        });
-        let (internal, external) = sim.bond_entries();
-        if threads == 1 {
-            let layout = if sim.on_lattice() { "lattice" } else { "row" };
-            println!("  {layout} layout; bond entries per step: {internal} internal + {external} external");
-        }
-        sim.step(); // warm caches
-        let mut batches: Vec<f64> = (0..steps.div_ceil(10))
-            .map(|_| {
-                let started = Instant::now();
-                for _ in 0..10 {
-                    sim.step();
-                }
-                started.elapsed().as_secs_f64()
-            })
-            .collect();
-        batches.sort_by(f64::total_cmp);
-        batches[batches.len() / 2] * steps as f64 / 10.0
-    })
+    config(
+        &format!(
+            "source = \"box\"\nbox_size_m = [{size}, {size}, {size}]\nsampler = \"grid\"\n\
+             spacing_m = 0.001\nhorizon_factor = 3.0"
+        ),
+        rules,
+    )
 }
 
 /// LAMMPS's loop time for the same block, if `lmp` runs.
 fn time_lammps(side: usize, steps: usize) -> Option<f64> {
     let c = 18.0 * 14.9e9 / (std::f64::consts::PI * 0.003f64.powi(4));
     let pair = format!("pair_style peri/pmb\npair_coeff * * {c:e} 0.0030001 0.0003153 0.25");
-    lammps_run::loop_time_s(&lammps_run::block_input(side, &pair, 1.1920928955078125e-07, steps), "pmb")
+    lammps_run::loop_time_s(&lammps_block::block_input(side, &pair, 1.1920928955078125e-07, steps), "pmb")
 }
 
 fn main() {
     let mut args = std::env::args().skip(1).filter_map(|arg| arg.parse::<usize>().ok());
     let steps = args.next().unwrap_or(100);
     let side = args.next().unwrap_or(49);
-    let levine = config(side, "levine");
+    let levine = block(side, "levine");
     let particles = shatter_preprocess::preprocess(&levine, &NoProgress).expect("preprocess").particles;
     let bonds = particles.bonds.unique_count();
     let updates = (bonds * steps) as f64;
@@ -100,7 +59,7 @@ fn main() {
         updates / all / 1e6,
         updates / all / 1e6 / cores as f64
     );
-    let lammps_rules = config(side, "lammps");
+    let lammps_rules = block(side, "lammps");
     let rules_one = time_ours(&lammps_rules, &particles, steps, 1);
     println!(
         "  shatter CPU, LAMMPS rules, 1 thread: {rules_one:7.2} s  {:8.1} M bond updates/s per core",

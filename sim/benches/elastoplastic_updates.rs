@@ -7,6 +7,8 @@
 //! 47). A bond update is one bond's work in one step (both its families' force scalars, the break
 //! test, the force); both codes are credited with unique bonds x steps.
 
+#[path = "support/lammps_block.rs"]
+mod lammps_block;
 #[path = "support/lammps_run.rs"]
 mod lammps_run;
 
@@ -81,7 +83,7 @@ fn time_lammps(side: usize, steps: usize, style: &str) -> Option<f64> {
     // pair_coeff: bulk, shear, horizon, s00, alpha (and, for eps, the yield stress)
     let yield_stress = if style == "peri/eps" { format!(" {YIELD_PA:e}") } else { String::new() };
     let pair = format!("pair_style {style}\npair_coeff * * {BULK_PA:e} {SHEAR_PA:e} 0.0025001 0.01 0.0{yield_stress}");
-    lammps_run::loop_time_s(&lammps_run::block_input(side, &pair, 4e-8, steps), &style.replace('/', "-"))
+    lammps_run::loop_time_s(&lammps_block::block_input(side, &pair, 4e-8, steps), &style.replace('/', "-"))
 }
 
 fn main() {
