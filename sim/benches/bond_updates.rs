@@ -11,11 +11,13 @@
 mod lammps_block;
 #[path = "support/lammps_run.rs"]
 mod lammps_run;
+#[path = "support/step_timing.rs"]
+mod step_timing;
 
 #[path = "support/bond_timing.rs"]
 mod bond_timing;
 
-use bond_timing::{config, time_ours};
+use bond_timing::{config, time_one_and_all, time_ours};
 use shatter_core::NoProgress;
 use shatter_core::config::PipelineConfig;
 
@@ -46,19 +48,11 @@ fn main() {
     let particles = shatter_preprocess::preprocess(&levine, &NoProgress).expect("preprocess").particles;
     let bonds = particles.bonds.unique_count();
     let updates = (bonds * steps) as f64;
-    let cores = rayon::current_num_threads();
     println!(
         "bond updates: {} particles ({side}^3), {bonds} bonds at N = 3, {steps} steps; a bond update = one bond, one step",
         particles.len()
     );
-    let one = time_ours(&levine, &particles, steps, 1);
-    println!("  shatter CPU, 1 thread:   {one:7.2} s  {:8.1} M bond updates/s per core", updates / one / 1e6);
-    let all = time_ours(&levine, &particles, steps, cores);
-    println!(
-        "  shatter CPU, {cores} threads:  {all:7.2} s  {:8.1} M bond updates/s ({:.1} per core)",
-        updates / all / 1e6,
-        updates / all / 1e6 / cores as f64
-    );
+    let one = time_one_and_all(&levine, &particles, steps, updates);
     let lammps_rules = block(side, "lammps");
     let rules_one = time_ours(&lammps_rules, &particles, steps, 1);
     println!(

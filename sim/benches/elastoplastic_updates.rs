@@ -11,13 +11,13 @@
 mod lammps_block;
 #[path = "support/lammps_run.rs"]
 mod lammps_run;
+#[path = "support/step_timing.rs"]
+mod step_timing;
 
 use std::path::Path;
-use std::time::Instant;
 
 use shatter_core::NoProgress;
 use shatter_core::config::PipelineConfig;
-use shatter_sim::CpuSimulation;
 
 /// Glass-like moduli: K = 60 GPa, mu = 27.7 GPa (E = 72 GPa, nu = 0.3).
 const BULK_PA: f64 = 60e9;
@@ -57,24 +57,7 @@ dt_s = 4e-8
 
 /// Seconds for `steps` steps on `threads` threads: the median of single steps, scaled.
 fn time_ours(config: &PipelineConfig, particles: &shatter_core::ParticleSet, steps: usize, threads: usize) -> f64 {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("pool");
-    pool.install(|| {
-        let mut sim = CpuSimulation::from_config(config, particles).expect("simulation");
-        sim.set_velocity(|i, _| {
-            let h = shatter_core::random::splitmix64(i as u64);
-            [0, 1, 2].map(|k| ((h >> (16 * k)) & 0xffff) as f32 / 65535.0 * 2e-3 - 1e-3)
-        });
-        sim.step(); // warm caches
-        let mut times: Vec<f64> = (0..steps)
-            .map(|_| {
-                let started = Instant::now();
-                sim.step();
-                started.elapsed().as_secs_f64()
-            })
-            .collect();
-        times.sort_by(f64::total_cmp);
-        times[times.len() / 2] * steps as f64
-    })
+    step_timing::time_steps(config, particles, (steps, 1), threads, |_| {})
 }
 
 /// LAMMPS's loop time for the same block with `pair_style` `style` (`peri/lps` or `peri/eps`), if

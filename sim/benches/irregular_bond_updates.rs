@@ -14,8 +14,10 @@ mod bond_timing;
 mod lammps_particles;
 #[path = "support/lammps_run.rs"]
 mod lammps_run;
+#[path = "support/step_timing.rs"]
+mod step_timing;
 
-use bond_timing::{config, time_ours};
+use bond_timing::{config, time_one_and_all};
 use shatter_core::NoProgress;
 use shatter_core::particles::ParticleSet;
 
@@ -59,7 +61,6 @@ fn time_lammps(particles: &ParticleSet, steps: usize) -> Option<f64> {
 
 fn main() {
     let steps = std::env::args().skip(1).find_map(|arg| arg.parse::<usize>().ok()).unwrap_or(20);
-    let cores = rayon::current_num_threads();
     for (name, geometry) in CASES {
         let levine = config(geometry, "levine");
         let particles = shatter_preprocess::preprocess(&levine, &NoProgress).expect("preprocess").particles;
@@ -70,14 +71,7 @@ fn main() {
             particles.len(),
             2.0 * bonds as f64 / particles.len() as f64
         );
-        let one = time_ours(&levine, &particles, steps, 1);
-        println!("  shatter CPU, 1 thread:   {one:7.2} s  {:8.1} M bond updates/s per core", updates / one / 1e6);
-        let all = time_ours(&levine, &particles, steps, cores);
-        println!(
-            "  shatter CPU, {cores} threads:  {all:7.2} s  {:8.1} M bond updates/s ({:.1} per core)",
-            updates / all / 1e6,
-            updates / all / 1e6 / cores as f64
-        );
+        let one = time_one_and_all(&levine, &particles, steps, updates);
         match time_lammps(&particles, steps) {
             Some(lammps) => {
                 println!(
