@@ -6,7 +6,7 @@
 
 use shatter_core::config::sim::BreakRule;
 
-use super::lanes::{BondLanes, LANES, Lanes, add, any_greater, bond_lanes, load, min, mul, neg, sub};
+use super::lanes::{BondLanes, LANES, Lanes, add, bond_lanes, load, min, mul, neg, sub};
 use super::springs::{ChunkForces, break_bound, effective_threshold};
 use crate::bond_layouts::lattice_layout::{ChunkShape, LatticeBlock, LatticeChunk, SlotInputs};
 
@@ -56,18 +56,29 @@ pub fn lattice_spring_forces(
         for (k, (bonds, &partner)) in brick_blocks.enumerate() {
             let (block, partner) = (start + k, partner as usize);
             let internal = block < middle;
-            // The block's bonds, computed again after a break rather than kept across the call:
-            // nothing then lives in vector registers across it but the lane sums.
-            let mut lanes = block_lanes(disp, rest, own, partner, bonds);
-            if any_greater(lanes.stretch, add(bonds.threshold, bound)) {
-                let place = BlockPlace { own, partner, internal, ids: &bond_id[block * LANES..(block + 1) * LANES] };
-                if break_lanes(&context, bonds, &place, breaks, lanes.stretch) {
-                    // A broken lane now has no stiffness: stretch 0 and force scale +-0, which
-                    // adds to the sums as +0 does.
-                    lanes = block_lanes(disp, rest, own, partner, bonds);
-                }
+            // u_i is loaded again for every block rather than kept: the registers it would hold
+            // keep the lane sums out of the stack.
+            let eta = [
+                sub(load(disp[0], partner), load(disp[0], own)),
+                sub(load(disp[1], partner), load(disp[1], own)),
+                sub(load(disp[2], partner), load(disp[2], own)),
+            ];
+            // the same f32 subtraction as the row layout's stored rest vectors
+            let xi = [
+                sub(load(rest[0], partner), load(rest[0], own)),
+                sub(load(rest[1], partner), load(rest[1], own)),
+                sub(load(rest[2], partner), load(rest[2], own)),
+            ];
+            let BondLanes { y, mut stretch, mut scale } = bond_lanes(&xi, &eta, bonds.rest_length_m, bonds.stiffness);
+            let limit = add(bonds.threshold, bound);
+            let mut suspects = false;
+            for lane in 0..LANES {
+                suspects |= stretch[lane] > limit[lane];
             }
-            let BondLanes { y, stretch, scale } = lanes;
+            if suspects {
+                let place = BlockPlace { own, partner, internal, ids: &bond_id[block * LANES..(block + 1) * LANES] };
+                break_lanes(&context, bonds, &place, breaks, [&mut stretch, &mut scale]);
+            }
             let force = [mul(y[0], scale), mul(y[1], scale), mul(y[2], scale)];
             for axis in 0..3 {
                 force_sum[axis] = add(force_sum[axis], force[axis]);
@@ -81,26 +92,6 @@ pub fn lattice_spring_forces(
         }
         totals.add(own - first, &force_sum, smallest);
     }
-}
-
-/// The bonds of the block at `own` (the brick's first slot) and `partner` (its partners' first
-/// slot): the displacement differences and rest vectors from the slots, then [`bond_lanes`].
-#[inline(always)]
-fn block_lanes(disp: [&[f32]; 3], rest: [&[f32]; 3], own: usize, partner: usize, bonds: &LatticeBlock) -> BondLanes {
-    // u_i is loaded again for every block rather than kept: the registers it would hold keep
-    // the lane sums out of the stack.
-    let eta = [
-        sub(load(disp[0], partner), load(disp[0], own)),
-        sub(load(disp[1], partner), load(disp[1], own)),
-        sub(load(disp[2], partner), load(disp[2], own)),
-    ];
-    // the same f32 subtraction as the row layout's stored rest vectors
-    let xi = [
-        sub(load(rest[0], partner), load(rest[0], own)),
-        sub(load(rest[1], partner), load(rest[1], own)),
-        sub(load(rest[2], partner), load(rest[2], own)),
-    ];
-    bond_lanes(&xi, &eta, bonds.rest_length_m, bonds.stiffness)
 }
 
 /// A chunk's force and smallest-stretch totals, each the chunk's slots long.
@@ -150,19 +141,16 @@ struct BlockPlace<'a> {
 }
 
 /// Breaks the bonds of a block whose stretches passed the cheap bound where they exceed their
-/// effective threshold (zero stiffness, infinite threshold, logged once in `breaks`); true if
-/// any broke. Out of line: the kernel's registers stay its own on the path without breaks.
-#[cold]
-#[inline(never)]
+/// effective threshold (zero stiffness, infinite threshold, logged once in `breaks`) and zeroes
+/// their lanes' stretch and force scale.
 fn break_lanes(
     context: &LatticeContext,
     bonds: &mut LatticeBlock,
     place: &BlockPlace,
     breaks: &mut Vec<u64>,
-    stretch: Lanes,
-) -> bool {
+    [stretch, scale]: [&mut Lanes; 2],
+) {
     let boost = context.boost;
-    let mut broke = false;
     for lane in 0..LANES {
         let (mine, theirs) = (boost[place.own + lane], boost[place.partner + lane]);
         if stretch[lane] > effective_threshold(context.rule, bonds.threshold[lane], mine, theirs) {
@@ -171,8 +159,8 @@ fn break_lanes(
             if place.internal || context.particle_of[place.own + lane] < context.particle_of[place.partner + lane] {
                 breaks.push(place.ids[lane]);
             }
-            broke = true;
+            stretch[lane] = 0.0;
+            scale[lane] = 0.0;
         }
     }
-    broke
 }
