@@ -18,7 +18,7 @@
 # render.
 #
 # It installs what is missing: lammps with apt-get (as root), the Python peers into .peers-venv/
-# (ignored by git). Takes about 4 minutes a run on 2 cores.
+# (ignored by git). Takes about 15 minutes a run on 2 cores (the lattice and irregular groups about 3).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 runs=${1:-3}
