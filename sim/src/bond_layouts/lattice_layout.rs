@@ -28,7 +28,7 @@ use rayon::prelude::*;
 use shatter_core::particles::ParticleSet;
 
 use super::EntryValues;
-use super::row_layout::{BondEntry, LANES, PADDING};
+use super::row_layout::{BondEntry, LANES, PADDING, bond_id};
 
 /// Empty slots on each side of a row: bonds may reach at most this many sites along x.
 pub const GHOST: usize = 8;
@@ -317,24 +317,35 @@ impl LatticePlan {
         Some(LatticePlan { chunk_slots, slot_of, particle_of, chunks })
     }
 
-    /// Calls `lane(block, lane, i, k)` for every lane of chunk `shape` that holds a bond: particle
-    /// i's file entry k.
-    pub(crate) fn for_each_lane(
+    /// Every chunk's shape, blocks and lane bond ids: the blocks start as `padding`, and
+    /// `lane(block, lane, i, k)` fills each lane that holds a bond, particle i's file entry k;
+    /// a lane's id is the bond's ([`bond_id`]), [`PADDING`] for none.
+    pub(crate) fn fill_chunks<B: Copy + Send + Sync>(
         &self,
-        shape: &ChunkShape,
-        entries: &[u64],
-        mut lane: impl FnMut(usize, usize, usize, usize),
-    ) {
-        for (brick, &own) in shape.brick_slot.iter().enumerate() {
-            for (block, _) in shape.brick_blocks(brick) {
-                for l in 0..LANES {
-                    let k = entries[block * LANES + l];
-                    if k != PADDING {
-                        lane(block, l, self.particle_of[own as usize + l] as usize, k as usize);
+        particles: &ParticleSet,
+        padding: B,
+        lane: impl Fn(&mut B, usize, usize, usize) + Sync,
+    ) -> Vec<(ChunkShape, Vec<B>, Vec<u64>)> {
+        self.chunks
+            .par_iter()
+            .map(|(shape, entries)| {
+                let mut blocks = vec![padding; entries.len() / LANES];
+                let mut ids = vec![PADDING; entries.len()];
+                for (brick, &own) in shape.brick_slot.iter().enumerate() {
+                    for (block, _) in shape.brick_blocks(brick) {
+                        for l in 0..LANES {
+                            let k = entries[block * LANES + l];
+                            if k != PADDING {
+                                let i = self.particle_of[own as usize + l] as usize;
+                                lane(&mut blocks[block], l, i, k as usize);
+                                ids[block * LANES + l] = bond_id(particles, i, k as usize);
+                            }
+                        }
                     }
                 }
-            }
-        }
+                (shape.clone(), blocks, ids)
+            })
+            .collect()
     }
 }
 
@@ -344,20 +355,14 @@ impl LatticeTable {
     pub(crate) fn new(particles: &ParticleSet, values: &EntryValues) -> Option<LatticeTable> {
         let plan = LatticePlan::new(particles)?;
         let chunks = plan
-            .chunks
-            .par_iter()
-            .map(|(shape, entries)| {
-                let mut blocks = vec![LatticeBlock::PADDING; entries.len() / LANES];
-                let mut bond_id = vec![PADDING; entries.len()];
-                plan.for_each_lane(shape, entries, |block, lane, i, k| {
-                    let entry = BondEntry::new(particles, values, i, k);
-                    blocks[block].threshold[lane] = entry.threshold;
-                    blocks[block].stiffness[lane] = entry.stiffness;
-                    blocks[block].rest_length_m[lane] = entry.rest_length_m;
-                    bond_id[block * LANES + lane] = entry.bond_id;
-                });
-                LatticeChunk { shape: shape.clone(), blocks, bond_id, breaks: Vec::new() }
+            .fill_chunks(particles, LatticeBlock::PADDING, |block, lane, i, k| {
+                let entry = BondEntry::new(particles, values, i, k);
+                block.threshold[lane] = entry.threshold;
+                block.stiffness[lane] = entry.stiffness;
+                block.rest_length_m[lane] = entry.rest_length_m;
             })
+            .into_iter()
+            .map(|(shape, blocks, bond_id)| LatticeChunk { shape, blocks, bond_id, breaks: Vec::new() })
             .collect();
         let mut slots = SlotArrays::new(plan.particle_of.len(), PmbSlot::COUNT);
         slots.set_rest(PmbSlot::REST, &plan.slot_of, particles);

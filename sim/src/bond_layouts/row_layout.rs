@@ -110,24 +110,32 @@ pub struct BondEntry {
     pub bond_id: u64,
 }
 
+/// The id of the bond that is particle i's file entry k: the lower particle's entry for it,
+/// the same from either end.
+pub fn bond_id(particles: &ParticleSet, i: usize, k: usize) -> u64 {
+    let bonds = &particles.bonds;
+    let j = bonds.neighbor[k] as usize;
+    let id = if i < j {
+        k
+    } else {
+        bonds.find(j, i as u32).unwrap_or_else(|| unreachable!("validated: bonds are symmetric"))
+    };
+    id as u64
+}
+
 impl BondEntry {
     /// Particle i's file entry k (a bond of i's row) with the values of `values`.
     pub(crate) fn new(particles: &ParticleSet, values: &EntryValues, i: usize, k: usize) -> BondEntry {
         let bonds = &particles.bonds;
         let j = bonds.neighbor[k] as usize;
         let (xi, xj) = (particles.rest_position_m[i], particles.rest_position_m[j]);
-        let id = if i < j {
-            k
-        } else {
-            bonds.find(j, i as u32).unwrap_or_else(|| unreachable!("validated: bonds are symmetric"))
-        };
         BondEntry {
             neighbor: j as u32,
             rest_vector: [0, 1, 2].map(|axis| xj[axis] - xi[axis]),
             rest_length_m: bonds.rest_length_m[k],
             threshold: values.threshold(k),
             stiffness: values.stiffness(i, j, bonds.rest_length_m[k]),
-            bond_id: id as u64,
+            bond_id: bond_id(particles, i, k),
         }
     }
 }

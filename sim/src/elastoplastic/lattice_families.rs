@@ -142,33 +142,23 @@ impl LatticeFamilies {
         let plan = LatticePlan::new(particles)?;
         let (bonds, position, delta) = (&particles.bonds, &particles.rest_position_m, particles.meta.delta_m);
         let chunks: Vec<FamilyChunk> = plan
-            .chunks
-            .par_iter()
-            .map(|(shape, entries)| {
-                let mut blocks = vec![FamilyBlock::PADDING; entries.len() / LANES];
-                let mut bond_id = vec![PADDING; entries.len()];
-                plan.for_each_lane(shape, entries, |block, lane, i, k| {
-                    let j = bonds.neighbor[k] as usize;
-                    let xi = [0, 1, 2].map(|axis| position[j][axis] - position[i][axis]);
-                    let rest = bonds.rest_length_m[k];
-                    let omega_ij = constants.influence(delta, position[i], xi);
-                    let omega_ji = constants.influence(delta, position[j], xi.map(|x| -x));
-                    let mean = 0.5 * (f64::from(omega_ij) + f64::from(omega_ji));
-                    let bonds_of = &mut blocks[block];
-                    bonds_of.rest_length_m[lane] = rest;
-                    bonds_of.influence[lane] = omega_ij;
-                    bonds_of.reverse_influence[lane] = omega_ji;
-                    bonds_of.threshold[lane] = threshold(k);
-                    bonds_of.break_scale[lane] = (1.0 / (mean * f64::from(rest))) as f32;
-                    let id = if i < j {
-                        k
-                    } else {
-                        bonds.find(j, i as u32).unwrap_or_else(|| unreachable!("validated: bonds are symmetric"))
-                    };
-                    bond_id[block * LANES + lane] = id as u64;
-                });
+            .fill_chunks(particles, FamilyBlock::PADDING, |bonds_of, lane, i, k| {
+                let j = bonds.neighbor[k] as usize;
+                let xi = [0, 1, 2].map(|axis| position[j][axis] - position[i][axis]);
+                let rest = bonds.rest_length_m[k];
+                let omega_ij = constants.influence(delta, position[i], xi);
+                let omega_ji = constants.influence(delta, position[j], xi.map(|x| -x));
+                let mean = 0.5 * (f64::from(omega_ij) + f64::from(omega_ji));
+                bonds_of.rest_length_m[lane] = rest;
+                bonds_of.influence[lane] = omega_ij;
+                bonds_of.reverse_influence[lane] = omega_ji;
+                bonds_of.threshold[lane] = threshold(k);
+                bonds_of.break_scale[lane] = (1.0 / (mean * f64::from(rest))) as f32;
+            })
+            .into_iter()
+            .map(|(shape, blocks, bond_id)| {
                 let plastic = vec![[[0.0; LANES]; 2]; blocks.len()];
-                FamilyChunk { shape: shape.clone(), blocks, plastic, bond_id, breaks: Vec::new() }
+                FamilyChunk { shape, blocks, plastic, bond_id, breaks: Vec::new() }
             })
             .collect();
         let mut slots = SlotArrays::new(plan.particle_of.len(), FamilySlot::COUNT);
