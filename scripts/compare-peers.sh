@@ -10,7 +10,8 @@
 #   200,000 points in three layouts;
 # - nearest hits of camera rays against Embree 4 (PyPI `embreex`) on the render bench's scene
 #   and rays, on one thread (one process) and on all cores (as many processes); our shaded
-#   primary rays beside them.
+#   primary rays beside them; and full glass paths (8 events), our glass pass against Embree's
+#   ray queries alone for the same paths (`peers/embree_glass.py`).
 #
 #   scripts/compare-peers.sh [RUNS [GROUPS]]
 #
@@ -18,7 +19,7 @@
 # render.
 #
 # It installs what is missing: lammps with apt-get (as root), the Python peers into .peers-venv/
-# (ignored by git). Takes about 15 minutes a run on 2 cores (the lattice and irregular groups about 3).
+# (ignored by git). Takes about 17 minutes a run on 2 cores (the lattice and irregular groups about 3, render about 2.5).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 runs=${1:-3}

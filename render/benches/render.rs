@@ -5,7 +5,8 @@
 //!
 //! `cargo bench -p shatter-render --bench render [-- WIDTH HEIGHT]` (default 640 x 360 for the CPU).
 //! On the CPU it times the nearest hits alone (as a ray-casting library counts them), then
-//! primary hits shaded, then full glass paths.
+//! primary hits shaded, then full glass paths (`scripts/peers/embree_glass.py` traces the same
+//! paths with Embree).
 //! On a GPU it times primary hits and full glass paths at the CPU's size, printing how far its
 //! images are from the CPU's, and then, on a hardware GPU, at 1920 x 1080 x 4 spp. The cubes
 //! carry their face adjacency, as preprocessing gives every grid (the glass walk uses it).
@@ -139,10 +140,14 @@ fn main() {
         let image = render(&geometry, &look, &camera(width, height), 1);
         let seconds = started.elapsed().as_secs_f64();
         let hits = image.pixels.iter().filter(|p| p.alpha > 0.0).count();
+        // the image's mean, to set beside a peer tracing the same paths (scripts/peers/embree_glass.py)
+        let sum: f64 = image.pixels.iter().flat_map(|p| p.color).map(f64::from).sum();
         println!(
-            "  CPU ({} threads), {label}: {width} x {height} x 1 spp in {seconds:.2} s: {:.2} M rays/s ({hits} pixels on glass)",
+            "  CPU ({} threads), {label}: {width} x {height} x 1 spp in {seconds:.2} s: {:.3} M rays/s ({hits} pixels on \
+             glass; mean colour {:.5})",
             rayon::current_num_threads(),
-            f64::from(width * height) / seconds / 1e6
+            f64::from(width * height) / seconds / 1e6,
+            sum / (3.0 * image.pixels.len() as f64)
         );
         cpu_images.push(image);
     }

@@ -86,14 +86,24 @@ def delaunay(add):
 def render(add, cores):
     # Embree's figure is nearest hits, unshaded: ours beside it is the same query; our shaded
     # primary rays (the glass's Fresnel split and two environment lookups per hit) are shown too.
+    # Full glass paths: Embree's ray queries alone for the same paths (embree_glass.py), against
+    # our whole glass pass; the two images' means must agree, or the paths were not the same.
     for threads in (1, cores):
         ours = bench("shatter-render", "render", ["640", "360"], threads=threads)
         nearest = number(r"CPU \(\d+ threads?\), nearest hits: .* s: ([\d.]+) M rays/s", ours, "our nearest-hit rate")
         shaded = number(r"CPU \(\d+ threads?\), primary hits only: .* s: ([\d.]+) M rays/s", ours, "our ray rate")
+        glass = number(r"CPU \(\d+ threads?\), glass paths, 8 events: .* s: ([\d.]+) M rays/s", ours, "our glass path rate")
+        our_mean = number(r"glass paths, 8 events: .*mean colour ([\d.]+)", ours, "our glass image's mean")
         theirs = python("embree_primary.py", [640, 360, threads])
         embree = number(r"primary hits: .* s: ([\d.]+) M rays/s", theirs, "Embree's ray rate")
         add(f"nearest hits vs Embree, {threads} thread(s) / process(es)", nearest / embree)
         add(f"primary rays shaded vs Embree's nearest hits, {threads} thread(s) / process(es)", shaded / embree)
+        theirs = python("embree_glass.py", [640, 360, threads])
+        embree_glass = number(r"ray queries alone .* s: ([\d.]+) M rays/s", theirs, "Embree's glass path rate")
+        their_mean = number(r"mean colour ([\d.]+)", theirs, "Embree's glass image's mean")
+        if abs(their_mean - our_mean) > 1e-3 * our_mean:
+            sys.exit(f"compare-peers: the glass images differ (mean {our_mean} against Embree's {their_mean})")
+        add(f"full glass paths vs Embree's ray queries alone, {threads} thread(s) / process(es)", glass / embree_glass)
 
 
 def main():
@@ -114,6 +124,7 @@ def main():
         "elastoplastic vs LAMMPS": ">= 10x",
         "Delaunay vs TetGen": ">= 1x",
         "nearest hits vs Embree": ">= 1x",
+        "full glass paths vs Embree": ">= 1x",
     }
     print(f"\n| comparison ({runs} runs, {cores} cores) | min | median | max | target |")
     print("|---|---|---|---|---|")
