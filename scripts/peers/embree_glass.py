@@ -19,13 +19,12 @@ shading, as our tracer's own code does) and Embree's queries alone, the least a 
 Embree would take for these paths. PROCESSES processes trace the rows between them.
 """
 
-import multiprocessing as mp
 import sys
 import time
 
 import numpy as np
 
-from embree_primary import rays, scene
+from embree_primary import in_processes, rays, scene
 
 IOR = np.float32(1.5)
 ABSORPTION = np.array([1.0, 0.3, 0.6], dtype=np.float32)
@@ -263,15 +262,7 @@ def worker(width, height, rows, start, results):
 
 def main():
     width, height, processes = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
-    start = mp.Barrier(processes)
-    results = mp.Queue()
-    parts = np.array_split(np.arange(height), processes)
-    workers = [mp.Process(target=worker, args=(width, height, rows, start, results)) for rows in parts]
-    for w in workers:
-        w.start()
-    done = [results.get() for _ in workers]
-    for w in workers:
-        w.join()
+    done = in_processes(worker, width, height, processes)
     seconds, queries_s = max(d[0] for d in done), max(d[1] for d in done)
     queries, count, total = sum(d[2] for d in done), sum(d[3] for d in done), sum(d[4] for d in done)
     print(

@@ -68,8 +68,10 @@ def worker(width, height, rows, start, results):
     results.put((time.perf_counter() - began, int((np.asarray(hits) >= 0).sum()), len(origins), build))
 
 
-def main():
-    width, height, processes = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
+def in_processes(worker, width, height, processes):
+    """Runs `worker(width, height, rows, start, results)` in `processes` processes, the image's
+    rows shared between them, each waiting at `start` (a barrier) before it times its work and
+    puts one tuple on `results`; returns the tuples."""
     start = mp.Barrier(processes)
     results = mp.Queue()
     parts = np.array_split(np.arange(height), processes)
@@ -79,6 +81,12 @@ def main():
     done = [results.get() for _ in workers]
     for w in workers:
         w.join()
+    return done
+
+
+def main():
+    width, height, processes = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
+    done = in_processes(worker, width, height, processes)
     seconds = max(d[0] for d in done)
     hits, count = sum(d[1] for d in done), sum(d[2] for d in done)
     print(f"embree scene of 7,200,000 triangles and its BVH built in {max(d[3] for d in done):.2f} s", flush=True)
