@@ -9,9 +9,10 @@ environment of 1): it enters the glass at its nearest hit, walks through the uni
 where it ends, and there reflects inside or refracts out by Schlick's Fresnel term; the first
 two interface events of a path split it into both branches, later ones choose one with the
 tracer's own hash (`trace::random`, same pixel, sample and event numbers), so the paths are the
-bench's paths. Embree has no union of solids: inside the glass, a path crosses each cube face
-that has a cube behind it with one more ray query from the crossing point, as shatter's walk
-steps from cube to cube.
+bench's paths. Embree has no union of solids: inside the glass, a path crosses every face it
+meets with one more ray query from the crossing point for as long as the point just past it
+lies in a cube (the cubes are turned about their centres, so neighbours overlap and leave
+gaps), as shatter's walk steps from cube to cube until no cube holds the point.
 
 The paths run as a wavefront: all paths take their next event together, each event's ray
 queries one `run` call over all of them. Two times are printed: all of it (NumPy does the

@@ -6,7 +6,7 @@
 
 use shatter_core::config::sim::BreakRule;
 
-use super::lanes::{BondLanes, LANES, Lanes, add, bond_lanes, load, min, mul, neg, sub};
+use super::lanes::{BondLanes, LANES, Lanes, add, any_greater, bond_lanes, load, min, mul, neg, sub};
 use super::springs::{ChunkForces, break_bound, effective_threshold};
 use crate::bond_layouts::lattice_layout::{ChunkShape, LatticeBlock, LatticeChunk, SlotInputs};
 
@@ -70,12 +70,7 @@ pub fn lattice_spring_forces(
                 sub(load(rest[2], partner), load(rest[2], own)),
             ];
             let BondLanes { y, mut stretch, mut scale } = bond_lanes(&xi, &eta, bonds.rest_length_m, bonds.stiffness);
-            let limit = add(bonds.threshold, bound);
-            let mut suspects = false;
-            for lane in 0..LANES {
-                suspects |= stretch[lane] > limit[lane];
-            }
-            if suspects {
+            if any_greater(stretch, add(bonds.threshold, bound)) {
                 let place = BlockPlace { own, partner, internal, ids: &bond_id[block * LANES..(block + 1) * LANES] };
                 break_lanes(&context, bonds, &place, breaks, [&mut stretch, &mut scale]);
             }
