@@ -1,11 +1,12 @@
 //! Contact between particles that are not bonded, by the paper's quadratic repulsion (eq. 6).
 //!
-//! Candidate pairs come from a Verlet list: every particle within the contact distance plus a
-//! skin, found with a spatial hash (binned by a stable counting sort) and rebuilt only when some
-//! particle has moved more than half the skin since the last build. Each particle's candidates
-//! are sorted by index, so forces are summed in the same order however often the list was
-//! rebuilt (a resumed run matches an uninterrupted one bit for bit). In intact material the
-//! lists are empty: particles sit a lattice spacing apart, farther than distance plus skin.
+//! Candidate pairs come from Verlet lists: every particle within the contact distance plus a
+//! skin, found with a spatial hash (binned by a stable counting sort). Each particle's list is
+//! searched again only when that particle has moved more than a quarter of the skin
+//! ([`ContactList`] says why that is enough). Each particle's candidates are sorted by index,
+//! so forces are summed in the same order however often the lists were searched (a resumed run
+//! matches an uninterrupted one bit for bit). In intact material the lists are empty: particles
+//! sit a lattice spacing apart, farther than distance plus skin.
 
 use rayon::prelude::*;
 
@@ -99,17 +100,49 @@ impl SpatialHash {
 /// The skin of the contact list as a fraction of the contact distance.
 pub const SKIN_FRACTION: f32 = 0.5;
 
-/// Candidate contact pairs, valid while no particle has moved half the skin since the build.
+/// Candidate contact pairs: each particle's list holds every particle within the contact
+/// distance, and more.
+///
+/// Each particle's list is rebuilt on its own, when the particle has moved more than a quarter
+/// of the skin since its last rebuild; a rebuild also enters the particle in (or takes it out
+/// of) the lists of the particles it finds (or no longer finds), so a pair is listed in both
+/// lists or in neither. Why that suffices: take a pair and the later of its two last rebuilds,
+/// at time t. Then the pair is listed if and only if it was closer than the contact distance plus
+/// the skin at t. Since t, the particle rebuilt at t has moved at most a quarter of the skin, and
+/// the other at most half (a quarter since its own rebuild, and a quarter from then to t, else
+/// it would have been rebuilt at t too). A pair closer than the contact distance now was
+/// therefore closer than the distance plus three quarters of the skin at t, and is listed.
+///
+/// Only the particles that moved are searched again: in a shot where a few fragments fly fast
+/// and the rest barely move, a rebuild costs the movers' searches, not every particle's. The
+/// spatial hash the searches use is not rebuilt for every search either: a search looks
+/// [`HASH_MARGIN`] further than the lists reach, so the hash serves until some particle has
+/// moved that far from where it was binned. Lists
+/// differ from lists built from scratch only in pairs farther apart than the contact distance,
+/// which add no force; forces are summed in increasing index, so they come out bit for bit the
+/// same however the lists were built (a resumed run, which starts from empty lists, matches an
+/// uninterrupted one).
 #[derive(Debug, Clone, Default)]
 pub struct ContactList {
     distance: f32,
     skin: f32,
     hash: SpatialHash,
+    /// Where each particle was when the hash was built (infinite before the first build).
+    hashed_at: [Vec<f32>; 3],
+    /// Where each particle was when its list was last searched (infinite before).
     built_at: [Vec<f32>; 3],
-    offsets: Vec<u32>,
-    candidates: Vec<u32>,
-    builds: u64,
+    lists: Vec<Vec<u32>>,
+    searches: u64,
+    hash_builds: u64,
 }
+
+/// How much further than the lists reach (contact distance plus skin) a search looks, as a
+/// fraction of that reach. The hash is rebuilt when some particle has moved 80% of the margin
+/// since it was binned; the other 20% covers the rounding of distances in f32.
+pub const HASH_MARGIN: f32 = 0.5;
+
+/// Particles per work item of the scan for particles due a search.
+const SCAN_CHUNK: usize = 4096;
 
 impl ContactList {
     /// An empty list for `n` particles and contact distance `distance` (built on first use).
@@ -118,40 +151,69 @@ impl ContactList {
         ContactList {
             distance,
             skin,
-            hash: SpatialHash::new(n, distance + skin),
+            hash: SpatialHash::new(n, (1.0 + HASH_MARGIN) * (distance + skin)),
+            hashed_at: [vec![f32::INFINITY; n], vec![f32::INFINITY; n], vec![f32::INFINITY; n]],
             built_at: [vec![f32::INFINITY; n], vec![f32::INFINITY; n], vec![f32::INFINITY; n]],
-            offsets: vec![0; n + 1],
-            candidates: Vec::new(),
-            builds: 0,
+            lists: vec![Vec::new(); n],
+            searches: 0,
+            hash_builds: 0,
         }
     }
 
-    /// How many times the list has been built.
-    pub fn builds(&self) -> u64 {
-        self.builds
+    /// How many particle lists have been searched, and how many times the hash was built, over
+    /// all updates.
+    pub fn work(&self) -> (u64, u64) {
+        (self.searches, self.hash_builds)
     }
 
-    /// Rebuilds the list if some particle at `x` has moved more than half the skin since the
-    /// last build.
+    /// Searches again the lists of the particles at `x` that have moved more than a quarter of
+    /// the skin since their last search (all of them at first).
     pub fn update(&mut self, x: [&[f32]; 3]) {
-        let limit = 0.25 * self.skin * self.skin;
-        let built_at = &self.built_at;
-        let stale = (0..x[0].len()).into_par_iter().any(|i| {
-            let d2: f32 = (0..3).map(|a| (x[a][i] - built_at[a][i]).powi(2)).sum();
-            d2 > limit || d2.is_nan()
-        });
-        if !stale {
+        let n = x[0].len();
+        let reach = self.distance + self.skin;
+        let limit = (0.25 * self.skin).powi(2);
+        let drift_limit = (0.8 * HASH_MARGIN * reach).powi(2);
+        let (built_at, hashed_at) = (&self.built_at, &self.hashed_at);
+        let moved_from =
+            |from: &[Vec<f32>; 3], i: usize| -> f32 { (0..3).map(|a| (x[a][i] - from[a][i]).powi(2)).sum() };
+        // One pass in chunks (a parallel pass per particle costs more to share out than to do):
+        // the particles due a search, and whether any has drifted from where the hash has it.
+        let scans: Vec<(Vec<usize>, bool)> = (0..n.div_ceil(SCAN_CHUNK))
+            .into_par_iter()
+            .map(|chunk| {
+                let mut moved = Vec::new();
+                let mut drifted = false;
+                for i in chunk * SCAN_CHUNK..n.min((chunk + 1) * SCAN_CHUNK) {
+                    let d2 = moved_from(built_at, i);
+                    if d2 > limit || d2.is_nan() {
+                        moved.push(i);
+                    }
+                    let drift = moved_from(hashed_at, i);
+                    drifted |= drift > drift_limit || drift.is_nan();
+                }
+                (moved, drifted)
+            })
+            .collect();
+        let stale_hash = scans.iter().any(|(_, drifted)| *drifted);
+        let moved: Vec<usize> = scans.into_iter().flat_map(|(moved, _)| moved).collect();
+        if moved.is_empty() {
             return;
         }
-        self.hash.rebuild(x);
-        let reach = self.distance + self.skin;
+        if stale_hash {
+            self.hash.rebuild(x);
+            for (axis, hashed_at) in self.hashed_at.iter_mut().enumerate() {
+                hashed_at.copy_from_slice(x[axis]);
+            }
+            self.hash_builds += 1;
+        }
         let hash = &self.hash;
-        let lists: Vec<Vec<u32>> = (0..x[0].len())
-            .into_par_iter()
-            .map(|i| {
+        let look = (1.0 + HASH_MARGIN) * reach;
+        let found: Vec<Vec<u32>> = moved
+            .par_iter()
+            .map(|&i| {
                 let p = [x[0][i], x[1][i], x[2][i]];
                 let mut near = Vec::new();
-                hash.for_each_candidate(p, reach, |j| {
+                hash.for_each_candidate(p, look, |j| {
                     let d2: f32 = (0..3).map(|a| (p[a] - x[a][j]).powi(2)).sum();
                     if j != i && d2 < reach * reach {
                         near.push(j as u32);
@@ -161,20 +223,39 @@ impl ContactList {
                 near
             })
             .collect();
-        self.candidates.clear();
-        for (i, near) in lists.iter().enumerate() {
-            self.candidates.extend_from_slice(near);
-            self.offsets[i + 1] = self.candidates.len() as u32;
+        // The others' lists, in a fixed order: a pair of two movers was decided alike from both
+        // ends (the same squared distance), and each mover's own list is replaced below.
+        let is_moved = |j: u32| moved.binary_search(&(j as usize)).is_ok();
+        for (&i, near) in moved.iter().zip(&found) {
+            let me = i as u32;
+            let old = std::mem::take(&mut self.lists[i]);
+            for &j in old.iter().filter(|&&j| !is_moved(j)) {
+                if near.binary_search(&j).is_err() {
+                    let list = &mut self.lists[j as usize];
+                    if let Ok(at) = list.binary_search(&me) {
+                        list.remove(at);
+                    }
+                }
+            }
+            for &j in near.iter().filter(|&&j| !is_moved(j)) {
+                let list = &mut self.lists[j as usize];
+                if let Err(at) = list.binary_search(&me) {
+                    list.insert(at, me);
+                }
+            }
         }
-        for (axis, built_at) in self.built_at.iter_mut().enumerate() {
-            built_at.copy_from_slice(x[axis]);
+        for (i, near) in moved.iter().zip(found) {
+            self.lists[*i] = near;
+            for (built_at, x) in self.built_at.iter_mut().zip(x) {
+                built_at[*i] = x[*i];
+            }
         }
-        self.builds += 1;
+        self.searches += moved.len() as u64;
     }
 
     /// Particle i's candidates, in increasing index.
     pub fn candidates(&self, i: usize) -> &[u32] {
-        &self.candidates[self.offsets[i] as usize..self.offsets[i + 1] as usize]
+        &self.lists[i]
     }
 }
 
@@ -227,6 +308,69 @@ mod tests {
             sorted.dedup();
             assert_eq!(sorted.len(), found.len(), "no duplicates");
         }
+    }
+
+    #[test]
+    fn lists_keep_every_close_pair_while_a_few_particles_fly() {
+        let mut state = 5u64;
+        let mut next = || {
+            state = shatter_core::random::splitmix64(state);
+            (state >> 40) as f32 / (1u32 << 24) as f32 - 0.5
+        };
+        let (n, distance) = (1500, 0.01f32);
+        let mut x: [Vec<f32>; 3] = [0, 1, 2].map(|_| (0..n).map(|_| next() * 0.1).collect());
+        let mut list = ContactList::new(n, distance);
+        for step in 0..300 {
+            // One particle in ten jumps about at random, up to 3 mm a step along each axis; the
+            // others creep steadily, up to 20 um a step.
+            for (a, axis) in x.iter_mut().enumerate() {
+                for (i, value) in axis.iter_mut().enumerate() {
+                    *value += if i % 10 == 0 { 6e-3 * next() } else { 4e-5 * (((i * 3 + a) % 7) as f32 / 7.0 - 0.5) };
+                }
+            }
+            list.update([&x[0], &x[1], &x[2]]);
+            for i in 0..n {
+                let near = list.candidates(i);
+                assert!(near.windows(2).all(|pair| pair[0] < pair[1]), "sorted, no repeats");
+                for j in 0..n {
+                    let r2: f32 = (0..3).map(|a| (x[a][i] - x[a][j]).powi(2)).sum();
+                    if j != i && r2 < distance * distance {
+                        assert!(near.contains(&(j as u32)), "step {step}: {j} missing near {i}");
+                    }
+                }
+                for &j in near {
+                    assert!(list.candidates(j as usize).contains(&(i as u32)), "pairs are listed both ways");
+                }
+            }
+        }
+        // A creeping particle is searched again every few dozen updates, not whenever a
+        // jumping one has moved a quarter of the skin.
+        let (searches, hash_builds) = list.work();
+        assert!(searches < (n * 300 / 5) as u64, "{searches} searches");
+        assert!(hash_builds > 1 && hash_builds < 300, "{hash_builds} hash builds");
+    }
+
+    #[test]
+    fn a_pair_searched_at_different_times_is_not_lost() {
+        // The worst case of the argument on `ContactList`: particle 0 moves away, particle 1 is
+        // searched (and drops 0, now beyond its reach), then both close in, 0 by twice what it
+        // moved away. Under a limit of half the skin instead of a quarter, neither would be
+        // searched again and the pair, now within the contact distance, would be lost.
+        let (distance, skin) = (0.01f32, SKIN_FRACTION * 0.01);
+        let (reach, half) = (distance + skin, 0.5 * skin);
+        let mut x = [vec![0.0, reach - half + 2e-4], vec![0.0, 0.0], vec![0.0, 0.0]];
+        let mut list = ContactList::new(2, distance);
+        list.update([&x[0], &x[1], &x[2]]);
+        assert_eq!(list.candidates(0), &[1]);
+        x[0][0] = -(half - 1e-4);
+        x[1][1] = half + 1e-4;
+        list.update([&x[0], &x[1], &x[2]]);
+        x[0][0] = half - 1e-4;
+        x[0][1] -= half - 1e-4;
+        let r = ((x[0][1] - x[0][0]).powi(2) + x[1][1].powi(2)).sqrt();
+        assert!(r < distance, "{r}: the pair has come within the contact distance");
+        list.update([&x[0], &x[1], &x[2]]);
+        assert_eq!((list.candidates(0), list.candidates(1)), (&[1][..], &[0][..]));
     }
 
     #[test]
