@@ -132,6 +132,8 @@ pub struct ContactList {
     /// Where each particle was when its list was last searched (infinite before).
     built_at: [Vec<f32>; 3],
     lists: Vec<Vec<u32>>,
+    /// Whether each particle is searched in the current update (all false between updates).
+    searched_now: Vec<bool>,
     searches: u64,
     hash_builds: u64,
 }
@@ -155,6 +157,7 @@ impl ContactList {
             hashed_at: [vec![f32::INFINITY; n], vec![f32::INFINITY; n], vec![f32::INFINITY; n]],
             built_at: [vec![f32::INFINITY; n], vec![f32::INFINITY; n], vec![f32::INFINITY; n]],
             lists: vec![Vec::new(); n],
+            searched_now: vec![false; n],
             searches: 0,
             hash_builds: 0,
         }
@@ -225,11 +228,13 @@ impl ContactList {
             .collect();
         // The others' lists, in a fixed order: a pair of two movers was decided alike from both
         // ends (the same squared distance), and each mover's own list is replaced below.
-        let is_moved = |j: u32| moved.binary_search(&(j as usize)).is_ok();
+        for &i in &moved {
+            self.searched_now[i] = true;
+        }
         for (&i, near) in moved.iter().zip(&found) {
             let me = i as u32;
             let old = std::mem::take(&mut self.lists[i]);
-            for &j in old.iter().filter(|&&j| !is_moved(j)) {
+            for &j in old.iter().filter(|&&j| !self.searched_now[j as usize]) {
                 if near.binary_search(&j).is_err() {
                     let list = &mut self.lists[j as usize];
                     if let Ok(at) = list.binary_search(&me) {
@@ -237,7 +242,7 @@ impl ContactList {
                     }
                 }
             }
-            for &j in near.iter().filter(|&&j| !is_moved(j)) {
+            for &j in near.iter().filter(|&&j| !self.searched_now[j as usize]) {
                 let list = &mut self.lists[j as usize];
                 if let Err(at) = list.binary_search(&me) {
                     list.insert(at, me);
@@ -245,6 +250,7 @@ impl ContactList {
             }
         }
         for (i, near) in moved.iter().zip(found) {
+            self.searched_now[*i] = false;
             self.lists[*i] = near;
             for (built_at, x) in self.built_at.iter_mut().zip(x) {
                 built_at[*i] = x[*i];
