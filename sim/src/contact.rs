@@ -117,11 +117,12 @@ pub const SKIN_FRACTION: f32 = 0.5;
 /// and the rest barely move, a rebuild costs the movers' searches, not every particle's. The
 /// spatial hash the searches use is not rebuilt for every search either: a search looks
 /// [`HASH_MARGIN`] further than the lists reach, so the hash serves until some particle has
-/// moved that far from where it was binned. Lists
-/// differ from lists built from scratch only in pairs farther apart than the contact distance,
-/// which add no force; forces are summed in increasing index, so they come out bit for bit the
-/// same however the lists were built (a resumed run, which starts from empty lists, matches an
-/// uninterrupted one).
+/// moved most of that margin from where it was binned.
+///
+/// Lists differ from lists built from scratch only in pairs farther apart than the contact
+/// distance, which add no force; forces are summed in increasing index, so they come out bit for
+/// bit the same however the lists were built (a resumed run, which starts from empty lists,
+/// matches an uninterrupted one).
 #[derive(Debug, Clone, Default)]
 pub struct ContactList {
     distance: f32,
