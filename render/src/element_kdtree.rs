@@ -89,10 +89,25 @@ impl KdTree {
         direction: [f32; 3],
         t_start: f32,
         t_end: f32,
+        hit: impl FnMut(u32, f32, f32) -> f32,
+    ) -> u32 {
+        self.traverse_within(&self.bounds, origin, direction, t_start, t_end, hit)
+    }
+
+    /// [`KdTree::traverse`] over the part of the ray inside `within` only (a box inside the
+    /// tree's bounds, such as one fragment's): the leaves it visits are those the whole ray
+    /// visits there, each with its interval clipped to the box.
+    pub fn traverse_within(
+        &self,
+        within: &Aabb,
+        origin: [f32; 3],
+        direction: [f32; 3],
+        t_start: f32,
+        t_end: f32,
         mut hit: impl FnMut(u32, f32, f32) -> f32,
     ) -> u32 {
         let inverse = direction.map(inverse_component);
-        let Some((scene_min, scene_max)) = clip(&self.bounds, origin, inverse, t_start, t_end) else {
+        let Some((scene_min, scene_max)) = clip(within, origin, inverse, t_start, t_end) else {
             return 0;
         };
         let mut stack = [(0u32, 0.0f32, 0.0f32); SHORT_STACK];
@@ -186,6 +201,19 @@ impl KdTree {
         origin: [f32; 3],
         directions: &[[f32; 3]],
         t_start: f32,
+        hit: impl FnMut(u32, u32) -> [f32; PACKET],
+    ) -> bool {
+        self.traverse_packet_within(&self.bounds, origin, directions, t_start, hit)
+    }
+
+    /// [`KdTree::traverse_packet`] over the part of each ray inside `within` only (as
+    /// [`KdTree::traverse_within`]).
+    pub fn traverse_packet_within(
+        &self,
+        within: &Aabb,
+        origin: [f32; 3],
+        directions: &[[f32; 3]],
+        t_start: f32,
         mut hit: impl FnMut(u32, u32) -> [f32; PACKET],
     ) -> bool {
         assert!(directions.len() <= PACKET, "a packet holds at most {PACKET} rays");
@@ -198,7 +226,7 @@ impl KdTree {
             for axis in 0..3 {
                 inverse[axis][r] = ray_inverse[axis];
             }
-            if let Some((near, far)) = clip(&self.bounds, origin, ray_inverse, t_start, f32::INFINITY) {
+            if let Some((near, far)) = clip(within, origin, ray_inverse, t_start, f32::INFINITY) {
                 (t_min[r], t_max[r]) = (near, far);
                 rays |= 1 << r;
             }

@@ -6,6 +6,7 @@ use bytemuck::{Pod, Zeroable};
 use shatter_core::particles::ElementType;
 use shatter_gpu::{ComputeKernel, GpuContext, GpuError, wgpu};
 
+use crate::element_kdtree::KdTree;
 use crate::mattes::MatteCounts;
 use crate::primitives::TRIANGLE_GROUP;
 use crate::scene::{Camera, SceneGeometry};
@@ -74,11 +75,18 @@ impl GpuTracer {
         samples: u32,
     ) -> Result<Rendered, GpuError> {
         let non_empty = |v: Vec<[f32; 4]>| if v.is_empty() { vec![[0.0; 4]] } else { v };
-        let nodes = ctx.create_storage_buffer("kd nodes", &scene.tree.nodes)?;
-        let items = ctx.create_storage_buffer(
-            "kd items",
-            if scene.tree.items.is_empty() { &[0u32][..] } else { &scene.tree.items },
-        )?;
+        // The shaders walk one world tree (the CPU's index of a frame's fragments is not theirs).
+        let built;
+        let tree = match scene.index.world_tree() {
+            Some(tree) => tree,
+            None => {
+                built = KdTree::build(&scene.element_bounds);
+                &built
+            }
+        };
+        let nodes = ctx.create_storage_buffer("kd nodes", &tree.nodes)?;
+        let items =
+            ctx.create_storage_buffer("kd items", if tree.items.is_empty() { &[0u32][..] } else { &tree.items })?;
         let plane_offsets = ctx.create_storage_buffer("plane offsets", &scene.plane_offsets)?;
         let planes = ctx.create_storage_buffer("planes", &non_empty(scene.planes.clone()))?;
         let triangle_offsets = ctx.create_storage_buffer("triangle offsets", &scene.triangle_offsets)?;
@@ -130,8 +138,8 @@ impl GpuTracer {
                 u32::from(look.floor.is_some()),
                 u32::from(look.show_environment),
             ],
-            scene_min: vec4(scene.tree.bounds.min, scene.slack),
-            scene_max: vec4(scene.tree.bounds.max, look.ior),
+            scene_min: vec4(tree.bounds.min, scene.slack),
+            scene_max: vec4(tree.bounds.max, look.ior),
             absorption: vec4(look.absorption, look.specular),
             albedo: vec4(look.albedo, look.shininess),
             floor: [

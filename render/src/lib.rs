@@ -2,6 +2,8 @@
 //! multi-layer EXR (and PNG previews).
 //!
 //! - [`element_kdtree`]: the SAH k-d tree over element bounds, with short-stack traversal.
+//! - [`element_index`]: the CPU tracer's two-level index: one rest-frame tree for a render, and
+//!   per frame a tree over the fragments' boxes.
 //! - [`primitives`]: ray hits of cubes, tetrahedra and trimtopes, and their CSG unions.
 //! - [`scene`]: the elements of a frame placed by their fragments' motions; the camera.
 //! - [`lighting`]: SH environment light, Blinn-Phong, the environment map.
@@ -14,6 +16,7 @@
 //! - [`render_driver`]: the stage's driver (frame ranges, progress).
 
 pub mod cryptomatte;
+pub mod element_index;
 pub mod element_kdtree;
 pub mod gpu_trace;
 pub mod image_out;

@@ -304,6 +304,8 @@ pub fn run_render(
     progress.start("render", frames.len() as u64);
     // Each frame needs its neighbours' motions too; frames already read are kept while needed.
     let mut loaded: BTreeMap<u32, Option<FragmentFrame>> = BTreeMap::new();
+    // One k-d tree of the elements at rest for every frame (the CPU tracer's; see element_index).
+    let rest = matches!(tracer, Tracer::Cpu).then(|| SceneGeometry::rest_tree(&particles));
     for &frame in &frames {
         let neighbours = frame.saturating_sub(1).max(1)..=(frame + 1).min(shot.last);
         loaded.retain(|f, _| neighbours.contains(f));
@@ -315,7 +317,7 @@ pub fn run_render(
         let fragments = loaded[&frame].as_ref();
         let previous = (frame > 1).then(|| loaded[&(frame - 1)].as_ref());
         let next = (frame < shot.last).then(|| loaded[&(frame + 1)].as_ref());
-        let scene = SceneGeometry::build(&particles, fragments);
+        let scene = SceneGeometry::build_with(&particles, fragments, rest.as_ref());
         let rendered = tracer.render(&scene, &look, &camera, samples)?;
         let motion = motion_vectors(&camera, &rendered.pixels, fragments, previous, next);
         let ids: Vec<u32> = (0..fragments.map_or(1, |f| f.fragment_count() as u32)).collect();

@@ -9,7 +9,8 @@ use rayon::prelude::*;
 use shatter_core::fragments::{FragmentFrame, is_affine_rigid};
 use shatter_core::particles::{ElementType, Elements, ParticleSet};
 
-use crate::element_kdtree::{Aabb, KdTree};
+use crate::element_index::{ElementIndex, RestTree};
+use crate::element_kdtree::Aabb;
 use crate::primitives::{Plane, WIDEN, cube_planes, sort_triangles_spatially, tet_planes, triangle_groups};
 use crate::trace::NONE;
 
@@ -47,8 +48,11 @@ pub struct SceneGeometry {
     /// else [`crate::trace::NONE`]. A ray walking through a union, leaving an element by a plane,
     /// tries that neighbour before it asks the k-d tree (see [`crate::trace::union_exit`]).
     pub face_neighbours: Vec<u32>,
-    /// The k-d tree over the elements' bounds.
-    pub tree: KdTree,
+    /// Each element's world bounds, widened by twice `slack` (what a world k-d tree is built
+    /// over: the GPU tracer's).
+    pub element_bounds: Vec<Aabb>,
+    /// Where the CPU tracer finds the elements a ray may meet.
+    pub index: ElementIndex,
     /// How far elements are widened in ray tests (so touching elements leave no cracks), metres.
     pub slack: f32,
 }
@@ -86,6 +90,28 @@ impl SceneGeometry {
 
     /// The scene of `particles` moved by `fragments` (the rest state when None).
     pub fn build(particles: &ParticleSet, fragments: Option<&FragmentFrame>) -> SceneGeometry {
+        let rest = fragments.map(|_| SceneGeometry::rest_tree(particles));
+        SceneGeometry::build_with(particles, fragments, rest.as_ref())
+    }
+
+    /// The k-d tree of `particles`' elements at rest, which every frame of a render can share
+    /// (see [`crate::element_index`]).
+    pub fn rest_tree(particles: &ParticleSet) -> RestTree {
+        let exact: Vec<Aabb> = (0..particles.len())
+            .into_par_iter()
+            .map(|e| rigid_element(particles, e, Quat::IDENTITY, Vec3::ZERO).3)
+            .collect();
+        let lambda = particles.meta.lambda_m as f32;
+        RestTree::new(&exact, WIDEN * lambda, lambda)
+    }
+
+    /// [`SceneGeometry::build`] with the render's rest tree (of these particles): rigidly moved
+    /// fragments are then found through it, without a k-d tree built for the frame.
+    pub fn build_with(
+        particles: &ParticleSet,
+        fragments: Option<&FragmentFrame>,
+        rest: Option<&RestTree>,
+    ) -> SceneGeometry {
         let n = particles.len();
         let motion = |e: usize| -> (Quat, Vec3) {
             match fragments {
@@ -127,14 +153,14 @@ impl SceneGeometry {
             fragment,
             interior_faces: Vec::new(),
             face_neighbours: Vec::new(),
-            tree: KdTree::build(&[]),
+            element_bounds: Vec::with_capacity(n),
+            index: ElementIndex::world(&[]),
             slack: WIDEN * particles.meta.lambda_m as f32,
         };
         scene.plane_offsets.push(0);
         scene.triangle_offsets.push(0);
         scene.triangle_group_offsets.push(0);
         let slack = scene.slack;
-        let mut bounds = Vec::with_capacity(n);
         for (planes, triangles, site, b) in per_element {
             scene.planes.extend(planes);
             scene.plane_offsets.push(scene.planes.len() as u32);
@@ -143,12 +169,24 @@ impl SceneGeometry {
             scene.triangles.extend(triangles);
             scene.triangle_offsets.push(scene.triangles.len() as u32);
             scene.sites.push(site);
-            bounds.push(Aabb { min: b.min.map(|v| v - 2.0 * slack), max: b.max.map(|v| v + 2.0 * slack) });
+            scene
+                .element_bounds
+                .push(Aabb { min: b.min.map(|v| v - 2.0 * slack), max: b.max.map(|v| v + 2.0 * slack) });
         }
         scene.face_neighbours = face_neighbours(particles, &scene.plane_offsets);
         scene.interior_faces =
             interior_faces(&scene.face_neighbours, &scene.plane_offsets, cube_seams(particles, fragments));
-        scene.tree = KdTree::build(&bounds);
+        let deformed = affine.is_some_and(|maps| maps.iter().any(|map| !is_affine_rigid(map)));
+        let moved = match (fragments, rest) {
+            (Some(frame), Some(rest)) if !deformed => {
+                let motions: Vec<(Quat, Vec3)> = (0..frame.rotation.len())
+                    .map(|f| (Quat::from_array(frame.rotation[f]), DVec3::from_array(frame.translation_m[f]).as_vec3()))
+                    .collect();
+                ElementIndex::of_fragments(rest, &frame.fragment_of, &motions, &scene.element_bounds)
+            }
+            _ => None,
+        };
+        scene.index = moved.unwrap_or_else(|| ElementIndex::world(&scene.element_bounds));
         scene
     }
 }
@@ -461,6 +499,7 @@ impl Camera {
 mod tests {
     use super::*;
     use crate::primitives::polytope_contains;
+    use glam::DQuat;
     use shatter_core::fragments::{AFFINE_RIGID, FragmentMeta};
     use shatter_core::particles::{Bonds, ParticleMeta};
 
@@ -515,7 +554,7 @@ mod tests {
                 scene.planes_of(0).iter().filter(|p| (p[0] * v[0] + p[1] * v[1] + p[2] * v[2] - p[3]).abs() < 1e-6);
             assert_eq!(on.count(), 3, "corner {corner}");
             assert!(polytope_contains(scene.planes_of(0), 1e-6, v));
-            let bounds = &scene.tree.bounds;
+            let bounds = &scene.element_bounds[0];
             assert!((0..3).all(|k| bounds.min[k] <= v[k] && v[k] <= bounds.max[k]));
         }
         // plane k of the deformed cube is the image of the rest cube's plane k (face numbering kept)
@@ -569,5 +608,101 @@ mod tests {
             let forward = DVec3::from_array(camera.forward.map(f64::from));
             assert!((z - t * direction.dot(forward)).abs() < 1e-5);
         }
+    }
+
+    /// A deterministic number in [0, 1) from `k`.
+    fn unit(k: u64) -> f32 {
+        let x = k.wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(29).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        (x >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    /// An 8 x 8 x 3 block of 0.1 m cubes in four quarters, each turned and moved apart a little
+    /// as the pieces of a broken plate are, and the frame that places them.
+    fn broken_block() -> (ParticleSet, FragmentFrame) {
+        let mut positions = Vec::new();
+        for z in 0..3 {
+            for y in 0..8 {
+                for x in 0..8 {
+                    positions.push([x as f32 * 0.1, y as f32 * 0.1 + 0.3, z as f32 * 0.1]);
+                }
+            }
+        }
+        let fragment_of: Vec<u32> =
+            positions.iter().map(|p| u32::from(p[0] > 0.35) + 2 * u32::from(p[1] > 0.65)).collect();
+        let turn = |f: usize| {
+            let axis = DVec3::new(1.0 + f as f64, 2.0, 0.5 - f as f64).normalize();
+            DQuat::from_axis_angle(axis, 0.02 * (f as f64 + 1.0)).as_quat().to_array()
+        };
+        let frame = FragmentFrame {
+            meta: FragmentMeta { frame: 2, step: 1, time_s: 0.0, smoothed: false, inputs: None },
+            elements: (0..4).map(|f| fragment_of.iter().filter(|&&g| g == f).count() as u32).collect(),
+            fragment_of,
+            rotation: (0..4).map(turn).collect(),
+            translation_m: (0..4).map(|f| [0.01 * f as f64, -0.004 * f as f64, 0.003]).collect(),
+            mass_kg: vec![1.0; 4],
+            element_affine: None,
+        };
+        (cubes(positions), frame)
+    }
+
+    #[test]
+    fn the_fragments_index_finds_what_a_search_of_every_element_finds() {
+        use crate::primitives::polytope_span;
+        use crate::trace::{NONE, closest_hit, closest_hits, element_at};
+        let (particles, frame) = broken_block();
+        let scene = SceneGeometry::build(&particles, Some(&frame));
+        let world = SceneGeometry::build_with(&particles, Some(&frame), None);
+        assert!(scene.index.world_tree().is_none(), "the fragments are found through the rest tree");
+        assert!(world.index.world_tree().is_some());
+        let point = |k: u64| [unit(k) * 1.0 - 0.1, unit(k + 1) * 1.0 + 0.2, unit(k + 2) * 0.5 - 0.1];
+        let (mut hits, mut inside) = (0, 0);
+        for k in 0..400u64 {
+            // rays from all around (some from inside the block) through points of the block
+            let origin = [unit(7 * k) * 3.0 - 1.0, unit(7 * k + 1) * 3.0 - 0.5, unit(7 * k + 2) * 3.0 - 1.5];
+            let directions: Vec<[f32; 3]> = (0..16u64)
+                .map(|r| {
+                    let target = point(1000 + 16 * k + 3 * r);
+                    let d = DVec3::from_array([0, 1, 2].map(|a| f64::from(target[a] - origin[a]))).normalize();
+                    d.as_vec3().to_array()
+                })
+                .collect();
+            let mut packet = vec![closest_hit(&scene, origin, directions[0], 0.0); 16];
+            closest_hits(&scene, origin, &directions, &mut packet);
+            for (r, &direction) in directions.iter().enumerate() {
+                // every element tested: the nearest entry, ties to the lower element
+                let mut nearest = (f32::INFINITY, NONE);
+                for e in 0..scene.len() {
+                    if let Some(span) = polytope_span(scene.planes_of(e), scene.slack, origin, direction)
+                        && span.t_in >= 0.0
+                        && span.plane_in != NONE
+                        && (span.t_in, e as u32) < nearest
+                    {
+                        nearest = (span.t_in, e as u32);
+                    }
+                }
+                let hit = closest_hit(&scene, origin, direction, 0.0);
+                assert_eq!((hit.t, hit.element), nearest, "ray {k}.{r}");
+                assert_eq!((packet[r].t, packet[r].element), nearest, "packet {k}, ray {r}");
+                let in_world = closest_hit(&world, origin, direction, 0.0);
+                assert_eq!((in_world.t, in_world.element), nearest, "world tree, ray {k}.{r}");
+                hits += usize::from(nearest.1 != NONE);
+            }
+            // the element holding a point: the lowest of those that hold it
+            let p = point(3 * k);
+            let holding =
+                (0..scene.len() as u32).find(|&e| polytope_contains(scene.planes_of(e as usize), scene.slack, p));
+            assert_eq!(element_at(&scene, p, NONE), holding.unwrap_or(NONE), "point {k}");
+            assert_eq!(element_at(&world, p, NONE), holding.unwrap_or(NONE), "point {k}, world tree");
+            inside += usize::from(holding.is_some());
+        }
+        assert!(hits > 3000 && inside > 100, "{hits} hits, {inside} points inside");
+    }
+
+    #[test]
+    fn pieces_beyond_the_rest_trees_margin_get_a_world_tree() {
+        let (particles, mut frame) = broken_block();
+        frame.translation_m[2] = [4000.0, 0.0, 0.0];
+        let scene = SceneGeometry::build(&particles, Some(&frame));
+        assert!(scene.index.world_tree().is_some());
     }
 }

@@ -110,7 +110,7 @@ impl Nearest {
 /// The nearest element surface along the ray from `t_min` on (ties go to the lower element).
 pub fn closest_hit(scene: &SceneGeometry, origin: [f32; 3], direction: [f32; 3], t_min: f32) -> Hit {
     let mut nearest = Nearest::NONE;
-    scene.tree.traverse(origin, direction, t_min, f32::INFINITY, |e, _, _| {
+    scene.index.traverse(&scene.fragment, origin, direction, t_min, |e| {
         nearest.offer(e, element_entry(scene, e as usize, origin, direction, t_min));
         nearest.t
     });
@@ -123,7 +123,7 @@ pub fn closest_hit(scene: &SceneGeometry, origin: [f32; 3], direction: [f32; 3],
 /// [`crate::element_kdtree::KdTree::traverse_packet`]).
 pub fn closest_hits(scene: &SceneGeometry, origin: [f32; 3], directions: &[[f32; 3]], hits: &mut [Hit]) {
     let mut nearest = [Nearest::NONE; PACKET];
-    let traversed = scene.tree.traverse_packet(origin, directions, 0.0, |e, rays| {
+    let traversed = scene.index.traverse_packet(&scene.fragment, origin, directions, 0.0, |e, rays| {
         for r in each_ray(rays) {
             nearest[r].offer(e, element_entry(scene, e as usize, origin, directions[r], 0.0));
         }
@@ -134,11 +134,11 @@ pub fn closest_hits(scene: &SceneGeometry, origin: [f32; 3], directions: &[[f32;
     }
 }
 
-/// The element (other than `except`) holding `point`, if any.
+/// The lowest element (other than `except`) holding `point`, if any.
 pub fn element_at(scene: &SceneGeometry, point: [f32; 3], except: u32) -> u32 {
     let mut found = NONE;
-    scene.tree.for_each_at(point, |e| {
-        if found == NONE && e != except && polytope_contains(scene.planes_of(e as usize), scene.slack, point) {
+    scene.index.for_each_at(&scene.fragment, point, |e| {
+        if e < found && e != except && polytope_contains(scene.planes_of(e as usize), scene.slack, point) {
             found = e;
         }
     });
@@ -801,7 +801,7 @@ mod tests {
         let tet_set = set(tets.iter().map(|t| t[0]).collect(), Elements::Tets { vertices_m: tets.clone() });
         let scenes = [cubes(grid), SceneGeometry::build(&tet_set, None)];
         for (s, scene) in scenes.iter().enumerate() {
-            let [a, b] = scene.tree.nodes[0];
+            let [a, b] = crate::element_kdtree::KdTree::build(&scene.element_bounds).nodes[0];
             let (axis, split) = ((a & 3) as usize, f32::from_bits(b));
             let mut on_split = DVec3::new(2.5, 2.5, 9.0);
             on_split[axis] = f64::from(split);

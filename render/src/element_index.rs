@@ -1,0 +1,273 @@
+//! Where the CPU tracer looks for the elements a ray may meet. The fragments move rigidly, so
+//! their elements keep their places relative to one another: one k-d tree over the elements in
+//! their rest positions ([`RestTree`]) is built once for a whole render, and each frame builds
+//! only a small tree over its fragments' world boxes ([`ElementIndex`]). A ray that reaches a
+//! fragment's box is carried into the rest frame by the inverse of the fragment's motion and
+//! walks the rest tree inside the fragment's rest box, offering that fragment's own elements.
+//!
+//! The elements are still tested in world space, against the frame's planes, and a nearest hit
+//! does not depend on which tree offered the candidates (ties go to the lower element), so the
+//! images are those of one world tree per frame. What the rest tree must guarantee is only that
+//! it offers every element a ray can hit: its element boxes are widened by a margin that covers
+//! the f32 rounding of the frame's placement of the elements. A frame whose motions that margin
+//! does not cover (pieces very far from the origin), or whose pieces deform (affine maps that are
+//! not rigid), gets one world tree over its elements instead.
+
+use std::sync::Arc;
+
+use glam::{DQuat, DVec3, Quat, Vec3};
+
+use crate::element_kdtree::{Aabb, KdTree, PACKET};
+
+/// The instance that holds every element (a world tree, or the unmoved rest state).
+const EVERY: u32 = u32::MAX;
+
+/// The elements' k-d tree in their rest positions, for every frame of a render.
+#[derive(Debug, Clone)]
+pub struct RestTree {
+    /// The tree over `bounds`.
+    tree: Arc<KdTree>,
+    /// Each element's rest box, widened by `margin_m`.
+    bounds: Vec<Aabb>,
+    /// How far the boxes are widened beyond the elements, metres.
+    margin_m: f32,
+    /// The tracers' widening of the elements ([`crate::scene::SceneGeometry::slack`]), metres.
+    slack_m: f32,
+    /// The largest coordinate of any rest box, metres.
+    reach_m: f32,
+}
+
+impl RestTree {
+    /// The tree over the elements' exact rest boxes `exact`, each widened by twice the tracers'
+    /// `slack_m` (as the world tree's) and by 1/256 of the lattice spacing `lambda_m` for the
+    /// rounding of the frames' motions.
+    pub fn new(exact: &[Aabb], slack_m: f32, lambda_m: f32) -> RestTree {
+        let margin_m = 2.0 * slack_m + lambda_m / 256.0;
+        let bounds: Vec<Aabb> =
+            exact.iter().map(|b| Aabb { min: b.min.map(|v| v - margin_m), max: b.max.map(|v| v + margin_m) }).collect();
+        let reach_m = bounds.iter().flat_map(|b| b.min.into_iter().chain(b.max)).fold(0.0f32, |r, v| r.max(v.abs()));
+        RestTree { tree: Arc::new(KdTree::build(&bounds)), bounds, margin_m, slack_m, reach_m }
+    }
+
+    /// Whether the margin covers elements placed by `motions` (rotation, translation) in f32: a
+    /// few roundings of coordinates as large as the rest boxes' plus the largest translation.
+    fn covers(&self, motions: &[(Quat, Vec3)]) -> bool {
+        let travel = motions.iter().fold(0.0f32, |r, (_, t)| r.max(t.abs().max_element()));
+        let need = 2.0 * self.slack_m + 16.0 * f32::EPSILON * 3.0 * (self.reach_m + travel);
+        need <= self.margin_m && motions.iter().all(|(q, t)| q.is_finite() && t.is_finite())
+    }
+}
+
+/// One fragment's (or every element's) entry in an [`ElementIndex`].
+#[derive(Debug, Clone, PartialEq)]
+struct Instance {
+    /// The fragment whose elements it offers, or [`EVERY`].
+    fragment: u32,
+    /// World to tree frame: x -> `rotation` (x - `translation`) `scale` (the inverse of the
+    /// fragment's x = s R X + t, with s = |q|^2 as glam applies a quaternion); None for the
+    /// identity.
+    to_tree: Option<(DQuat, DVec3, f64)>,
+    /// Its box in the tree's frame.
+    tree_box: Aabb,
+}
+
+impl Instance {
+    /// A point in the tree's frame.
+    fn point(&self, p: [f32; 3]) -> [f32; 3] {
+        match self.to_tree {
+            None => p,
+            Some((rotation, translation, scale)) => {
+                ((rotation * (DVec3::from_array(p.map(f64::from)) - translation)) * scale).as_vec3().to_array()
+            }
+        }
+    }
+
+    /// A direction in the tree's frame (ray parameters are kept).
+    fn vector(&self, d: [f32; 3]) -> [f32; 3] {
+        match self.to_tree {
+            None => d,
+            Some((rotation, _, scale)) => {
+                ((rotation * DVec3::from_array(d.map(f64::from))) * scale).as_vec3().to_array()
+            }
+        }
+    }
+
+    /// Whether element `e` is one of this instance's.
+    fn holds(&self, fragment_of: &[u32], e: u32) -> bool {
+        self.fragment == EVERY || fragment_of[e as usize] == self.fragment
+    }
+}
+
+/// The last few instances a ray (or packet) has walked, so that an instance listed in several
+/// leaves of the top tree is walked once (forgetting one only costs a second walk).
+struct Walked {
+    ids: [u32; 8],
+    next: usize,
+}
+
+impl Walked {
+    fn new() -> Walked {
+        Walked { ids: [u32::MAX; 8], next: 0 }
+    }
+
+    /// True the first time `instance` is seen (as far as the last eight go).
+    fn first(&mut self, instance: u32) -> bool {
+        if self.ids.contains(&instance) {
+            return false;
+        }
+        self.ids[self.next % self.ids.len()] = instance;
+        self.next += 1;
+        true
+    }
+}
+
+/// One frame's index of its elements for the CPU tracer (see the module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ElementIndex {
+    /// The tree the instances are walked in: the render's rest tree, or this frame's world tree.
+    tree: Arc<KdTree>,
+    /// The instances, in the order of `top`'s items.
+    instances: Vec<Instance>,
+    /// A k-d tree over the instances' world boxes.
+    top: KdTree,
+}
+
+impl ElementIndex {
+    /// One world tree over the elements' world boxes `bounds`.
+    pub fn world(bounds: &[Aabb]) -> ElementIndex {
+        let tree = KdTree::build(bounds);
+        let instance = Instance { fragment: EVERY, to_tree: None, tree_box: tree.bounds };
+        ElementIndex { top: KdTree::build(&[tree.bounds]), tree: Arc::new(tree), instances: vec![instance] }
+    }
+
+    /// The tree, when this is one world tree ([`ElementIndex::world`]).
+    pub fn world_tree(&self) -> Option<&KdTree> {
+        matches!(self.instances.as_slice(), [Instance { fragment: EVERY, to_tree: None, .. }]).then_some(&*self.tree)
+    }
+
+    /// The index of elements placed rigidly by their fragments: element e belongs to fragment
+    /// `fragment_of[e]`, moved by `motions[f]` (x = q X + t, as the scene places it) into world
+    /// boxes `bounds[e]`. None when `rest`'s margin does not cover these motions.
+    pub fn of_fragments(
+        rest: &RestTree,
+        fragment_of: &[u32],
+        motions: &[(Quat, Vec3)],
+        bounds: &[Aabb],
+    ) -> Option<ElementIndex> {
+        if !rest.covers(motions) || fragment_of.iter().any(|&f| f as usize >= motions.len()) {
+            return None;
+        }
+        let (mut world_box, mut tree_box) = (vec![Aabb::EMPTY; motions.len()], vec![Aabb::EMPTY; motions.len()]);
+        for (e, &f) in fragment_of.iter().enumerate() {
+            world_box[f as usize] = world_box[f as usize].union(&bounds[e]);
+            tree_box[f as usize] = tree_box[f as usize].union(&rest.bounds[e]);
+        }
+        let mut instances = Vec::new();
+        let mut boxes = Vec::new();
+        for (f, (q, t)) in motions.iter().enumerate() {
+            if tree_box[f].min[0] > tree_box[f].max[0] {
+                continue; // no elements
+            }
+            let q = DQuat::from_xyzw(f64::from(q.x), f64::from(q.y), f64::from(q.z), f64::from(q.w));
+            let s = q.length_squared();
+            let to_tree = (q.conjugate(), t.as_dvec3(), 1.0 / (s * s));
+            instances.push(Instance { fragment: f as u32, to_tree: Some(to_tree), tree_box: tree_box[f] });
+            boxes.push(world_box[f]);
+        }
+        Some(ElementIndex { tree: Arc::clone(&rest.tree), instances, top: KdTree::build(&boxes) })
+    }
+
+    /// Calls `hit(element)` for every element the ray `origin + t direction`, t from `t_start`
+    /// on, may meet before its nearest hit; `hit` returns the distance of the nearest hit so
+    /// far (or infinity). The nearest hit is the one a single tree over the elements would find.
+    pub fn traverse(
+        &self,
+        fragment_of: &[u32],
+        origin: [f32; 3],
+        direction: [f32; 3],
+        t_start: f32,
+        mut hit: impl FnMut(u32) -> f32,
+    ) {
+        if let Some(tree) = self.world_tree() {
+            tree.traverse(origin, direction, t_start, f32::INFINITY, |e, _, _| hit(e));
+            return;
+        }
+        let mut best = f32::INFINITY;
+        let mut walked = Walked::new();
+        self.top.traverse(origin, direction, t_start, f32::INFINITY, |i, _, _| {
+            if walked.first(i) {
+                let instance = &self.instances[i as usize];
+                let (o, d) = (instance.point(origin), instance.vector(direction));
+                self.tree.traverse_within(&instance.tree_box, o, d, t_start, f32::INFINITY, |e, _, _| {
+                    if instance.holds(fragment_of, e) {
+                        best = hit(e);
+                    }
+                    best
+                });
+            }
+            best
+        });
+    }
+
+    /// [`ElementIndex::traverse`] for a packet of rays from one `origin` (at most [`PACKET`]
+    /// `directions`), each instance walked with [`KdTree::traverse_packet_within`]:
+    /// `hit(element, rays)` gets the bit mask of the rays that may meet the element and returns
+    /// every ray's nearest hit so far. False when a walk gave up (see
+    /// [`KdTree::traverse_packet`]): trace the rays alone.
+    pub fn traverse_packet(
+        &self,
+        fragment_of: &[u32],
+        origin: [f32; 3],
+        directions: &[[f32; 3]],
+        t_start: f32,
+        mut hit: impl FnMut(u32, u32) -> [f32; PACKET],
+    ) -> bool {
+        if let Some(tree) = self.world_tree() {
+            return tree.traverse_packet(origin, directions, t_start, hit);
+        }
+        let mut best = [f32::INFINITY; PACKET];
+        let mut walked = Walked::new();
+        let mut whole = true;
+        let mut local = [[0.0f32; 3]; PACKET];
+        let top_whole = self.top.traverse_packet(origin, directions, t_start, |i, _| {
+            if whole && walked.first(i) {
+                let instance = &self.instances[i as usize];
+                for (to, &from) in local.iter_mut().zip(directions) {
+                    *to = instance.vector(from);
+                }
+                let o = instance.point(origin);
+                whole = self.tree.traverse_packet_within(
+                    &instance.tree_box,
+                    o,
+                    &local[..directions.len()],
+                    t_start,
+                    |e, rays| {
+                        if instance.holds(fragment_of, e) {
+                            best = hit(e, rays);
+                        }
+                        best
+                    },
+                );
+            }
+            best
+        });
+        top_whole && whole
+    }
+
+    /// Calls `visit(element)` for elements near `point`; every element whose box holds the
+    /// point is among them.
+    pub fn for_each_at(&self, fragment_of: &[u32], point: [f32; 3], mut visit: impl FnMut(u32)) {
+        if let Some(tree) = self.world_tree() {
+            tree.for_each_at(point, visit);
+            return;
+        }
+        self.top.for_each_at(point, |i| {
+            let instance = &self.instances[i as usize];
+            self.tree.for_each_at(instance.point(point), |e| {
+                if instance.holds(fragment_of, e) {
+                    visit(e);
+                }
+            });
+        });
+    }
+}
