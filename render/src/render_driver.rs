@@ -18,14 +18,14 @@ use shatter_core::stage_file::StageFileError;
 use shatter_core::{OutputLayout, PipelineConfig, Progress};
 use shatter_gpu::{AdapterChoice, GpuContext, GpuError};
 
-use crate::cryptomatte::{fragment_matte, material_matte};
+use crate::cryptomatte::{Matte, fragment_matte, material_matte};
 use crate::element_kdtree::Aabb;
 use crate::gpu_trace::GpuTracer;
 use crate::image_out::{FrameHeader, FrameLayers, ImageError, write_exr, write_png};
 use crate::lighting::{EnvironmentMap, LightingError, key_light, sh_project};
 use crate::motion::motion_vectors;
 use crate::scene::{Camera, SceneGeometry};
-use crate::trace::{FloorLook, Look, Rendered, render};
+use crate::trace::{FloorLook, Look, Pixel, Rendered, render};
 
 /// Why rendering failed.
 #[derive(Debug, thiserror::Error)]
@@ -268,6 +268,33 @@ fn read_fragments(
     Ok(Some(fragments))
 }
 
+/// One frame's finished image, to be written as its EXR (and PNG preview).
+struct FrameFiles {
+    /// Width and height, pixels.
+    size: [usize; 2],
+    pixels: Vec<Pixel>,
+    motion: Vec<[f32; 4]>,
+    mattes: [Matte; 2],
+    header: FrameHeader,
+    /// The EXR's path.
+    exr: PathBuf,
+    /// The preview's path and exposure, stops.
+    preview: Option<(PathBuf, f32)>,
+}
+
+impl FrameFiles {
+    /// Writes the EXR, then the preview.
+    fn write(self) -> Result<(), ImageError> {
+        let [width, height] = self.size;
+        let layers = FrameLayers { pixels: &self.pixels, motion: &self.motion, mattes: &self.mattes };
+        write_exr(&self.exr, width, height, &layers, &self.header)?;
+        if let Some((path, exposure)) = &self.preview {
+            write_png(path, width, height, &self.pixels, *exposure)?;
+        }
+        Ok(())
+    }
+}
+
 /// Renders the frames `frames` (all of the shot's when None) of `config` on `backend` (the
 /// config's `render.backend` when None), calling `after_frame` when each frame is written.
 pub fn run_render(
@@ -306,39 +333,70 @@ pub fn run_render(
     let mut loaded: BTreeMap<u32, Option<FragmentFrame>> = BTreeMap::new();
     // One k-d tree of the elements at rest for every frame (the CPU tracer's; see element_index).
     let rest = matches!(tracer, Tracer::Cpu).then(|| SceneGeometry::rest_tree(&particles));
-    for &frame in &frames {
-        let neighbours = frame.saturating_sub(1).max(1)..=(frame + 1).min(shot.last);
-        loaded.retain(|f, _| neighbours.contains(f));
-        for f in neighbours {
-            if let std::collections::btree_map::Entry::Vacant(slot) = loaded.entry(f) {
-                slot.insert(read_fragments(&layout, &shot, f, particles.len(), inputs)?);
+    let mut trace_frames = |write: &mut dyn FnMut(u32, FrameFiles) -> Result<(), RenderError>| {
+        for &frame in &frames {
+            let neighbours = frame.saturating_sub(1).max(1)..=(frame + 1).min(shot.last);
+            loaded.retain(|f, _| neighbours.contains(f));
+            for f in neighbours {
+                if let std::collections::btree_map::Entry::Vacant(slot) = loaded.entry(f) {
+                    slot.insert(read_fragments(&layout, &shot, f, particles.len(), inputs)?);
+                }
             }
+            let fragments = loaded[&frame].as_ref();
+            let previous = (frame > 1).then(|| loaded[&(frame - 1)].as_ref());
+            let next = (frame < shot.last).then(|| loaded[&(frame + 1)].as_ref());
+            let scene = SceneGeometry::build_with(&particles, fragments, rest.as_ref());
+            let rendered = tracer.render(&scene, &look, &camera, samples)?;
+            let motion = motion_vectors(&camera, &rendered.pixels, fragments, previous, next);
+            let ids: Vec<u32> = (0..fragments.map_or(1, |f| f.fragment_count() as u32)).collect();
+            let mattes = [fragment_matte(&rendered.mattes, &ids), material_matte(&rendered.mattes)];
+            let header = FrameHeader {
+                comment: format!("shatter render: scene {}, frame {frame}", config.scene.name),
+                world_to_camera: camera.world_to_camera(),
+                world_to_ndc: camera.world_to_ndc(),
+                frames_per_second: config.scene.frames_per_second,
+                simulation_time_s: shot.time_s(frame, fragments.map_or(0.0, |f| f.meta.time_s)),
+            };
+            let preview = render_config
+                .previews
+                .then(|| (layout.render_frame(frame, "png"), render_config.preview_exposure_stops as f32));
+            let exr = layout.render_frame(frame, "exr");
+            write(
+                frame,
+                FrameFiles {
+                    size: [width as usize, height as usize],
+                    pixels: rendered.pixels,
+                    motion,
+                    mattes,
+                    header,
+                    exr,
+                    preview,
+                },
+            )?;
         }
-        let fragments = loaded[&frame].as_ref();
-        let previous = (frame > 1).then(|| loaded[&(frame - 1)].as_ref());
-        let next = (frame < shot.last).then(|| loaded[&(frame + 1)].as_ref());
-        let scene = SceneGeometry::build_with(&particles, fragments, rest.as_ref());
-        let rendered = tracer.render(&scene, &look, &camera, samples)?;
-        let motion = motion_vectors(&camera, &rendered.pixels, fragments, previous, next);
-        let ids: Vec<u32> = (0..fragments.map_or(1, |f| f.fragment_count() as u32)).collect();
-        let mattes = [fragment_matte(&rendered.mattes, &ids), material_matte(&rendered.mattes)];
-        let layers = FrameLayers { pixels: &rendered.pixels, motion: &motion, mattes: &mattes };
-        let header = FrameHeader {
-            comment: format!("shatter render: scene {}, frame {frame}", config.scene.name),
-            world_to_camera: camera.world_to_camera(),
-            world_to_ndc: camera.world_to_ndc(),
-            frames_per_second: config.scene.frames_per_second,
-            simulation_time_s: shot.time_s(frame, fragments.map_or(0.0, |f| f.meta.time_s)),
+        Ok(())
+    };
+    // Each frame's files are written while the next frame is traced (one frame in flight); a
+    // frame counts as done (`after_frame`, progress) once its files are.
+    std::thread::scope(|scope| -> Result<(), RenderError> {
+        let mut writing: Option<(u32, std::thread::ScopedJoinHandle<'_, Result<(), ImageError>>)> = None;
+        let mut finish = |writing: Option<(u32, std::thread::ScopedJoinHandle<'_, Result<(), ImageError>>)>| {
+            if let Some((frame, handle)) = writing {
+                handle.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))?;
+                after_frame(frame).map_err(|source| RenderError::AfterFrame { frame, source })?;
+                progress.advance(1);
+                progress.message(&format!("frame {frame}"));
+            }
+            Ok::<(), RenderError>(())
         };
-        write_exr(&layout.render_frame(frame, "exr"), width as usize, height as usize, &layers, &header)?;
-        if render_config.previews {
-            let exposure = render_config.preview_exposure_stops as f32;
-            write_png(&layout.render_frame(frame, "png"), width as usize, height as usize, &rendered.pixels, exposure)?;
-        }
-        after_frame(frame).map_err(|source| RenderError::AfterFrame { frame, source })?;
-        progress.advance(1);
-        progress.message(&format!("frame {frame}"));
-    }
+        let traced = trace_frames(&mut |frame, files| {
+            finish(writing.take())?;
+            writing = Some((frame, scope.spawn(move || files.write())));
+            Ok(())
+        });
+        let written = finish(writing.take());
+        traced.and(written)
+    })?;
     progress.finish();
     let wall_s = started.elapsed().as_secs_f64();
     let rays = f64::from(width) * f64::from(height) * f64::from(samples) * frames.len() as f64;
