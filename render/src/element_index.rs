@@ -17,7 +17,7 @@ use std::sync::Arc;
 
 use glam::{DQuat, DVec3, Quat, Vec3};
 
-use crate::element_kdtree::{Aabb, KdTree, PACKET};
+use crate::element_kdtree::{Aabb, KdTree, PACKET, each_ray};
 
 /// The instance that holds every element (a world tree, or the unmoved rest state).
 const EVERY: u32 = u32::MAX;
@@ -98,29 +98,6 @@ impl Instance {
     }
 }
 
-/// The last few instances a ray (or packet) has walked, so that an instance listed in several
-/// leaves of the top tree is walked once (forgetting one only costs a second walk).
-struct Walked {
-    ids: [u32; 8],
-    next: usize,
-}
-
-impl Walked {
-    fn new() -> Walked {
-        Walked { ids: [u32::MAX; 8], next: 0 }
-    }
-
-    /// True the first time `instance` is seen (as far as the last eight go).
-    fn first(&mut self, instance: u32) -> bool {
-        if self.ids.contains(&instance) {
-            return false;
-        }
-        self.ids[self.next % self.ids.len()] = instance;
-        self.next += 1;
-        true
-    }
-}
-
 /// One frame's index of its elements for the CPU tracer (see the module docs).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ElementIndex {
@@ -180,6 +157,9 @@ impl ElementIndex {
     /// Calls `hit(element)` for every element the ray `origin + t direction`, t from `t_start`
     /// on, may meet before its nearest hit; `hit` returns the distance of the nearest hit so
     /// far (or infinity). The nearest hit is the one a single tree over the elements would find.
+    /// Each fragment is walked over the interval of each leaf of the top tree that lists it, so
+    /// the walks go front to back and stop at the nearest hit, however the fragments' boxes
+    /// overlap.
     pub fn traverse(
         &self,
         fragment_of: &[u32],
@@ -193,24 +173,21 @@ impl ElementIndex {
             return;
         }
         let mut best = f32::INFINITY;
-        let mut walked = Walked::new();
-        self.top.traverse(origin, direction, t_start, f32::INFINITY, |i, _, _| {
-            if walked.first(i) {
-                let instance = &self.instances[i as usize];
-                let (o, d) = (instance.point(origin), instance.vector(direction));
-                self.tree.traverse_within(&instance.tree_box, o, d, t_start, f32::INFINITY, |e, _, _| {
-                    if instance.holds(fragment_of, e) {
-                        best = hit(e);
-                    }
-                    best
-                });
-            }
+        self.top.traverse(origin, direction, t_start, f32::INFINITY, |i, t_min, t_max| {
+            let instance = &self.instances[i as usize];
+            let (o, d) = (instance.point(origin), instance.vector(direction));
+            self.tree.traverse_within(&instance.tree_box, o, d, t_min, t_max, |e, _, _| {
+                if instance.holds(fragment_of, e) {
+                    best = hit(e);
+                }
+                best
+            });
             best
         });
     }
 
     /// [`ElementIndex::traverse`] for a packet of rays from one `origin` (at most [`PACKET`]
-    /// `directions`), each instance walked with [`KdTree::traverse_packet_within`]:
+    /// `directions`), each fragment walked with [`KdTree::traverse_packet_within`]:
     /// `hit(element, rays)` gets the bit mask of the rays that may meet the element and returns
     /// every ray's nearest hit so far. False when a walk gave up (see
     /// [`KdTree::traverse_packet`]): trace the rays alone.
@@ -226,31 +203,37 @@ impl ElementIndex {
             return tree.traverse_packet(origin, directions, t_start, hit);
         }
         let mut best = [f32::INFINITY; PACKET];
-        let mut walked = Walked::new();
         let mut whole = true;
         let mut local = [[0.0f32; 3]; PACKET];
-        let top_whole = self.top.traverse_packet(origin, directions, t_start, |i, _| {
-            if whole && walked.first(i) {
-                let instance = &self.instances[i as usize];
-                for (to, &from) in local.iter_mut().zip(directions) {
-                    *to = instance.vector(from);
+        let span = ([t_start; PACKET], [f32::INFINITY; PACKET]);
+        let top_whole =
+            self.top.traverse_packet_within(&self.top.bounds, origin, directions, span, |i, rays, (t_min, t_max)| {
+                if whole {
+                    let instance = &self.instances[i as usize];
+                    for (to, &from) in local.iter_mut().zip(directions) {
+                        *to = instance.vector(from);
+                    }
+                    // the rays that reach this leaf, over its interval; the others not at all
+                    let mut span = ([1.0f32; PACKET], [0.0f32; PACKET]);
+                    for r in each_ray(rays) {
+                        (span.0[r], span.1[r]) = (t_min[r], t_max[r]);
+                    }
+                    let o = instance.point(origin);
+                    whole = self.tree.traverse_packet_within(
+                        &instance.tree_box,
+                        o,
+                        &local[..directions.len()],
+                        span,
+                        |e, rays, _| {
+                            if instance.holds(fragment_of, e) {
+                                best = hit(e, rays);
+                            }
+                            best
+                        },
+                    );
                 }
-                let o = instance.point(origin);
-                whole = self.tree.traverse_packet_within(
-                    &instance.tree_box,
-                    o,
-                    &local[..directions.len()],
-                    t_start,
-                    |e, rays| {
-                        if instance.holds(fragment_of, e) {
-                            best = hit(e, rays);
-                        }
-                        best
-                    },
-                );
-            }
-            best
-        });
+                best
+            });
         top_whole && whole
     }
 

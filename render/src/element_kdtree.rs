@@ -175,7 +175,7 @@ impl KdTree {
 pub const PACKET: usize = 16;
 
 /// Interval bounds of a packet's rays.
-type Intervals = [f32; PACKET];
+pub type Intervals = [f32; PACKET];
 
 /// A subtree a packet still has to visit: its node, the rays that visit it, their intervals.
 struct PacketEntry {
@@ -201,20 +201,22 @@ impl KdTree {
         origin: [f32; 3],
         directions: &[[f32; 3]],
         t_start: f32,
-        hit: impl FnMut(u32, u32) -> [f32; PACKET],
+        mut hit: impl FnMut(u32, u32) -> [f32; PACKET],
     ) -> bool {
-        self.traverse_packet_within(&self.bounds, origin, directions, t_start, hit)
+        let span = ([t_start; PACKET], [f32::INFINITY; PACKET]);
+        self.traverse_packet_within(&self.bounds, origin, directions, span, |item, rays, _| hit(item, rays))
     }
 
-    /// [`KdTree::traverse_packet`] over the part of each ray inside `within` only (as
-    /// [`KdTree::traverse_within`]).
+    /// [`KdTree::traverse_packet`] over the part of each ray r inside `within` and between
+    /// `span.0[r]` and `span.1[r]` only (as [`KdTree::traverse_within`]); `hit` also gets the
+    /// leaf's interval of each ray.
     pub fn traverse_packet_within(
         &self,
         within: &Aabb,
         origin: [f32; 3],
         directions: &[[f32; 3]],
-        t_start: f32,
-        mut hit: impl FnMut(u32, u32) -> [f32; PACKET],
+        span: (Intervals, Intervals),
+        mut hit: impl FnMut(u32, u32, (&Intervals, &Intervals)) -> [f32; PACKET],
     ) -> bool {
         assert!(directions.len() <= PACKET, "a packet holds at most {PACKET} rays");
         // per axis, each ray's inverse direction component (lanes past the rays stay 1)
@@ -226,7 +228,7 @@ impl KdTree {
             for axis in 0..3 {
                 inverse[axis][r] = ray_inverse[axis];
             }
-            if let Some((near, far)) = clip(within, origin, ray_inverse, t_start, f32::INFINITY) {
+            if let Some((near, far)) = clip(within, origin, ray_inverse, span.0[r], span.1[r]) {
                 (t_min[r], t_max[r]) = (near, far);
                 rays |= 1 << r;
             }
@@ -281,7 +283,7 @@ impl KdTree {
                 }
                 let (first, count) = ((a >> 2) as usize, b as usize);
                 for &item in &self.items[first..first + count] {
-                    best = hit(item, rays);
+                    best = hit(item, rays, (&t_min, &t_max));
                 }
                 for r in each_ray(rays) {
                     if best[r] <= t_max[r] {
