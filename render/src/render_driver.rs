@@ -19,6 +19,7 @@ use shatter_core::{OutputLayout, PipelineConfig, Progress};
 use shatter_gpu::{AdapterChoice, GpuContext, GpuError};
 
 use crate::cryptomatte::{Matte, fragment_matte, material_matte};
+use crate::element_index::REST_TREE_MIN_ELEMENTS;
 use crate::element_kdtree::Aabb;
 use crate::gpu_trace::GpuTracer;
 use crate::image_out::{FrameHeader, FrameLayers, ImageError, write_exr, write_png};
@@ -332,7 +333,8 @@ pub fn run_render(
     // Each frame needs its neighbours' motions too; frames already read are kept while needed.
     let mut loaded: BTreeMap<u32, Option<FragmentFrame>> = BTreeMap::new();
     // One k-d tree of the elements at rest for every frame (the CPU tracer's; see element_index).
-    let rest = matches!(tracer, Tracer::Cpu).then(|| SceneGeometry::rest_tree(&particles));
+    let rest = (matches!(tracer, Tracer::Cpu) && particles.len() >= REST_TREE_MIN_ELEMENTS)
+        .then(|| SceneGeometry::rest_tree(&particles));
     let mut trace_frames = |write: &mut dyn FnMut(u32, FrameFiles) -> Result<(), RenderError>| {
         for &frame in &frames {
             let neighbours = frame.saturating_sub(1).max(1)..=(frame + 1).min(shot.last);
