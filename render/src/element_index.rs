@@ -117,11 +117,11 @@ pub struct ElementIndex {
 }
 
 impl ElementIndex {
-    /// One world tree over the elements' world boxes `bounds`.
+    /// One world tree over the elements' world boxes `bounds` (walked directly: no top tree).
     pub fn world(bounds: &[Aabb]) -> ElementIndex {
         let tree = KdTree::build(bounds);
         let instance = Instance { fragment: EVERY, to_tree: None, tree_box: tree.bounds };
-        ElementIndex { top: KdTree::build(&[tree.bounds]), tree: Arc::new(tree), instances: vec![instance] }
+        ElementIndex { top: KdTree::build(&[]), tree: Arc::new(tree), instances: vec![instance] }
     }
 
     /// The tree, when this is one world tree ([`ElementIndex::world`]).
