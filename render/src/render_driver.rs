@@ -269,6 +269,9 @@ fn read_fragments(
     Ok(Some(fragments))
 }
 
+/// The frame whose files are being written, and the thread writing them.
+type Writing<'scope> = Option<(u32, std::thread::ScopedJoinHandle<'scope, Result<(), ImageError>>)>;
+
 /// One frame's finished image, to be written as its EXR (and PNG preview).
 struct FrameFiles {
     /// Width and height, pixels.
@@ -381,8 +384,8 @@ pub fn run_render(
     // Each frame's files are written while the next frame is traced (one frame in flight); a
     // frame counts as done (`after_frame`, progress) once its files are.
     std::thread::scope(|scope| -> Result<(), RenderError> {
-        let mut writing: Option<(u32, std::thread::ScopedJoinHandle<'_, Result<(), ImageError>>)> = None;
-        let mut finish = |writing: Option<(u32, std::thread::ScopedJoinHandle<'_, Result<(), ImageError>>)>| {
+        let mut writing: Writing<'_> = None;
+        let mut finish = |writing: Writing<'_>| {
             if let Some((frame, handle)) = writing {
                 handle.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))?;
                 after_frame(frame).map_err(|source| RenderError::AfterFrame { frame, source })?;
