@@ -113,14 +113,15 @@ impl SceneGeometry {
         rest: Option<&RestTree>,
     ) -> SceneGeometry {
         let n = particles.len();
+        // Each fragment's rigid motion x = q X + t, as the elements are placed (f32).
+        let motions: Vec<(Quat, Vec3)> = fragments.map_or_else(Vec::new, |frame| {
+            (0..frame.rotation.len())
+                .map(|f| (Quat::from_array(frame.rotation[f]), DVec3::from_array(frame.translation_m[f]).as_vec3()))
+                .collect()
+        });
         let motion = |e: usize| -> (Quat, Vec3) {
             match fragments {
-                Some(frame) => {
-                    let f = frame.fragment_of[e] as usize;
-                    let q = Quat::from_array(frame.rotation[f]);
-                    let t = DVec3::from_array(frame.translation_m[f]);
-                    (q, t.as_vec3())
-                }
+                Some(frame) => motions[frame.fragment_of[e] as usize],
                 None => (Quat::IDENTITY, Vec3::ZERO),
             }
         };
@@ -179,9 +180,6 @@ impl SceneGeometry {
         let deformed = affine.is_some_and(|maps| maps.iter().any(|map| !is_affine_rigid(map)));
         let moved = match (fragments, rest) {
             (Some(frame), Some(rest)) if !deformed => {
-                let motions: Vec<(Quat, Vec3)> = (0..frame.rotation.len())
-                    .map(|f| (Quat::from_array(frame.rotation[f]), DVec3::from_array(frame.translation_m[f]).as_vec3()))
-                    .collect();
                 ElementIndex::of_fragments(rest, &frame.fragment_of, &motions, &scene.element_bounds)
             }
             _ => None,
@@ -610,12 +608,6 @@ mod tests {
         }
     }
 
-    /// A deterministic number in [0, 1) from `k`.
-    fn unit(k: u64) -> f32 {
-        let x = k.wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(29).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        (x >> 40) as f32 / (1u64 << 24) as f32
-    }
-
     /// An 8 x 8 x 3 block of 0.1 m cubes in four quarters, each turned and moved apart a little
     /// as the pieces of a broken plate are, and the frame that places them.
     fn broken_block() -> (ParticleSet, FragmentFrame) {
@@ -648,7 +640,8 @@ mod tests {
     #[test]
     fn the_fragments_index_finds_what_a_search_of_every_element_finds() {
         use crate::primitives::polytope_span;
-        use crate::trace::{NONE, closest_hit, closest_hits, element_at};
+        use crate::trace::{NONE, closest_hit, closest_hits, element_at, random};
+        let unit = |k: u64| random(k as u32, 0, 0);
         let (particles, frame) = broken_block();
         let scene = SceneGeometry::build(&particles, Some(&frame));
         let world = SceneGeometry::build_with(&particles, Some(&frame), None);
