@@ -469,6 +469,9 @@ struct Exit {
     element: u32,
 }
 
+// trace.rs STALLED_STEPS
+const STALLED_STEPS: u32 = 8u;
+
 // trace.rs union_exit
 fn union_exit(element: u32, origin: vec3<f32>, direction: vec3<f32>) -> Exit {
     let slack = params.scene_min.w;
@@ -476,6 +479,7 @@ fn union_exit(element: u32, origin: vec3<f32>, direction: vec3<f32>) -> Exit {
     var current = element;
     var travelled = 0.0;
     var start = origin;
+    var stalled = 0u;
     for (var guard = 0u; guard < 100000u; guard++) {
         let span = polytope_span(current, slack, start, direction);
         if (!span.hit) {
@@ -484,7 +488,8 @@ fn union_exit(element: u32, origin: vec3<f32>, direction: vec3<f32>) -> Exit {
         let t = max(span.t_out, 0.0);
         let exit = start + t * direction;
         let next = next_element(current, span.plane_out, exit + step * direction);
-        if (next == NONE || span.plane_out == NONE) {
+        stalled = select(0u, stalled + 1u, t < step);
+        if (next == NONE || span.plane_out == NONE || stalled > STALLED_STEPS) {
             let count = plane_offsets[current + 1u] - plane_offsets[current];
             return Exit(travelled + t, plane_normal(current, min(span.plane_out, count - 1u)), current);
         }

@@ -158,6 +158,14 @@ fn next_element(scene: &SceneGeometry, current: u32, plane: u32, point: [f32; 3]
     element_at(scene, point, current)
 }
 
+/// Consecutive steps of a union walk that each advance less than its probe step (4 x slack)
+/// before the walk counts as stalled and ends at the current element's exit face. Where two
+/// elements share the exit plane near their common edge (the outer face of a lattice of
+/// touching cubes), the probe point past one's face lies inside the other's widened rim while
+/// that one's span also ends at the point: without this the walk passed between the two
+/// without moving until its step guard ran out (100,000 steps, a zero normal).
+const STALLED_STEPS: u32 = 8;
+
 /// Where a ray inside the union containing `element` leaves it: (distance, unit outward normal of
 /// the last element's exit face, last element).
 pub fn union_exit(scene: &SceneGeometry, element: u32, origin: [f32; 3], direction: [f32; 3]) -> (f32, [f32; 3], u32) {
@@ -165,6 +173,7 @@ pub fn union_exit(scene: &SceneGeometry, element: u32, origin: [f32; 3], directi
     let mut current = element;
     let mut travelled = 0.0f32;
     let mut from = origin;
+    let mut stalled = 0;
     for _ in 0..100_000 {
         let planes = scene.planes_of(current as usize);
         let Some(span) = polytope_span(planes, scene.slack, from, direction) else {
@@ -173,7 +182,8 @@ pub fn union_exit(scene: &SceneGeometry, element: u32, origin: [f32; 3], directi
         let t = span.t_out.max(0.0);
         let exit = along(from, direction, t);
         let next = next_element(scene, current, span.plane_out, along(exit, direction, step));
-        if next == NONE || span.plane_out == NONE {
+        stalled = if t < step { stalled + 1 } else { 0 };
+        if next == NONE || span.plane_out == NONE || stalled > STALLED_STEPS {
             let p = planes[span.plane_out.min(planes.len() as u32 - 1) as usize];
             return (travelled + t, [p[0], p[1], p[2]], current);
         }
@@ -902,6 +912,23 @@ mod tests {
         assert!((t - 1.9).abs() < 1e-4, "exit at x = 1.5, not 0.5: t = {t}");
         assert_eq!(normal, [1.0, 0.0, 0.0]);
         assert_eq!(last, 1);
+    }
+
+    #[test]
+    fn a_walk_out_through_a_face_two_cubes_share_near_their_edge_ends_there() {
+        // A above B, touching: their -x faces lie in one plane. A ray inside A leaves through
+        // that plane just above the shared edge, heading down and nearly along the face, so the
+        // probe point past A's face lies inside both widened rims, and B's span ends where A's
+        // does: the walk must leave there, not pass between A and B until its guard runs out.
+        let scene = cubes(vec![[0.0; 3], [0.0, -1.0, 0.0]]);
+        let slack = scene.slack;
+        let direction = DVec3::new(-0.135, -0.29, -0.95).normalize().as_vec3().to_array();
+        let edge = [-0.5, -0.5 + 0.3 * slack, 0.0];
+        let s = 0.3;
+        let origin = along(edge, direction, -s);
+        let (t, normal, last) = union_exit(&scene, 0, origin, direction);
+        assert_eq!(normal, [-1.0, 0.0, 0.0], "leaves through the shared -x plane (ended in element {last})");
+        assert!((t - s).abs() < 1e-5, "at the face, t = {t} against {s}");
     }
 
     #[test]
