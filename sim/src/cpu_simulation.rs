@@ -552,7 +552,7 @@ impl CpuSimulation {
 fn lattice_forces(lattice: &mut LatticeTable, disp: [&[f32]; 3], boost: &[f32], rule: BreakRule) {
     let LatticeTable { chunk_slots, chunks, particle_of, slots, .. } = lattice;
     let (size, particle_of) = (*chunk_slots, &*particle_of);
-    let SlotViews { inputs: [ux, uy, uz, slot_boost], outputs: [fx, fy, fz, min_stretch], rest } = slots.split_mut();
+    let SlotViews { inputs: [ux, uy, uz, slot_boost], outputs: [fx, fy, fz, min_stretch] } = slots.split_mut();
     (ux.par_chunks_mut(size), uy.par_chunks_mut(size), uz.par_chunks_mut(size), slot_boost.par_chunks_mut(size))
         .into_par_iter()
         .enumerate()
@@ -567,7 +567,7 @@ fn lattice_forces(lattice: &mut LatticeTable, disp: [&[f32]; 3], boost: &[f32], 
                 }
             }
         });
-    let inputs = SlotInputs { disp: [ux, uy, uz], boost: slot_boost, rest };
+    let inputs = SlotInputs { disp: [ux, uy, uz], boost: slot_boost };
     (
         chunks.par_iter_mut(),
         fx.par_chunks_mut(size),

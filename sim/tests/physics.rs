@@ -129,6 +129,18 @@ fn the_lattice_kernel_gives_the_row_kernels_forces_and_breaks() {
     }
 }
 
+/// The lattice layout keeps one rest vector per block of eight bonds, which needs positions on a
+/// lattice that f32 holds exactly (the grid sampler's): moved off it by one f32 step, a block
+/// runs on the row layout.
+#[test]
+fn a_lattice_that_f32_does_not_hold_exactly_runs_on_the_row_layout() {
+    let (config, mut particles) = block([13, 6, 5], 3.0, "", "");
+    assert!(simulation(&config, &particles).on_lattice());
+    let x = &mut particles.rest_position_m[37][0];
+    *x = f32::from_bits(x.to_bits() + 1);
+    assert!(!simulation(&config, &particles).on_lattice());
+}
+
 #[test]
 fn the_lattice_and_row_layouts_agree_on_a_struck_plate() {
     let (config, particles) = struck_plate();

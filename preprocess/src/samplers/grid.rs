@@ -114,6 +114,8 @@ pub(super) fn spacing_error(spacing: f64) -> impl Fn(GridError) -> PreprocessErr
 }
 
 /// Cube particles on the lattice: world positions, volumes, masses, bonds and face adjacency.
+/// Where the lattice's axes are the world's, the stored positions sit on a lattice that f32 holds
+/// exactly ([`exact_lattice_positions`]).
 pub(super) fn grid_particles(
     config: &PipelineConfig,
     sample: &GridSample,
@@ -123,12 +125,54 @@ pub(super) fn grid_particles(
     let lambda = config.geometry.spacing_m;
     let points = sample.points();
     let n = points.len();
+    let placement = Placement::new(&config.geometry.transform);
+    let stored =
+        exact_lattice_positions(&points, &placement, lambda).unwrap_or_else(|| placement.stored_positions(&points));
     let elements = Elements::Cubes {
         half_size_m: vec![(lambda * 0.5) as f32; n],
-        orientation: Placement::new(&config.geometry.transform).rotation.as_quat().to_array(),
+        orientation: placement.rotation.as_quat().to_array(),
     };
     let volumes = vec![lambda.powi(3); n];
-    assemble(config, lambda, &points, &volumes, elements, sample.adjacency.clone(), progress, notes)
+    assemble(config, lambda, &points, stored, &volumes, elements, sample.adjacency.clone(), progress, notes)
+}
+
+/// Largest change of the spacing between stored positions that [`exact_lattice_positions`]
+/// makes, relative to the spacing.
+const MAX_SPACING_CHANGE: f64 = 1e-4;
+
+/// The world positions of lattice `points` (sampling frame) rounded to a lattice that f32 holds
+/// exactly, if the placement keeps the lattice's axes along the world's (no rotation, or quarter
+/// turns): the corner and the spacing rounded to multiples of one power of two, fine enough
+/// for every position below the largest to be an f32. Every bond at one lattice offset then has
+/// the same f32 rest vector, bit for bit, on every backend, which lets the CPU's lattice layout
+/// keep one rest vector per eight bonds. The spacing between positions moves by at most
+/// [`MAX_SPACING_CHANGE`] of itself (2e-6 for the default plate); volumes, cube sizes and bonds
+/// keep the configured spacing. `None` (positions as placed) where the axes turn or no such
+/// lattice is close enough.
+fn exact_lattice_positions(points: &[DVec3], placement: &Placement, spacing: f64) -> Option<Vec<[f32; 3]>> {
+    let world: Vec<DVec3> = points.iter().map(|p| placement.world_f64(*p)).collect();
+    let corner = world.iter().fold(DVec3::INFINITY, |low, w| low.min(*w));
+    let reach = world.iter().fold(0.0f64, |far, w| far.max(w.abs().max_element())) + spacing;
+    // Below 2^e, the multiples of 2^(e - 24) are all f32 values.
+    let unit = 2f64.powi(reach.log2().floor() as i32 + 1 - 24);
+    let snapped = (spacing / unit).round() * unit;
+    if !(snapped > 0.0 && (snapped - spacing).abs() <= MAX_SPACING_CHANGE * spacing) {
+        return None;
+    }
+    let origin = (corner / unit).round() * unit;
+    world
+        .iter()
+        .map(|w| {
+            let steps = (*w - corner) / spacing;
+            let site = steps.round();
+            if (steps - site).abs().max_element() > 1e-6 {
+                return None; // the axes are turned
+            }
+            let exact = origin + site * snapped;
+            let stored = exact.as_vec3();
+            (stored.as_dvec3() == exact).then_some(stored.to_array())
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -157,6 +201,52 @@ mod tests {
         let (sample, inside) = fill_mesh(&mesh, 0.001, FillRule::NonZero).expect("fill");
         assert_eq!(inside.leaky_lines, 0);
         assert_eq!(sample.cells.len(), 1000);
+    }
+
+    /// The f32 difference of every pair of particles one lattice offset apart, per offset.
+    fn rest_vectors(points: &[DVec3], stored: &[[f32; 3]], spacing: f64) -> Vec<([i64; 3], [u32; 3])> {
+        let mut vectors = Vec::new();
+        for (i, a) in points.iter().enumerate() {
+            for (j, b) in points.iter().enumerate() {
+                let offset = ((*b - *a) / spacing).round().as_i64vec3().to_array();
+                if offset.iter().all(|d| d.abs() <= 2) {
+                    vectors.push((offset, [0, 1, 2].map(|k| (stored[j][k] - stored[i][k]).to_bits())));
+                }
+            }
+        }
+        vectors.sort_unstable();
+        vectors.dedup();
+        vectors
+    }
+
+    #[test]
+    fn stored_positions_sit_on_a_lattice_that_f32_holds_exactly() {
+        let (sample, _) = fill_box([0.012, 0.006, 0.003], 0.001).expect("small box");
+        let points = sample.points();
+        let transform = |rotate_deg: [f64; 3]| shatter_core::config::TransformConfig {
+            translate_m: [0.0137, 0.06, -0.3],
+            rotate_deg,
+            ..Default::default()
+        };
+        for rotate_deg in [[0.0; 3], [90.0, 0.0, 0.0], [0.0, -90.0, 180.0]] {
+            let placement = Placement::new(&transform(rotate_deg));
+            let stored = exact_lattice_positions(&points, &placement, 0.001).expect("axes kept");
+            // one rest vector per offset, bit for bit
+            let vectors = rest_vectors(&points, &stored, 0.001);
+            assert!(vectors.windows(2).all(|pair| pair[0].0 != pair[1].0), "{rotate_deg:?}");
+            // the positions moved by a thousandth of the spacing at most
+            let placed = placement.stored_positions(&points);
+            for (a, b) in stored.iter().zip(&placed) {
+                assert!((0..3).all(|k| (a[k] - b[k]).abs() < 1e-6), "{a:?} {b:?}");
+            }
+        }
+        // placed as they are: the positions' rounding gives one offset several rest vectors
+        let placement = Placement::new(&transform([0.0; 3]));
+        let placed = placement.stored_positions(&points);
+        let vectors = rest_vectors(&points, &placed, 0.001);
+        assert!(vectors.windows(2).any(|pair| pair[0].0 == pair[1].0));
+        // a turned lattice is left as placed
+        assert_eq!(exact_lattice_positions(&points, &Placement::new(&transform([30.0, 0.0, 0.0])), 0.001), None);
     }
 
     #[test]

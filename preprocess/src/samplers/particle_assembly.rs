@@ -31,7 +31,18 @@ impl Placement {
 
     /// A sampling-frame point in world coordinates, rounded to f32.
     pub fn world(&self, p: DVec3) -> [f32; 3] {
-        (self.rotation * p + self.translation).as_vec3().to_array()
+        self.world_f64(p).as_vec3().to_array()
+    }
+
+    /// A sampling-frame point in world coordinates.
+    pub fn world_f64(&self, p: DVec3) -> DVec3 {
+        self.rotation * p + self.translation
+    }
+
+    /// The particle positions the file stores for sampling-frame `points`: [`Placement::world`]
+    /// of each.
+    pub fn stored_positions(&self, points: &[DVec3]) -> Vec<[f32; 3]> {
+        points.iter().map(|p| self.world(*p)).collect()
     }
 }
 
@@ -52,14 +63,16 @@ fn particle_meta(config: &PipelineConfig, lambda: f64, delta: f64, mean_threshol
     }
 }
 
-/// Particles at `points` (sampling frame) with `volumes` and `elements` (already in the world),
-/// bonded within `lambda` times the horizon factor; element pairs in `adjacency` (indices into
-/// `points`, a < b, sorted) that are not bonds are dropped, with a note.
+/// Particles at `points` (sampling frame), stored in the file at `rest_position_m` (world),
+/// with `volumes` and `elements` (already in the world), bonded within `lambda` times the
+/// horizon factor; element pairs in `adjacency` (indices into `points`, a < b, sorted) that are
+/// not bonds are dropped, with a note.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn assemble(
     config: &PipelineConfig,
     lambda: f64,
     points: &[DVec3],
+    rest_position_m: Vec<[f32; 3]>,
     volumes: &[f64],
     elements: Elements,
     mut adjacency: Vec<[u32; 2]>,
@@ -67,8 +80,6 @@ pub(super) fn assemble(
     notes: &mut Vec<String>,
 ) -> ParticleSet {
     let delta = config.geometry.horizon_factor * lambda;
-    let placement = Placement::new(&config.geometry.transform);
-    let rest_position_m: Vec<[f32; 3]> = points.iter().map(|p| placement.world(*p)).collect();
     let mean_threshold = config.material.mean_critical_stretch(delta);
     let params = BondParams {
         delta_m: delta,

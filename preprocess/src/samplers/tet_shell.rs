@@ -572,7 +572,8 @@ pub(super) fn tet_shell_particles(
     let TetShell { points, tets, barycentres, volumes, adjacency, .. } = shell;
     let vertices_m = tets.iter().map(|tet| tet.map(|v| placement.world(points.points[v as usize]))).collect();
     let elements = Elements::Tets { vertices_m };
-    Ok(assemble(config, geometry.spacing_m, &barycentres, &volumes, elements, adjacency, progress, notes))
+    let stored = placement.stored_positions(&barycentres);
+    Ok(assemble(config, geometry.spacing_m, &barycentres, stored, &volumes, elements, adjacency, progress, notes))
 }
 
 /// What the shell is made of, for the user.

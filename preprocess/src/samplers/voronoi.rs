@@ -191,7 +191,8 @@ pub(super) fn voronoi_particles(
         face_triangles_m,
         face_planes,
     };
-    Ok(assemble(config, lambda, &sites, &volumes, elements, diagram.adjacency, progress, notes))
+    let stored = placement.stored_positions(&sites);
+    Ok(assemble(config, lambda, &sites, stored, &volumes, elements, diagram.adjacency, progress, notes))
 }
 
 #[cfg(test)]

@@ -9,12 +9,12 @@
 //! layout moves every partner's record separately. Empty lanes (no site, or no bond at that
 //! offset) are inert padding: no stiffness, infinite threshold.
 //!
-//! A block stores only what varies from bond to bond and cannot be had from the slots: threshold,
-//! stiffness and rest length ([`LatticeBlock`]: 96 bytes for eight bonds, where a row layout
-//! block carries 224). The rest vector is the difference of the two slots' rest positions, the
-//! same f32 subtraction the row layout stores, so both layouts see the same bond values. (Measured
-//! on the default scene: the same speed as 224-byte blocks, 18% less peak memory; the kernel is
-//! bound by its arithmetic, not by the bond stream.)
+//! A block stores only what varies from bond to bond: threshold and stiffness ([`LatticeBlock`]:
+//! 64 bytes for eight bonds, where a row layout block carries 224), with one rest vector and rest
+//! length for all its lanes ([`BlockRest`], 16 bytes). That needs the eight bonds' f32 rest
+//! vectors to be the same bits, which holds where the rest positions sit on a lattice that f32
+//! holds exactly (the grid sampler puts them there); the layout is refused otherwise. The values
+//! are then the ones the row layout and the GPU compute from the positions, bit for bit.
 //!
 //! Rows are grouped into chunks by rectangular tiles of y and z, each chunk a contiguous range of
 //! slots. As in the row layout ([`super::row_layout`]), a bond whose two particles share a chunk
@@ -44,23 +44,30 @@ const MIN_CHUNKS: usize = 16;
 const MIN_FILL: f64 = 0.5;
 
 /// Eight bonds of one brick at one lattice offset: what varies from bond to bond. Padding lanes
-/// have zero stiffness, an infinite threshold and unit rest length; their force and stretch are
-/// zero.
+/// have zero stiffness and an infinite threshold; their force and stretch are zero.
 #[derive(Debug, Clone, Copy, PartialEq)]
-#[repr(C, align(32))]
+#[repr(C, align(64))]
 pub struct LatticeBlock {
     /// Critical stretch; infinite once broken.
     pub threshold: [f32; LANES],
     /// k = c V_i V_j g_ij (N per unit stretch); 0 once broken.
     pub stiffness: [f32; LANES],
-    /// Rest length |xi|, metres (the particle file's: a square root per bond and step saved).
-    pub rest_length_m: [f32; LANES],
 }
 
 impl LatticeBlock {
     /// Eight padding lanes.
-    const PADDING: LatticeBlock =
-        LatticeBlock { threshold: [f32::INFINITY; LANES], stiffness: [0.0; LANES], rest_length_m: [1.0; LANES] };
+    const PADDING: LatticeBlock = LatticeBlock { threshold: [f32::INFINITY; LANES], stiffness: [0.0; LANES] };
+}
+
+/// The rest vector and rest length that all bonds of a block share: one lattice offset on a
+/// lattice that f32 holds exactly.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(C, align(16))]
+pub struct BlockRest {
+    /// Rest vector xi = X_j - X_i, metres (the f32 difference of the particle file's positions).
+    pub vector_m: [f32; 3],
+    /// Rest length |xi|, metres (the particle file's: a square root per bond and step saved).
+    pub length_m: f32,
 }
 
 /// Where one chunk's bonds sit, whatever they carry: its slots, its bricks and their blocks,
@@ -96,6 +103,8 @@ pub struct LatticeChunk {
     pub shape: ChunkShape,
     /// The blocks.
     pub blocks: Vec<LatticeBlock>,
+    /// Each block's rest vector and length.
+    pub rest: Vec<BlockRest>,
     /// Each lane's bond id (see [`super::row_layout::BondChunk::bond_id`]).
     pub bond_id: Vec<u64>,
     /// Ids of bonds this chunk saw break in the current step, each once (scratch, reused).
@@ -103,14 +112,12 @@ pub struct LatticeChunk {
 }
 
 /// What the lattice kernel reads of every slot: the displacement and the compression boost,
-/// filled each step from the particles, and the rest position (zero in empty slots).
+/// filled each step from the particles (zero in empty slots).
 pub struct SlotInputs<'a> {
     /// Displacement u, metres (x, y, z).
     pub disp: [&'a [f32]; 3],
     /// Compression boost of the thresholds.
     pub boost: &'a [f32],
-    /// Rest position X, metres (x, y, z).
-    pub rest: [&'a [f32]; 3],
 }
 
 /// How much further into a 4 KiB page each array of [`SlotArrays`] starts than the one before.
@@ -121,9 +128,8 @@ const SKEW_BYTES: usize = 256;
 /// same slot because their addresses agree in the low 12 bits (4K aliasing), wherever the
 /// allocator puts them.
 ///
-/// The PMB kernel's eleven ([`PmbSlot`]): its inputs (displacement x, y, z and boost), its
-/// outputs (force x, y, z, newtons, and the smallest stretch of the slot's intact bonds) and the
-/// rest positions (x, y, z).
+/// The PMB kernel's eight ([`PmbSlot`]): its inputs (displacement x, y, z and boost) and its
+/// outputs (force x, y, z, newtons, and the smallest stretch of the slot's intact bonds).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SlotArrays {
     data: Vec<f32>,
@@ -136,11 +142,9 @@ pub struct PmbSlot;
 
 impl PmbSlot {
     /// Arrays in all.
-    const COUNT: usize = 11;
+    const COUNT: usize = 8;
     /// Force x (then y, z; the smallest stretch after them).
     pub const FORCE: usize = 4;
-    /// Rest position x (then y, z).
-    pub const REST: usize = 8;
 }
 
 impl SlotArrays {
@@ -161,13 +165,12 @@ impl SlotArrays {
         self.data.chunks_exact_mut(self.stride).map(move |array| &mut array[..len])
     }
 
-    /// The PMB kernel's four per-step input arrays and four output arrays, writable, and its
-    /// three rest position arrays.
+    /// The PMB kernel's four per-step input arrays and four output arrays, writable.
     pub fn split_mut(&mut self) -> SlotViews<'_> {
         let mut arrays = self.arrays_mut();
-        let mut next = || arrays.next().unwrap_or_else(|| unreachable!("eleven arrays"));
+        let mut next = || arrays.next().unwrap_or_else(|| unreachable!("eight arrays"));
         let (inputs, outputs) = ([next(), next(), next(), next()], [next(), next(), next(), next()]);
-        SlotViews { inputs, outputs, rest: [next(), next(), next()].map(|array| &*array) }
+        SlotViews { inputs, outputs }
     }
 
     /// Fills arrays `first..first + 3` with the rest positions of the particles in `slot_of`'s
@@ -187,8 +190,6 @@ pub struct SlotViews<'a> {
     pub inputs: [&'a mut [f32]; 4],
     /// Force x, y, z and smallest stretch, to compute.
     pub outputs: [&'a mut [f32]; 4],
-    /// Rest position x, y, z.
-    pub rest: [&'a [f32]; 3],
 }
 
 /// The lattice layout of a particle set.
@@ -212,19 +213,29 @@ type Site = [i64; 3];
 
 /// The lattice sites of all particles, if every particle sits (to 0.1% of the spacing) on the
 /// cubic lattice of spacing lambda through the lowest corner, each site holds one particle, and
-/// every bond reaches at most [`GHOST`] sites along x.
+/// every bond reaches at most [`GHOST`] sites along x. Along each axis the spacing is taken from
+/// the particles' extent (the whole number of lambdas nearest it), so that a lattice the grid
+/// sampler made exact in f32, whose spacing differs from lambda in the fifth digit, is found
+/// however many sites it spans.
 fn lattice_sites(particles: &ParticleSet) -> Option<Vec<Site>> {
-    let spacing = particles.meta.lambda_m;
-    if particles.is_empty() || spacing.is_nan() || spacing <= 0.0 {
+    let lambda = particles.meta.lambda_m;
+    if particles.is_empty() || lambda.is_nan() || lambda <= 0.0 {
         return None;
     }
-    let corner = [0, 1, 2]
-        .map(|axis| particles.rest_position_m.iter().map(|p| f64::from(p[axis])).fold(f64::INFINITY, f64::min));
+    let bound = |axis: usize, pick: fn(f64, f64) -> f64, start: f64| {
+        particles.rest_position_m.iter().map(|p| f64::from(p[axis])).fold(start, pick)
+    };
+    let corner = [0, 1, 2].map(|axis| bound(axis, f64::min, f64::INFINITY));
+    let spacing = [0, 1, 2].map(|axis| {
+        let extent = bound(axis, f64::max, f64::NEG_INFINITY) - corner[axis];
+        let cells = (extent / lambda).round();
+        if cells >= 1.0 { extent / cells } else { lambda }
+    });
     let mut sites = Vec::with_capacity(particles.len());
     for p in &particles.rest_position_m {
         let mut site = [0i64; 3];
         for axis in 0..3 {
-            let units = (f64::from(p[axis]) - corner[axis]) / spacing;
+            let units = (f64::from(p[axis]) - corner[axis]) / spacing[axis];
             if (units - units.round()).abs() > 1e-3 || units > 1e6 {
                 return None;
             }
@@ -349,23 +360,51 @@ impl LatticePlan {
     }
 }
 
+/// A block as it is filled: its lanes, and the rest its lanes share (`None` before the first
+/// lane; `shared` false once two lanes differ).
+#[derive(Debug, Clone, Copy)]
+struct BlockFill {
+    block: LatticeBlock,
+    rest: Option<BlockRest>,
+    shared: bool,
+}
+
+impl BlockFill {
+    /// A lane with rest `rest`: kept if it is the block's first, compared bit for bit otherwise.
+    fn share(&mut self, rest: BlockRest) {
+        let bits = |r: &BlockRest| (r.vector_m.map(f32::to_bits), r.length_m.to_bits());
+        match &self.rest {
+            None => self.rest = Some(rest),
+            Some(first) => self.shared &= bits(first) == bits(&rest),
+        }
+    }
+}
+
 impl LatticeTable {
     /// The lattice layout of `particles` with the bond values of `values`, or `None` when the
-    /// particles are not on a cubic lattice (see [`lattice_sites`]) or fill too few lanes.
+    /// particles are not on a cubic lattice (see [`lattice_sites`]), fill too few lanes, or a
+    /// block's bonds differ in their f32 rest vectors or lengths (a lattice that f32 does not
+    /// hold exactly).
     pub(crate) fn new(particles: &ParticleSet, values: &EntryValues) -> Option<LatticeTable> {
         let plan = LatticePlan::new(particles)?;
-        let chunks = plan
-            .fill_chunks(particles, LatticeBlock::PADDING, |block, lane, i, k| {
-                let entry = BondEntry::new(particles, values, i, k);
-                block.threshold[lane] = entry.threshold;
-                block.stiffness[lane] = entry.stiffness;
-                block.rest_length_m[lane] = entry.rest_length_m;
-            })
-            .into_iter()
-            .map(|(shape, blocks, bond_id)| LatticeChunk { shape, blocks, bond_id, breaks: Vec::new() })
-            .collect();
-        let mut slots = SlotArrays::new(plan.particle_of.len(), PmbSlot::COUNT);
-        slots.set_rest(PmbSlot::REST, &plan.slot_of, particles);
+        let empty = BlockFill { block: LatticeBlock::PADDING, rest: None, shared: true };
+        let filled = plan.fill_chunks(particles, empty, |fill, lane, i, k| {
+            let entry = BondEntry::new(particles, values, i, k);
+            fill.block.threshold[lane] = entry.threshold;
+            fill.block.stiffness[lane] = entry.stiffness;
+            fill.share(BlockRest { vector_m: entry.rest_vector, length_m: entry.rest_length_m });
+        });
+        let mut chunks = Vec::with_capacity(filled.len());
+        for (shape, fills, bond_id) in filled {
+            let mut rest = Vec::with_capacity(fills.len());
+            for fill in &fills {
+                // every block holds at least one bond
+                rest.push(fill.rest.filter(|_| fill.shared)?);
+            }
+            let blocks = fills.iter().map(|fill| fill.block).collect();
+            chunks.push(LatticeChunk { shape, blocks, rest, bond_id, breaks: Vec::new() });
+        }
+        let slots = SlotArrays::new(plan.particle_of.len(), PmbSlot::COUNT);
         let LatticePlan { chunk_slots, slot_of, particle_of, .. } = plan;
         Some(LatticeTable { chunk_slots, chunks, slot_of, particle_of, slots })
     }

@@ -5,7 +5,7 @@ use rayon::prelude::*;
 use shatter_core::particles::ParticleSet;
 
 use super::EntryValues;
-use super::lattice_layout::{LatticeTable, PmbSlot};
+use super::lattice_layout::LatticeTable;
 use super::row_layout::{self, BondTable, LANES, PADDING};
 
 /// Which layouts a CPU simulation may run on: what [`SpringTable`] may choose from.
@@ -104,20 +104,19 @@ impl SpringTable {
             }
             SpringTable::Lattice(table) => {
                 let chunk = &table.chunks[c];
-                let rest = [0, 1, 2].map(|axis| table.slots.array(PmbSlot::REST + axis));
                 let shape = &chunk.shape;
                 for brick in 0..shape.brick_slot.len() {
                     let own = shape.brick_slot[brick] as usize;
                     for (block, internal) in shape.brick_blocks(brick) {
                         let partner = shape.partner_slot[block] as usize;
-                        let bonds = &chunk.blocks[block];
+                        let (bonds, rest) = (&chunk.blocks[block], &chunk.rest[block]);
                         for lane in 0..LANES {
                             if chunk.bond_id[block * LANES + lane] != PADDING {
                                 entry(&StoredBond {
                                     i: table.particle_of[own + lane] as usize,
                                     j: table.particle_of[partner + lane] as usize,
-                                    rest_vector: rest.map(|axis| axis[partner + lane] - axis[own + lane]),
-                                    rest_length_m: bonds.rest_length_m[lane],
+                                    rest_vector: rest.vector_m,
+                                    rest_length_m: rest.length_m,
                                     stiffness: bonds.stiffness[lane],
                                     internal,
                                 });

@@ -1,6 +1,6 @@
 //! The spring kernel for the lattice layout ([`crate::bond_layouts::lattice_layout`]): the same
 //! bond force and break test as the row kernel, eight sites at a time, their partners eight
-//! consecutive slots.
+//! consecutive slots, their rest vector and length one for all eight.
 //! Plain lane arithmetic ([`super::lanes`]) that the compiler turns into vector instructions:
 //! with no gathers, there is nothing for explicit intrinsics to add.
 
@@ -26,6 +26,7 @@ pub fn lattice_spring_forces(
     let LatticeChunk {
         shape: ChunkShape { first_slot: first, slots, brick_slot, brick_start, internal_end, partner_slot },
         blocks,
+        rest,
         bond_id,
         breaks,
     } = chunk;
@@ -39,7 +40,6 @@ pub fn lattice_spring_forces(
     // Slices of one length, so that one bounds check covers a load from all of them.
     let len = particle_of.len();
     let disp = inputs.disp.map(|values| &values[..len]);
-    let rest = inputs.rest.map(|values| &values[..len]);
     let context = LatticeContext { boost: &inputs.boost[..len], particle_of, rule };
     let mut totals = ChunkTotals::new(out, slots);
     for (brick, &own) in brick_slot.iter().enumerate() {
@@ -52,8 +52,8 @@ pub fn lattice_spring_forces(
         let mut smallest = [0.0f32; LANES];
         let (start, middle, end) =
             (brick_start[brick] as usize, internal_end[brick] as usize, brick_start[brick + 1] as usize);
-        let brick_blocks = blocks[start..end].iter_mut().zip(&partner_slot[start..end]);
-        for (k, (bonds, &partner)) in brick_blocks.enumerate() {
+        let brick_blocks = blocks[start..end].iter_mut().zip(&partner_slot[start..end]).zip(&rest[start..end]);
+        for (k, ((bonds, &partner), shared)) in brick_blocks.enumerate() {
             let (block, partner) = (start + k, partner as usize);
             let internal = block < middle;
             // u_i is loaded again for every block rather than kept: the registers it would hold
@@ -63,13 +63,9 @@ pub fn lattice_spring_forces(
                 sub(load(disp[1], partner), load(disp[1], own)),
                 sub(load(disp[2], partner), load(disp[2], own)),
             ];
-            // the same f32 subtraction as the row layout's stored rest vectors
-            let xi = [
-                sub(load(rest[0], partner), load(rest[0], own)),
-                sub(load(rest[1], partner), load(rest[1], own)),
-                sub(load(rest[2], partner), load(rest[2], own)),
-            ];
-            let BondLanes { y, mut stretch, mut scale } = bond_lanes(&xi, &eta, bonds.rest_length_m, bonds.stiffness);
+            let xi = shared.vector_m.map(|axis| [axis; LANES]);
+            let length = [shared.length_m; LANES];
+            let BondLanes { y, mut stretch, mut scale } = bond_lanes(&xi, &eta, length, bonds.stiffness);
             if any_greater(stretch, add(bonds.threshold, bound)) {
                 let place = BlockPlace { own, partner, internal, ids: &bond_id[block * LANES..(block + 1) * LANES] };
                 break_lanes(&context, bonds, &place, breaks, [&mut stretch, &mut scale]);
