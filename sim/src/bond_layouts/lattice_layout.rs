@@ -215,7 +215,7 @@ type Site = [i64; 3];
 /// cubic lattice of spacing lambda through the lowest corner, each site holds one particle, and
 /// every bond reaches at most [`GHOST`] sites along x. Along each axis the spacing is taken from
 /// the particles' extent (the whole number of lambdas nearest it), so that a lattice the grid
-/// sampler made exact in f32, whose spacing differs from lambda in the fifth digit, is found
+/// sampler made exact in f32, whose spacing differs from lambda by up to 1e-4 of it, is found
 /// however many sites it spans.
 fn lattice_sites(particles: &ParticleSet) -> Option<Vec<Site>> {
     let lambda = particles.meta.lambda_m;
