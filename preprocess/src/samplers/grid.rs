@@ -142,24 +142,29 @@ const MAX_SPACING_CHANGE: f64 = 1e-4;
 
 /// The world positions of lattice `points` (sampling frame) rounded to a lattice that f32 holds
 /// exactly, if the placement keeps the lattice's axes along the world's (no rotation, or quarter
-/// turns): the corner and the spacing rounded to multiples of one power of two, fine enough
-/// for every position below the largest to be an f32. Every bond at one lattice offset then has
-/// the same f32 rest vector, bit for bit, on every backend, which lets the CPU's lattice layout
-/// keep one rest vector per eight bonds. The spacing between positions moves by at most
+/// turns): the centre and half the spacing rounded to multiples of one power of two, fine enough
+/// for every position below the largest to be an f32. Laid out from its centre, the lattice keeps
+/// the mirror symmetry about it that rounding each position kept. Every bond at one lattice
+/// offset then has the same f32 rest vector, bit for bit, on every backend, which lets the CPU's
+/// lattice layout keep one rest vector per eight bonds. The spacing between positions moves by at most
 /// [`MAX_SPACING_CHANGE`] of itself (2e-6 for the default plate); volumes, cube sizes and bonds
 /// keep the configured spacing. `None` (positions as placed) where the axes turn or no such
 /// lattice is close enough.
 fn exact_lattice_positions(points: &[DVec3], placement: &Placement, spacing: f64) -> Option<Vec<[f32; 3]>> {
     let world: Vec<DVec3> = points.iter().map(|p| placement.world_f64(*p)).collect();
     let corner = world.iter().fold(DVec3::INFINITY, |low, w| low.min(*w));
-    let reach = world.iter().fold(0.0f64, |far, w| far.max(w.abs().max_element())) + spacing;
+    let far = world.iter().fold(DVec3::NEG_INFINITY, |high, w| high.max(*w));
+    let reach = corner.abs().max(far.abs()).max_element() + spacing;
     // Below 2^e, the multiples of 2^(e - 24) are all f32 values.
     let unit = 2f64.powi(reach.log2().floor() as i32 + 1 - 24);
-    let snapped = (spacing / unit).round() * unit;
-    if !(snapped > 0.0 && (snapped - spacing).abs() <= MAX_SPACING_CHANGE * spacing) {
+    // Sites sit at whole or half spacings from the centre: the half spacing is a multiple of the
+    // unit, and the lattice stays mirror-symmetric about its centre, as rounding kept it.
+    let half = (0.5 * spacing / unit).round() * unit;
+    if !(half > 0.0 && (2.0 * half - spacing).abs() <= MAX_SPACING_CHANGE * spacing) {
         return None;
     }
-    let origin = (corner / unit).round() * unit;
+    let centre = (0.5 * (corner + far) / unit).round() * unit;
+    let middle = ((far - corner) / spacing).round() * 0.5;
     world
         .iter()
         .map(|w| {
@@ -168,7 +173,7 @@ fn exact_lattice_positions(points: &[DVec3], placement: &Placement, spacing: f64
             if (steps - site).abs().max_element() > 1e-6 {
                 return None; // the axes are turned
             }
-            let exact = origin + site * snapped;
+            let exact = centre + (site - middle) * (2.0 * half);
             let stored = exact.as_vec3();
             (stored.as_dvec3() == exact).then_some(stored.to_array())
         })
@@ -245,6 +250,14 @@ mod tests {
         let placed = placement.stored_positions(&points);
         let vectors = rest_vectors(&points, &placed, 0.001);
         assert!(vectors.windows(2).any(|pair| pair[0].0 == pair[1].0));
+        // a box about the origin stays mirror-symmetric about it, as rounding each position kept it
+        let centred = Placement::new(&shatter_core::config::TransformConfig::default());
+        let stored_centred = exact_lattice_positions(&points, &centred, 0.001).expect("axes kept");
+        let mut sorted: Vec<[u32; 3]> = stored_centred.iter().map(|p| p.map(|x| (x + 0.0).to_bits())).collect();
+        sorted.sort_unstable();
+        for p in &stored_centred {
+            assert!(sorted.binary_search(&p.map(|x| (-x + 0.0).to_bits())).is_ok(), "{p:?} has no mirror image");
+        }
         // a turned lattice is left as placed
         assert_eq!(exact_lattice_positions(&points, &Placement::new(&transform([30.0, 0.0, 0.0])), 0.001), None);
     }
