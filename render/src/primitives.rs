@@ -76,12 +76,70 @@ pub fn polytope_span(planes: &[Plane], slack: f32, origin: [f32; 3], direction: 
     (!outside && wide_in <= wide_out).then_some(span)
 }
 
+/// Whether `planes` are six in opposite pairs, as [`cube_planes`] makes them: plane 2k + 1's
+/// normal is plane 2k's negated, bit for bit (what [`paired_span`] needs).
+pub fn in_opposite_pairs(planes: &[Plane]) -> bool {
+    planes.len() == 6 && planes.chunks(2).all(|pair| (0..3).all(|i| pair[1][i].to_bits() == (-pair[0][i]).to_bits()))
+}
+
+/// [`polytope_span`] of six planes [`in_opposite_pairs`], given as the normals of planes 0, 2
+/// and 4 (`axes`) and the six planes' distances: the same span to the bit, from half the
+/// arithmetic and a third of the bytes. Negating a normal negates its dot products exactly
+/// (every product and sum rounds symmetrically), so one facing and one distance per pair give
+/// both planes': of a pair, the plane the ray faces is entered and the other left, and the pairs
+/// are weighed in order, as the planes are there (ties go to the lower).
+pub fn paired_span(
+    axes: &[[f32; 3]; 3],
+    distances: &[f32; 6],
+    slack: f32,
+    origin: [f32; 3],
+    direction: [f32; 3],
+) -> Option<Span> {
+    let mut span = Span { t_in: f32::NEG_INFINITY, t_out: f32::INFINITY, plane_in: u32::MAX, plane_out: u32::MAX };
+    let (mut wide_in, mut wide_out) = (f32::NEG_INFINITY, f32::INFINITY);
+    let mut outside = false;
+    for (k, &normal) in axes.iter().enumerate() {
+        let (facing, distance) = (dot(normal, direction), dot(normal, origin));
+        // the rooms of plane 2k (facing `facing`) and 2k + 1 (facing -`facing`)
+        let (upper, lower) = (distances[2 * k] - distance, distances[2 * k + 1] + distance);
+        outside |= facing == 0.0 && (upper + slack < 0.0 || lower + slack < 0.0);
+        if facing == 0.0 {
+            // neither plane entered nor left (a NaN facing goes on, and changes nothing: every
+            // comparison with it fails and max and min pass over it, as in `polytope_span`)
+            continue;
+        }
+        let (room_in, room_out, plane_in) =
+            if facing < 0.0 { (upper, lower, 2 * k as u32) } else { (lower, upper, 2 * k as u32 + 1) };
+        // the entered plane faces -|facing|, the left one |facing|
+        let speed = facing.abs();
+        let (t_in, t_out) = (room_in / -speed, room_out / speed);
+        wide_in = wide_in.max((room_in + slack) / -speed);
+        wide_out = wide_out.min((room_out + slack) / speed);
+        if t_in > span.t_in {
+            (span.t_in, span.plane_in) = (t_in, plane_in);
+        }
+        if t_out < span.t_out {
+            (span.t_out, span.plane_out) = (t_out, plane_in ^ 1);
+        }
+    }
+    (!outside && wide_in <= wide_out).then_some(span)
+}
+
 /// Planes whose arithmetic [`polytope_span`] does side by side (a cube's 6 fit).
 const SPAN_LANES: usize = 8;
 
 /// Whether `point` lies inside the polytope widened by `slack`.
 pub fn polytope_contains(planes: &[Plane], slack: f32, point: [f32; 3]) -> bool {
     planes.iter().all(|p| dot([p[0], p[1], p[2]], point) <= p[3] + slack)
+}
+
+/// [`polytope_contains`] of six planes [`in_opposite_pairs`], given as [`paired_span`] takes
+/// them: the same answer to the bit from one dot product a pair.
+pub fn paired_contains(axes: &[[f32; 3]; 3], distances: &[f32; 6], slack: f32, point: [f32; 3]) -> bool {
+    axes.iter().enumerate().all(|(k, &normal)| {
+        let along = dot(normal, point);
+        along <= distances[2 * k] + slack && -along <= distances[2 * k + 1] + slack
+    })
 }
 
 /// The 6 planes of a cube with centre `centre`, half size `half` and axes `axes` (unit, right-handed).
@@ -316,6 +374,61 @@ mod tests {
         assert!(polytope_span(&planes, 0.0, [3.0, 2.0, 0.0], [0.0, 0.0, 1.0]).is_none());
         assert!(polytope_contains(&planes, 0.0, [1.2, 2.3, 3.4]));
         assert!(!polytope_contains(&planes, 0.0, [1.6, 2.0, 3.0]));
+    }
+
+    /// The paired span is the general one to the bit, on random turned cubes and rays, rays
+    /// along the cubes' axes and the world's (zero facings) and origins on their planes included;
+    /// so is the paired point test.
+    #[test]
+    fn a_paired_span_is_the_polytope_span_to_the_bit() {
+        let mut rng = shatter_core::random::SplitMix64::new(11);
+        let mut r = move || rng.next_f64() as f32 - 0.5;
+        let bits = |span: Option<Span>| span.map(|s| (s.t_in.to_bits(), s.t_out.to_bits(), s.plane_in, s.plane_out));
+        let (mut hits, mut misses, mut insides) = (0, 0, 0);
+        for trial in 0..20_000 {
+            let turned = glam::Quat::from_xyzw(r(), r(), r(), r()).normalize();
+            let axes = if trial % 4 == 0 {
+                AXES
+            } else {
+                [glam::Vec3::X, glam::Vec3::Y, glam::Vec3::Z].map(|a| (turned * a).to_array())
+            };
+            let centre = [r(), r(), r()];
+            let planes = cube_planes(centre, 0.2 + r().abs(), axes);
+            assert!(in_opposite_pairs(&planes));
+            let mut origin = [2.0 * r(), 2.0 * r(), 2.0 * r()];
+            let mut direction = match trial % 5 {
+                0 => axes[trial % 3],
+                1 => [0.0, r(), r()],
+                _ => [r(), r(), r()],
+            };
+            if trial % 7 == 0 {
+                // on a plane of the cube, or aimed so that a facing is zero
+                origin = [centre[0] + axes[0][0] * 0.7, centre[1], centre[2]];
+                direction = cross(axes[1], axes[2]);
+            }
+            let slack = if trial % 3 == 0 { 0.0 } else { 1e-3 };
+            let expected = polytope_span(&planes, slack, origin, direction);
+            let distances = planes.map(|p| p[3]);
+            let paired = paired_span(&axes, &distances, slack, origin, direction);
+            assert_eq!(bits(paired), bits(expected), "trial {trial}");
+            // inside (mid-span), on the rim (where the span begins) or anywhere
+            let t = match expected {
+                Some(span) if trial % 3 == 0 => 0.5 * (span.t_in + span.t_out),
+                Some(span) if trial % 3 == 1 => span.t_in,
+                _ => 1.0,
+            };
+            let point = along(origin, direction, t);
+            let inside = polytope_contains(&planes, slack, point);
+            assert_eq!(paired_contains(&axes, &distances, slack, point), inside, "trial {trial}");
+            insides += usize::from(inside);
+            if expected.is_some() { hits += 1 } else { misses += 1 }
+        }
+        assert!(hits > 3000 && misses > 3000, "{hits} hits, {misses} misses");
+        assert!(insides > 3000 && insides < 17_000, "{insides} points inside");
+        let mut unpaired = cube_planes([0.0; 3], 0.5, AXES);
+        unpaired[3][1] = -0.999_999_9;
+        assert!(!in_opposite_pairs(&unpaired));
+        assert!(!in_opposite_pairs(&tet_planes([[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])));
     }
 
     #[test]

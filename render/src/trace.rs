@@ -18,7 +18,7 @@ use shatter_core::particles::ElementType;
 use crate::element_kdtree::{PACKET, each_ray};
 use crate::lighting::{EnvironmentMap, KeyLight, sh_irradiance};
 use crate::mattes::{MatteCounts, SURFACE_FLOOR, SURFACE_FRACTURE, SURFACE_NONE, SURFACE_OUTER};
-use crate::primitives::{TrimtopeHit, along, dot, polytope_contains, polytope_span, trimtope_hit};
+use crate::primitives::{TrimtopeHit, along, dot, trimtope_hit};
 use crate::scene::{Camera, SceneGeometry};
 
 /// No element.
@@ -46,12 +46,11 @@ impl Hit {
 /// into a [`Hit`]. Nearest-hit searches compare entries and resolve only the nearest (a normal
 /// and a fracture-face lookup for one element, not for every one).
 fn element_entry(scene: &SceneGeometry, e: usize, origin: [f32; 3], direction: [f32; 3], t_min: f32) -> TrimtopeHit {
-    let planes = scene.planes_of(e);
     if scene.element_type == ElementType::Trimtope {
-        let (triangles, groups) = (scene.triangles_of(e), scene.triangle_groups_of(e));
+        let (planes, triangles, groups) = (scene.planes_of(e), scene.triangles_of(e), scene.triangle_groups_of(e));
         return trimtope_hit(planes, triangles, groups, scene.sites[e], scene.slack, origin, direction, t_min);
     }
-    match polytope_span(planes, scene.slack, origin, direction) {
+    match scene.span_of(e, origin, direction) {
         Some(span) if span.t_in >= t_min && span.plane_in != NONE => {
             TrimtopeHit::Face { t: span.t_in, plane: span.plane_in }
         }
@@ -138,7 +137,7 @@ pub fn closest_hits(scene: &SceneGeometry, origin: [f32; 3], directions: &[[f32;
 pub fn element_at(scene: &SceneGeometry, point: [f32; 3], except: u32) -> u32 {
     let mut found = NONE;
     scene.index.for_each_at(&scene.fragment, point, |e| {
-        if e < found && e != except && polytope_contains(scene.planes_of(e as usize), scene.slack, point) {
+        if e < found && e != except && scene.contains(e as usize, point) {
             found = e;
         }
     });
@@ -151,7 +150,7 @@ pub fn element_at(scene: &SceneGeometry, point: [f32; 3], except: u32) -> u32 {
 fn next_element(scene: &SceneGeometry, current: u32, plane: u32, point: [f32; 3]) -> u32 {
     if plane != NONE {
         let neighbour = scene.face_neighbours[(scene.plane_offsets[current as usize] + plane) as usize];
-        if neighbour != NONE && polytope_contains(scene.planes_of(neighbour as usize), scene.slack, point) {
+        if neighbour != NONE && scene.contains(neighbour as usize, point) {
             return neighbour;
         }
     }
@@ -176,7 +175,7 @@ pub fn union_exit(scene: &SceneGeometry, element: u32, origin: [f32; 3], directi
     let mut stalled = 0;
     for _ in 0..100_000 {
         let planes = scene.planes_of(current as usize);
-        let Some(span) = polytope_span(planes, scene.slack, from, direction) else {
+        let Some(span) = scene.span_of(current as usize, from, direction) else {
             break;
         };
         let t = span.t_out.max(0.0);
