@@ -178,23 +178,20 @@ impl ContactList {
         let limit = (0.25 * self.skin).powi(2);
         let drift_limit = (0.8 * HASH_MARGIN * reach).powi(2);
         let (built_at, hashed_at) = (&self.built_at, &self.hashed_at);
-        let moved_from =
-            |from: &[Vec<f32>; 3], i: usize| -> f32 { (0..3).map(|a| (x[a][i] - from[a][i]).powi(2)).sum() };
         // One pass in chunks (a parallel pass per particle costs more to share out than to do):
         // the particles due a search, and whether any has drifted from where the hash has it.
+        // (A NaN distance counts as moved.)
         let scans: Vec<(Vec<usize>, bool)> = (0..n.div_ceil(SCAN_CHUNK))
             .into_par_iter()
             .map(|chunk| {
-                let mut moved = Vec::new();
-                let mut drifted = false;
-                for i in chunk * SCAN_CHUNK..n.min((chunk + 1) * SCAN_CHUNK) {
-                    let d2 = moved_from(built_at, i);
-                    if d2 > limit || d2.is_nan() {
-                        moved.push(i);
-                    }
-                    let drift = moved_from(hashed_at, i);
-                    drifted |= drift > drift_limit || drift.is_nan();
-                }
+                let range = chunk * SCAN_CHUNK..n.min((chunk + 1) * SCAN_CHUNK);
+                let mut d2 = [0.0f32; SCAN_CHUNK];
+                let d2 = &mut d2[..range.len()];
+                squared_moves(x, hashed_at, range.clone(), d2);
+                let drifted = d2.iter().fold(false, |any, &d| any | (d > drift_limit) | d.is_nan());
+                squared_moves(x, built_at, range.clone(), d2);
+                let moved =
+                    (range.start..).zip(&*d2).filter(|(_, d)| **d > limit || d.is_nan()).map(|(i, _)| i).collect();
                 (moved, drifted)
             })
             .collect();
@@ -263,6 +260,15 @@ impl ContactList {
     /// Particle i's candidates, in increasing index.
     pub fn candidates(&self, i: usize) -> &[u32] {
         &self.lists[i]
+    }
+}
+
+/// Into `out`, the squared distance of each particle in `range` from `x` to `from`; lane by lane.
+fn squared_moves(x: [&[f32]; 3], from: &[Vec<f32>; 3], range: std::ops::Range<usize>, out: &mut [f32]) {
+    let [(x0, f0), (x1, f1), (x2, f2)] = [0, 1, 2].map(|a| (&x[a][range.clone()], &from[a][range.clone()]));
+    let axes = x0.iter().zip(f0).zip(x1.iter().zip(f1)).zip(x2.iter().zip(f2));
+    for (d2, (((a, p), (b, q)), (c, r))) in out.iter_mut().zip(axes) {
+        *d2 = (a - p) * (a - p) + (b - q) * (b - q) + (c - r) * (c - r);
     }
 }
 

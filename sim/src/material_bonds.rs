@@ -38,10 +38,10 @@ impl MaterialBonds {
     /// The stored elastic energy, joules, summed in a fixed order.
     pub fn energy_j(&self, disp: &[Vec<f32>; 3]) -> f64 {
         match self {
-            MaterialBonds::Pmb(table) => table.sum_entries(|bond| {
+            MaterialBonds::Pmb(table) => table.sum_springs(disp, |spring| {
                 // stored once: the partner's half too
-                let ends = if bond.internal { 2.0 } else { 1.0 };
-                ends * half_spring_energy_j(disp, bond)
+                let ends = if spring.bond.internal { 2.0 } else { 1.0 };
+                ends * half_spring_energy_j(&spring.bond, spring.eta)
             }),
             MaterialBonds::Elastoplastic(table) => {
                 table.energy_per_particle([&disp[0], &disp[1], &disp[2]]).iter().sum()
@@ -55,7 +55,8 @@ impl MaterialBonds {
             MaterialBonds::Pmb(table) => {
                 let mut energy = vec![0.0f64; disp[0].len()];
                 table.for_each_entry(|bond| {
-                    let half = half_spring_energy_j(disp, bond);
+                    let eta = [0, 1, 2].map(|a| disp[a][bond.j] - disp[a][bond.i]);
+                    let half = half_spring_energy_j(bond, eta);
                     energy[bond.i] += half;
                     if bond.internal {
                         // stored once: the partner's half too
@@ -114,13 +115,12 @@ impl MaterialBonds {
     }
 }
 
-/// Half the energy 1/2 k s^2 L of a spring (0 once broken), joules.
-fn half_spring_energy_j(disp: &[Vec<f32>; 3], bond: &StoredBond) -> f64 {
+/// Half the energy 1/2 k s^2 L of a spring (0 once broken, and for padding) stretched by
+/// `eta` = u_j - u_i, joules.
+fn half_spring_energy_j(bond: &StoredBond, eta: [f32; 3]) -> f64 {
     if bond.stiffness == 0.0 {
         return 0.0;
     }
-    let (i, j) = (bond.i, bond.j);
-    let eta = [0, 1, 2].map(|a| disp[a][j] - disp[a][i]);
     let (s, _, _) = kernels::stretch(bond.rest_vector, eta, bond.rest_length_m);
     0.25 * f64::from(bond.stiffness) * f64::from(s).powi(2) * f64::from(bond.rest_length_m)
 }

@@ -5,7 +5,7 @@ use rayon::prelude::*;
 use shatter_core::particles::ParticleSet;
 
 use super::EntryValues;
-use super::lattice_layout::LatticeTable;
+use super::lattice_layout::{LatticeTable, NO_PARTICLE};
 use super::row_layout::{self, BondTable, LANES, PADDING};
 
 /// Which layouts a CPU simulation may run on: what [`SpringTable`] may choose from.
@@ -32,6 +32,16 @@ pub struct StoredBond {
     pub stiffness: f32,
     /// Stored once for both ends (else each end stores its own entry).
     pub internal: bool,
+}
+
+/// A stored bond entry and its stretch vector eta = u_j - u_i now (metres), what
+/// [`SpringTable::sum_springs`] offers (on the lattice layout `bond.i` and `bond.j` are slots).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SpringNow {
+    /// The entry.
+    pub bond: StoredBond,
+    /// u_j - u_i, metres.
+    pub eta: [f32; 3],
 }
 
 /// The bond layout of a CPU simulation.
@@ -136,17 +146,63 @@ impl SpringTable {
         }
     }
 
-    /// The sum of `value` over all stored entries: summed per chunk in entry order, in parallel,
-    /// then over chunks in order (the same on any thread count).
-    pub fn sum_entries(&self, value: impl Fn(&StoredBond) -> f64 + Sync) -> f64 {
-        let sums: Vec<f64> = (0..self.chunk_count())
-            .into_par_iter()
-            .map(|c| {
-                let mut sum = 0.0;
-                self.for_each_entry_of_chunk(c, |bond| sum += value(bond));
-                sum
-            })
-            .collect();
+    /// The sum of `value` over all stored entries, each with its bond's stretch vector at the
+    /// displacements `disp`: summed per chunk in entry order ([`SpringTable::for_each_entry`]'s),
+    /// in parallel, then over chunks in order (the same on any thread count). The lattice
+    /// layout reads the displacements by slot, eight lanes of a block at once; padding lanes
+    /// (zero stiffness) are offered too, and `value` must give +0 for them.
+    pub fn sum_springs(&self, disp: &[Vec<f32>; 3], value: impl Fn(&SpringNow) -> f64 + Sync) -> f64 {
+        let sums: Vec<f64> = match self {
+            SpringTable::Rows(_) => (0..self.chunk_count())
+                .into_par_iter()
+                .map(|c| {
+                    let mut sum = 0.0;
+                    self.for_each_entry_of_chunk(c, |bond| {
+                        let eta = [0, 1, 2].map(|a| disp[a][bond.j] - disp[a][bond.i]);
+                        sum += value(&SpringNow { bond: *bond, eta });
+                    });
+                    sum
+                })
+                .collect(),
+            SpringTable::Lattice(table) => {
+                let slot_disp: [Vec<f32>; 3] = [0, 1, 2].map(|a| {
+                    let by_slot = |&p: &u32| if p == NO_PARTICLE { 0.0 } else { disp[a][p as usize] };
+                    table.particle_of.par_iter().map(by_slot).collect()
+                });
+                table
+                    .chunks
+                    .par_iter()
+                    .map(|chunk| {
+                        let shape = &chunk.shape;
+                        let mut sum = 0.0;
+                        for brick in 0..shape.brick_slot.len() {
+                            let own = shape.brick_slot[brick] as usize;
+                            for (block, internal) in shape.brick_blocks(brick) {
+                                let partner = shape.partner_slot[block] as usize;
+                                let (bonds, rest) = (&chunk.blocks[block], &chunk.rest[block]);
+                                let values: [f64; LANES] = std::array::from_fn(|lane| {
+                                    let eta =
+                                        [0, 1, 2].map(|a| slot_disp[a][partner + lane] - slot_disp[a][own + lane]);
+                                    let bond = StoredBond {
+                                        i: own + lane,
+                                        j: partner + lane,
+                                        rest_vector: rest.vector_m,
+                                        rest_length_m: rest.length_m,
+                                        stiffness: bonds.stiffness[lane],
+                                        internal,
+                                    };
+                                    value(&SpringNow { bond, eta })
+                                });
+                                for v in values {
+                                    sum += v;
+                                }
+                            }
+                        }
+                        sum
+                    })
+                    .collect()
+            }
+        };
         sums.iter().sum()
     }
 
@@ -165,5 +221,60 @@ impl SpringTable {
         let mut counts = (0, 0);
         self.for_each_entry(|bond| if bond.internal { counts.0 += 1 } else { counts.1 += 1 });
         counts
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use shatter_core::NoProgress;
+    use shatter_core::config::PipelineConfig;
+    use shatter_core::config::sim::{PartialVolumes, StiffnessCorrection};
+
+    use super::*;
+
+    /// On the lattice layout the springs' sum reads the displacements by slot, a block's lanes at
+    /// once, padding included; it is the entry-by-entry sum over the particles to the bit.
+    #[test]
+    fn the_lattice_sum_of_springs_is_the_entry_sum_to_the_bit() {
+        let text = "[scene]\nname = \"t\"\noutput_dir = \"out\"\nseed = 1\n[geometry]\nsource = \"box\"\n\
+                    box_size_m = [0.011, 0.007, 0.005]\nsampler = \"grid\"\nspacing_m = 0.001\n\
+                    horizon_factor = 3.0\n[material]\ndensity_kg_m3 = 2200.0\nbulk_modulus_pa = 1e10\n";
+        let config = PipelineConfig::from_toml_str(text, Path::new("/nonexistent/pipeline.toml")).expect("config");
+        let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
+        let values = EntryValues::new(&particles, 1e15, 1.0, None, StiffnessCorrection::Energy, PartialVolumes::None);
+        let mut table = SpringTable::new(&particles, &values, LayoutChoice::Fastest);
+        let SpringTable::Lattice(lattice) = &table else { panic!("a grid block is on the lattice") };
+        assert!(lattice.chunks.len() > 1, "bonds between chunks too");
+        // some bonds broken (zero stiffness), random displacements
+        let broken: Vec<u64> =
+            lattice.chunks[0].bond_id.iter().copied().filter(|&id| id != PADDING).step_by(7).collect();
+        let mut broken = broken;
+        broken.sort_unstable();
+        table.mark_broken(&broken);
+        let mut rng = shatter_core::random::SplitMix64::new(3);
+        let disp: [Vec<f32>; 3] =
+            [0, 1, 2].map(|_| (0..particles.len()).map(|_| (rng.next_f64() as f32 - 0.5) * 1e-5).collect());
+        let energy = |spring: &SpringNow| {
+            let bond = &spring.bond;
+            let length = spring.eta.iter().zip(bond.rest_vector).map(|(e, x)| (e + x) * (e + x)).sum::<f32>().sqrt();
+            let ends = if bond.internal { 2.0 } else { 1.0 };
+            ends * f64::from(bond.stiffness) * f64::from(length - bond.rest_length_m).powi(2)
+        };
+        let expected: f64 = (0..table.chunk_count())
+            .map(|c| {
+                let mut sum = 0.0;
+                table.for_each_entry_of_chunk(c, |bond| {
+                    let eta = [0, 1, 2].map(|a| disp[a][bond.j] - disp[a][bond.i]);
+                    sum += energy(&SpringNow { bond: *bond, eta });
+                });
+                sum
+            })
+            .collect::<Vec<f64>>()
+            .iter()
+            .sum();
+        assert!(expected > 0.0);
+        assert_eq!(table.sum_springs(&disp, energy).to_bits(), expected.to_bits());
     }
 }
