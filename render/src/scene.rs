@@ -242,15 +242,21 @@ impl SceneGeometry {
 fn cube_slabs(planes: &[Plane]) -> (Vec<CubeSlabs>, Vec<[[f32; 3]; 3]>) {
     let mut axes: Vec<[[f32; 3]; 3]> = Vec::new();
     let mut index: HashMap<[u32; 9], u32> = HashMap::new();
+    // a fragment's cubes are mostly neighbours in the element order: the last cube's axes first
+    let mut last: Option<([u32; 9], u32)> = None;
     let slabs = planes
         .chunks_exact(6)
         .map(|cube| {
             let normals = [0, 2, 4].map(|k| [cube[k][0], cube[k][1], cube[k][2]]);
             let key: [u32; 9] = std::array::from_fn(|i| normals[i / 3][i % 3].to_bits());
-            let at = *index.entry(key).or_insert_with(|| {
-                axes.push(normals);
-                axes.len() as u32 - 1
-            });
+            let at = match last {
+                Some((last_key, at)) if last_key == key => at,
+                _ => *index.entry(key).or_insert_with(|| {
+                    axes.push(normals);
+                    axes.len() as u32 - 1
+                }),
+            };
+            last = Some((key, at));
             CubeSlabs { distances: std::array::from_fn(|k| cube[k][3]), axes: at }
         })
         .collect();
@@ -715,6 +721,8 @@ mod tests {
         let world = SceneGeometry::build_with(&particles, Some(&frame), None);
         assert!(scene.index.world_tree().is_none(), "the fragments are found through the rest tree");
         assert!(world.index.world_tree().is_some());
+        // the cubes are tested from their slabs, one set of axes for each fragment's turn
+        assert_eq!((scene.cube_slabs.len(), scene.cube_axes.len()), (scene.len(), 4));
         let point = |k: u64| [unit(k) * 1.0 - 0.1, unit(k + 1) * 1.0 + 0.2, unit(k + 2) * 0.5 - 0.1];
         let (mut hits, mut inside) = (0, 0);
         for k in 0..400u64 {
