@@ -153,17 +153,9 @@ impl SpringTable {
     /// (zero stiffness) are offered too, and `value` must give +0 for them.
     pub fn sum_springs(&self, disp: &[Vec<f32>; 3], value: impl Fn(&SpringNow) -> f64 + Sync) -> f64 {
         let sums: Vec<f64> = match self {
-            SpringTable::Rows(_) => (0..self.chunk_count())
-                .into_par_iter()
-                .map(|c| {
-                    let mut sum = 0.0;
-                    self.for_each_entry_of_chunk(c, |bond| {
-                        let eta = [0, 1, 2].map(|a| disp[a][bond.j] - disp[a][bond.i]);
-                        sum += value(&SpringNow { bond: *bond, eta });
-                    });
-                    sum
-                })
-                .collect(),
+            SpringTable::Rows(_) => {
+                (0..self.chunk_count()).into_par_iter().map(|c| self.entry_sum(c, disp, &value)).collect()
+            }
             SpringTable::Lattice(table) => {
                 let slot_disp: [Vec<f32>; 3] = [0, 1, 2].map(|a| {
                     let by_slot = |&p: &u32| if p == NO_PARTICLE { 0.0 } else { disp[a][p as usize] };
@@ -206,6 +198,17 @@ impl SpringTable {
         sums.iter().sum()
     }
 
+    /// Chunk `c`'s part of [`SpringTable::sum_springs`], entry by entry through the particles'
+    /// displacements (padding skipped).
+    fn entry_sum(&self, c: usize, disp: &[Vec<f32>; 3], value: &impl Fn(&SpringNow) -> f64) -> f64 {
+        let mut sum = 0.0;
+        self.for_each_entry_of_chunk(c, |bond| {
+            let eta = [0, 1, 2].map(|a| disp[a][bond.j] - disp[a][bond.i]);
+            sum += value(&SpringNow { bond: *bond, eta });
+        });
+        sum
+    }
+
     /// Calls `f` with the id of every bond the last force pass broke, chunk by chunk in the order
     /// they broke.
     pub fn for_each_break(&self, mut f: impl FnMut(u64)) {
@@ -235,7 +238,8 @@ mod tests {
     use super::*;
 
     /// On the lattice layout the springs' sum reads the displacements by slot, a block's lanes at
-    /// once, padding included; it is the entry-by-entry sum over the particles to the bit.
+    /// once, padding included; it is the entry-by-entry sum over the particles (the row layout's
+    /// way) to the bit.
     #[test]
     fn the_lattice_sum_of_springs_is_the_entry_sum_to_the_bit() {
         let text = "[scene]\nname = \"t\"\noutput_dir = \"out\"\nseed = 1\n[geometry]\nsource = \"box\"\n\
@@ -262,18 +266,8 @@ mod tests {
             let ends = if bond.internal { 2.0 } else { 1.0 };
             ends * f64::from(bond.stiffness) * f64::from(length - bond.rest_length_m).powi(2)
         };
-        let expected: f64 = (0..table.chunk_count())
-            .map(|c| {
-                let mut sum = 0.0;
-                table.for_each_entry_of_chunk(c, |bond| {
-                    let eta = [0, 1, 2].map(|a| disp[a][bond.j] - disp[a][bond.i]);
-                    sum += energy(&SpringNow { bond: *bond, eta });
-                });
-                sum
-            })
-            .collect::<Vec<f64>>()
-            .iter()
-            .sum();
+        let expected: f64 =
+            (0..table.chunk_count()).map(|c| table.entry_sum(c, &disp, &energy)).collect::<Vec<f64>>().iter().sum();
         assert!(expected > 0.0);
         assert_eq!(table.sum_springs(&disp, energy).to_bits(), expected.to_bits());
     }
