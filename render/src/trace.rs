@@ -174,7 +174,6 @@ pub fn union_exit(scene: &SceneGeometry, element: u32, origin: [f32; 3], directi
     let mut from = origin;
     let mut stalled = 0;
     for _ in 0..100_000 {
-        let planes = scene.planes_of(current as usize);
         let Some(span) = scene.span_of(current as usize, from, direction) else {
             break;
         };
@@ -183,6 +182,8 @@ pub fn union_exit(scene: &SceneGeometry, element: u32, origin: [f32; 3], directi
         let next = next_element(scene, current, span.plane_out, along(exit, direction, step));
         stalled = if t < step { stalled + 1 } else { 0 };
         if next == NONE || span.plane_out == NONE || stalled > STALLED_STEPS {
+            // the planes only for the normal of the face the walk leaves by
+            let planes = scene.planes_of(current as usize);
             let p = planes[span.plane_out.min(planes.len() as u32 - 1) as usize];
             return (travelled + t, [p[0], p[1], p[2]], current);
         }
