@@ -41,7 +41,7 @@ impl MaterialBonds {
             MaterialBonds::Pmb(table) => table.sum_springs(disp, |spring| {
                 // stored once: the partner's half too
                 let ends = if spring.bond.internal { 2.0 } else { 1.0 };
-                ends * half_spring_energy_j(&spring.bond, spring.eta)
+                ends * half_spring_energy_j(&spring.bond, spring.stretch)
             }),
             MaterialBonds::Elastoplastic(table) => {
                 table.energy_per_particle([&disp[0], &disp[1], &disp[2]]).iter().sum()
@@ -56,7 +56,8 @@ impl MaterialBonds {
                 let mut energy = vec![0.0f64; disp[0].len()];
                 table.for_each_entry(|bond| {
                     let eta = [0, 1, 2].map(|a| disp[a][bond.j] - disp[a][bond.i]);
-                    let half = half_spring_energy_j(bond, eta);
+                    let (stretch, _, _) = kernels::stretch(bond.rest_vector, eta, bond.rest_length_m);
+                    let half = half_spring_energy_j(bond, stretch);
                     energy[bond.i] += half;
                     if bond.internal {
                         // stored once: the partner's half too
@@ -115,12 +116,11 @@ impl MaterialBonds {
     }
 }
 
-/// Half the energy 1/2 k s^2 L of a spring (0 once broken, and for padding) stretched by
-/// `eta` = u_j - u_i, joules.
-fn half_spring_energy_j(bond: &StoredBond, eta: [f32; 3]) -> f64 {
+/// Half the energy 1/2 k s^2 L of a spring (0 once broken, and for padding) at stretch `s`,
+/// joules.
+fn half_spring_energy_j(bond: &StoredBond, s: f32) -> f64 {
     if bond.stiffness == 0.0 {
         return 0.0;
     }
-    let (s, _, _) = kernels::stretch(bond.rest_vector, eta, bond.rest_length_m);
     0.25 * f64::from(bond.stiffness) * f64::from(s).powi(2) * f64::from(bond.rest_length_m)
 }

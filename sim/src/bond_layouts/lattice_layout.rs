@@ -61,7 +61,7 @@ impl LatticeBlock {
 
 /// The rest vector and rest length that all bonds of a block share: one lattice offset on a
 /// lattice that f32 holds exactly.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C, align(16))]
 pub struct BlockRest {
     /// Rest vector xi = X_j - X_i, metres (the f32 difference of the particle file's positions).

@@ -7,6 +7,8 @@ use shatter_core::particles::ParticleSet;
 use super::EntryValues;
 use super::lattice_layout::{LatticeTable, NO_PARTICLE};
 use super::row_layout::{self, BondTable, LANES, PADDING};
+use crate::kernels;
+use crate::kernels::lanes::{lane_stretch, load, sub};
 
 /// Which layouts a CPU simulation may run on: what [`SpringTable`] may choose from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -34,7 +36,7 @@ pub struct StoredBond {
     pub internal: bool,
 }
 
-/// A stored bond entry and its stretch vector eta = u_j - u_i now (metres), what
+/// A stored bond entry, its stretch vector eta = u_j - u_i now (metres) and its stretch, what
 /// [`SpringTable::sum_springs`] offers (on the lattice layout `bond.i` and `bond.j` are slots).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SpringNow {
@@ -42,6 +44,8 @@ pub struct SpringNow {
     pub bond: StoredBond,
     /// u_j - u_i, metres.
     pub eta: [f32; 3],
+    /// The stretch s ([`crate::kernels::stretch`], whatever the stiffness).
+    pub stretch: f32,
 }
 
 /// The bond layout of a CPU simulation.
@@ -172,9 +176,11 @@ impl SpringTable {
                             for (block, internal) in shape.brick_blocks(brick) {
                                 let partner = shape.partner_slot[block] as usize;
                                 let (bonds, rest) = (&chunk.blocks[block], &chunk.rest[block]);
+                                let xi = rest.vector_m.map(|axis| [axis; LANES]);
+                                let eta =
+                                    [0, 1, 2].map(|a| sub(load(&slot_disp[a], partner), load(&slot_disp[a], own)));
+                                let stretch = lane_stretch(&xi, &eta, [rest.length_m; LANES]);
                                 let values: [f64; LANES] = std::array::from_fn(|lane| {
-                                    let eta =
-                                        [0, 1, 2].map(|a| slot_disp[a][partner + lane] - slot_disp[a][own + lane]);
                                     let bond = StoredBond {
                                         i: own + lane,
                                         j: partner + lane,
@@ -183,7 +189,8 @@ impl SpringTable {
                                         stiffness: bonds.stiffness[lane],
                                         internal,
                                     };
-                                    value(&SpringNow { bond, eta })
+                                    let eta = [eta[0][lane], eta[1][lane], eta[2][lane]];
+                                    value(&SpringNow { bond, eta, stretch: stretch[lane] })
                                 });
                                 for v in values {
                                     sum += v;
@@ -204,7 +211,8 @@ impl SpringTable {
         let mut sum = 0.0;
         self.for_each_entry_of_chunk(c, |bond| {
             let eta = [0, 1, 2].map(|a| disp[a][bond.j] - disp[a][bond.i]);
-            sum += value(&SpringNow { bond: *bond, eta });
+            let (stretch, _, _) = kernels::stretch(bond.rest_vector, eta, bond.rest_length_m);
+            sum += value(&SpringNow { bond: *bond, eta, stretch });
         });
         sum
     }
@@ -237,9 +245,9 @@ mod tests {
 
     use super::*;
 
-    /// On the lattice layout the springs' sum reads the displacements by slot, a block's lanes at
-    /// once, padding included; it is the entry-by-entry sum over the particles (the row layout's
-    /// way) to the bit.
+    /// On the lattice layout the springs' sum reads the displacements by slot and computes the
+    /// stretches a block's lanes at once, padding included; it is the entry-by-entry sum over the
+    /// particles (the row layout's way) to the bit.
     #[test]
     fn the_lattice_sum_of_springs_is_the_entry_sum_to_the_bit() {
         let text = "[scene]\nname = \"t\"\noutput_dir = \"out\"\nseed = 1\n[geometry]\nsource = \"box\"\n\
@@ -264,7 +272,9 @@ mod tests {
             let bond = &spring.bond;
             let length = spring.eta.iter().zip(bond.rest_vector).map(|(e, x)| (e + x) * (e + x)).sum::<f32>().sqrt();
             let ends = if bond.internal { 2.0 } else { 1.0 };
-            ends * f64::from(bond.stiffness) * f64::from(length - bond.rest_length_m).powi(2)
+            // the stretch as offered, lane by lane on the lattice, entry by entry in rows
+            let stretch = f64::from(spring.stretch);
+            ends * f64::from(bond.stiffness) * (f64::from(length - bond.rest_length_m).powi(2) + stretch * stretch)
         };
         let expected: f64 =
             (0..table.chunk_count()).map(|c| table.entry_sum(c, &disp, &energy)).collect::<Vec<f64>>().iter().sum();

@@ -189,6 +189,14 @@ pub fn deformed_bonds(xi: &[Lanes; 3], eta: &[Lanes; 3]) -> ([Lanes; 3], Lanes, 
     (y, length, growth)
 }
 
+/// Eight bonds' stretch s = (2 xi . eta + eta . eta) / (L (|y| + L)) from their rest vectors,
+/// displacement differences and rest lengths: lane by lane the bits of [`super::stretch`].
+#[inline(always)]
+pub fn lane_stretch(xi: &[Lanes; 3], eta: &[Lanes; 3], rest_length: Lanes) -> Lanes {
+    let (_, length, growth) = deformed_bonds(xi, eta);
+    div(growth, mul(rest_length, add(length, rest_length)))
+}
+
 /// The PMB force of eight bonds from their rest vectors xi, displacement differences eta, rest
 /// lengths and stiffnesses: s = (2 xi . eta + eta . eta) / (L (|y| + L)) (see
 /// [`super::stretch`]), and the force k s y / |y| as `scale` y, with one division for both.

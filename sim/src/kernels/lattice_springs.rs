@@ -1,21 +1,24 @@
 //! The spring kernel for the lattice layout ([`crate::bond_layouts::lattice_layout`]): the same
 //! bond force and break test as the row kernel, eight sites at a time, their partners eight
 //! consecutive slots, their rest vector and length one for all eight.
-//! Plain lane arithmetic ([`super::lanes`]) that the compiler turns into vector instructions:
-//! with no gathers, there is nothing for explicit intrinsics to add.
+//! Plain lane arithmetic ([`super::lanes`]) that the compiler turns into vector instructions.
+//! `lattice_springs_avx512` holds the same brick kernel in explicit AVX-512 instructions, two
+//! blocks to a 16-lane register; both give the same bits.
 
 use shatter_core::config::sim::BreakRule;
 
 use super::lanes::{BondLanes, LANES, Lanes, add, any_greater, bond_lanes, load, min, mul, neg, sub};
 use super::springs::{ChunkForces, break_bound, effective_threshold};
-use crate::bond_layouts::lattice_layout::{ChunkShape, LatticeBlock, LatticeChunk, SlotInputs};
+use crate::bond_layouts::lattice_layout::{BlockRest, ChunkShape, LatticeBlock, LatticeChunk, SlotInputs};
 
 /// Spring forces (the paper's `springforces`) of one chunk of the lattice layout: for every
 /// intact bond, the stretch, the break test against the effective threshold, and the PMB force.
 /// Internal blocks are applied to both ends, external ones to this end only; bonds that break
 /// are recorded once in `chunk.breaks` (external ones by their lower particle). Each slot sums
 /// its own bonds block by block, in block order, into a running total per lane, then adds that
-/// total to the reactions its slot has received; a fixed order, whatever the thread count.
+/// total to the reactions its slot has received; a fixed order, whatever the thread count and
+/// the instruction set (AVX-512 where the CPU has it, two blocks at a time, else portable code;
+/// the two agree bit for bit).
 pub fn lattice_spring_forces(
     chunk: &mut LatticeChunk,
     inputs: &SlotInputs<'_>,
@@ -23,14 +26,49 @@ pub fn lattice_spring_forces(
     rule: BreakRule,
     out: &mut ChunkForces,
 ) {
-    let LatticeChunk {
-        shape: ChunkShape { first_slot: first, slots, brick_slot, brick_start, internal_end, partner_slot },
-        blocks,
-        rest,
-        bond_id,
-        breaks,
-    } = chunk;
-    let (first, slots) = (*first, *slots);
+    #[cfg(target_arch = "x86_64")]
+    if super::lattice_springs_avx512::lattice_spring_forces(chunk, inputs, particle_of, rule, out) {
+        return;
+    }
+    lattice_bricks(chunk, inputs, particle_of, rule, out, brick_forces);
+}
+
+/// One chunk's pass as a brick kernel sees it: the chunk's blocks and the slots they read and
+/// write.
+pub(super) struct ChunkPass<'a> {
+    /// Where the blocks sit.
+    pub shape: &'a ChunkShape,
+    /// The blocks (a broken bond's lanes are updated in place).
+    pub blocks: &'a mut [LatticeBlock],
+    /// Each block's rest vector and length.
+    pub rest: &'a [BlockRest],
+    /// Each lane's bond id.
+    pub bond_id: &'a [u64],
+    /// Bonds broken in this pass.
+    pub breaks: &'a mut Vec<u64>,
+    /// Displacement per slot, metres (x, y, z), all `context.particle_of`'s length.
+    pub disp: [&'a [f32]; 3],
+    /// What the break test reads.
+    pub context: LatticeContext<'a>,
+    /// The chunk's force and smallest-stretch totals.
+    pub totals: ChunkTotals<'a>,
+}
+
+/// The brick loop of [`lattice_spring_forces`] around a brick kernel, which computes the blocks of
+/// one brick (`(pass, brick, its first slot, the break test's cheap bound)`), adds their
+/// reactions, and returns the brick's own force and smallest-stretch lane sums. Inlined into each
+/// caller, so that it is compiled for the caller's instruction set.
+#[inline(always)]
+pub(super) fn lattice_bricks(
+    chunk: &mut LatticeChunk,
+    inputs: &SlotInputs<'_>,
+    particle_of: &[u32],
+    rule: BreakRule,
+    out: &mut ChunkForces,
+    mut brick: impl FnMut(&mut ChunkPass, usize, usize, Lanes) -> ([Lanes; 3], Lanes),
+) {
+    let LatticeChunk { shape, blocks, rest, bond_id, breaks } = chunk;
+    let (first, slots) = (shape.first_slot, shape.slots);
     breaks.clear();
     // Slots past the chunk's rows are never read.
     for axis in 0..3 {
@@ -39,56 +77,73 @@ pub fn lattice_spring_forces(
     out.min_stretch[..slots].fill(0.0);
     // Slices of one length, so that one bounds check covers a load from all of them.
     let len = particle_of.len();
-    let disp = inputs.disp.map(|values| &values[..len]);
-    let context = LatticeContext { boost: &inputs.boost[..len], particle_of, rule };
-    let mut totals = ChunkTotals::new(out, slots);
-    for (brick, &own) in brick_slot.iter().enumerate() {
+    let mut pass = ChunkPass {
+        shape,
+        blocks,
+        rest,
+        bond_id,
+        breaks,
+        disp: inputs.disp.map(|values| &values[..len]),
+        context: LatticeContext { boost: &inputs.boost[..len], particle_of, rule },
+        totals: ChunkTotals::new(out, slots),
+    };
+    for (b, &own) in shape.brick_slot.iter().enumerate() {
         let own = own as usize;
         let bound = match rule {
-            BreakRule::Max => load(context.boost, own),
+            BreakRule::Max => load(pass.context.boost, own),
             BreakRule::Min => [break_bound(rule, 0.0); LANES],
         };
-        let mut force_sum = [[0.0f32; LANES]; 3];
-        let mut smallest = [0.0f32; LANES];
-        let (start, middle, end) =
-            (brick_start[brick] as usize, internal_end[brick] as usize, brick_start[brick + 1] as usize);
-        let brick_blocks = blocks[start..end].iter_mut().zip(&partner_slot[start..end]).zip(&rest[start..end]);
-        for (k, ((bonds, &partner), shared)) in brick_blocks.enumerate() {
-            let (block, partner) = (start + k, partner as usize);
-            let internal = block < middle;
-            // u_i is loaded again for every block rather than kept: the registers it would hold
-            // keep the lane sums out of the stack.
-            let eta = [
-                sub(load(disp[0], partner), load(disp[0], own)),
-                sub(load(disp[1], partner), load(disp[1], own)),
-                sub(load(disp[2], partner), load(disp[2], own)),
-            ];
-            let xi = shared.vector_m.map(|axis| [axis; LANES]);
-            let length = [shared.length_m; LANES];
-            let BondLanes { y, mut stretch, mut scale } = bond_lanes(&xi, &eta, length, bonds.stiffness);
-            if any_greater(stretch, add(bonds.threshold, bound)) {
-                let place = BlockPlace { own, partner, internal, ids: &bond_id[block * LANES..(block + 1) * LANES] };
-                break_lanes(&context, bonds, &place, breaks, [&mut stretch, &mut scale]);
-            }
-            let force = [mul(y[0], scale), mul(y[1], scale), mul(y[2], scale)];
-            for axis in 0..3 {
-                force_sum[axis] = add(force_sum[axis], force[axis]);
-            }
-            smallest = min(smallest, stretch);
-            if internal {
-                // The reaction: x - f is x + (-f), bit for bit.
-                let reaction = [neg(force[0]), neg(force[1]), neg(force[2])];
-                totals.add(partner - first, &reaction, stretch);
-            }
-        }
-        totals.add(own - first, &force_sum, smallest);
+        let (force_sum, smallest) = brick(&mut pass, b, own, bound);
+        pass.totals.add(own - first, &force_sum, smallest);
     }
 }
 
+/// The portable brick kernel: brick `b`'s blocks one by one, in block order.
+#[inline(always)]
+fn brick_forces(pass: &mut ChunkPass, b: usize, own: usize, bound: Lanes) -> ([Lanes; 3], Lanes) {
+    let ChunkShape { first_slot: first, brick_start, internal_end, partner_slot, .. } = pass.shape;
+    let disp = pass.disp;
+    let mut force_sum = [[0.0f32; LANES]; 3];
+    let mut smallest = [0.0f32; LANES];
+    let (start, middle, end) = (brick_start[b] as usize, internal_end[b] as usize, brick_start[b + 1] as usize);
+    let brick_blocks = pass.blocks[start..end].iter_mut().zip(&partner_slot[start..end]).zip(&pass.rest[start..end]);
+    for (k, ((bonds, &partner), shared)) in brick_blocks.enumerate() {
+        let (block, partner) = (start + k, partner as usize);
+        let internal = block < middle;
+        // u_i is loaded again for every block rather than kept: the registers it would hold
+        // keep the lane sums out of the stack.
+        let eta = [
+            sub(load(disp[0], partner), load(disp[0], own)),
+            sub(load(disp[1], partner), load(disp[1], own)),
+            sub(load(disp[2], partner), load(disp[2], own)),
+        ];
+        let xi = shared.vector_m.map(|axis| [axis; LANES]);
+        let length = [shared.length_m; LANES];
+        let BondLanes { y, mut stretch, mut scale } = bond_lanes(&xi, &eta, length, bonds.stiffness);
+        if any_greater(stretch, add(bonds.threshold, bound)) {
+            let place = BlockPlace { own, partner, internal, ids: &pass.bond_id[block * LANES..(block + 1) * LANES] };
+            break_lanes(&pass.context, bonds, &place, pass.breaks, [&mut stretch, &mut scale]);
+        }
+        let force = [mul(y[0], scale), mul(y[1], scale), mul(y[2], scale)];
+        for axis in 0..3 {
+            force_sum[axis] = add(force_sum[axis], force[axis]);
+        }
+        smallest = min(smallest, stretch);
+        if internal {
+            // The reaction: x - f is x + (-f), bit for bit.
+            let reaction = [neg(force[0]), neg(force[1]), neg(force[2])];
+            pass.totals.add(partner - first, &reaction, stretch);
+        }
+    }
+    (force_sum, smallest)
+}
+
 /// A chunk's force and smallest-stretch totals, each the chunk's slots long.
-struct ChunkTotals<'a> {
-    force: [&'a mut [f32]; 3],
-    min_stretch: &'a mut [f32],
+pub(super) struct ChunkTotals<'a> {
+    /// Force, newtons (x, y, z).
+    pub force: [&'a mut [f32]; 3],
+    /// Smallest stretch.
+    pub min_stretch: &'a mut [f32],
 }
 
 impl<'a> ChunkTotals<'a> {
@@ -103,7 +158,7 @@ impl<'a> ChunkTotals<'a> {
 
     /// Adds `force` to the eight slots from `at` (chunk-local) and keeps the smaller stretch.
     #[inline(always)]
-    fn add(&mut self, at: usize, force: &[Lanes; 3], stretch: Lanes) {
+    pub(super) fn add(&mut self, at: usize, force: &[Lanes; 3], stretch: Lanes) {
         for axis in 0..3 {
             let total = &mut self.force[axis][at..at + LANES];
             let updated = add(load(total, 0), force[axis]);
@@ -116,25 +171,32 @@ impl<'a> ChunkTotals<'a> {
 }
 
 /// What the break test reads besides the block.
-struct LatticeContext<'a> {
-    boost: &'a [f32],
-    particle_of: &'a [u32],
-    rule: BreakRule,
+pub(super) struct LatticeContext<'a> {
+    /// Compression boost per slot.
+    pub boost: &'a [f32],
+    /// Each slot's particle.
+    pub particle_of: &'a [u32],
+    /// Which end's boost counts.
+    pub rule: BreakRule,
 }
 
 /// A block's place: its brick's first slot, its partners' first slot, whether it is internal,
 /// and its lanes' bond ids.
-struct BlockPlace<'a> {
-    own: usize,
-    partner: usize,
-    internal: bool,
-    ids: &'a [u64],
+pub(super) struct BlockPlace<'a> {
+    /// The brick's first slot.
+    pub own: usize,
+    /// The partners' first slot.
+    pub partner: usize,
+    /// Whether the block is internal.
+    pub internal: bool,
+    /// The lanes' bond ids.
+    pub ids: &'a [u64],
 }
 
 /// Breaks the bonds of a block whose stretches passed the cheap bound where they exceed their
 /// effective threshold (zero stiffness, infinite threshold, logged once in `breaks`) and zeroes
 /// their lanes' stretch and force scale.
-fn break_lanes(
+pub(super) fn break_lanes(
     context: &LatticeContext,
     bonds: &mut LatticeBlock,
     place: &BlockPlace,
@@ -153,5 +215,90 @@ fn break_lanes(
             stretch[lane] = 0.0;
             scale[lane] = 0.0;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use shatter_core::NoProgress;
+    use shatter_core::config::PipelineConfig;
+    use shatter_core::config::sim::{PartialVolumes, StiffnessCorrection};
+
+    use super::*;
+    use crate::bond_layouts::EntryValues;
+    use crate::bond_layouts::lattice_layout::{LatticeTable, NO_PARTICLE, SlotViews};
+    use crate::bond_layouts::layout_choice::{LayoutChoice, SpringTable};
+
+    /// Everything a pass writes, chunk by chunk: forces and smallest stretches (as bits), and
+    /// the chunk after the pass (its blocks and the ids of the bonds it saw break).
+    type PassResult = Vec<([Vec<u32>; 3], Vec<u32>, LatticeChunk)>;
+
+    /// One pass over every chunk of `table`, through the dispatched kernel or the portable one.
+    fn run(table: &LatticeTable, disp: &[Vec<f32>; 3], boost: &[f32], rule: BreakRule, dispatched: bool) -> PassResult {
+        let inputs = SlotInputs { disp: [&disp[0], &disp[1], &disp[2]], boost };
+        let bits = |values: &[f32]| values.iter().map(|v| v.to_bits()).collect::<Vec<u32>>();
+        table
+            .chunks
+            .iter()
+            .map(|chunk| {
+                let mut chunk = chunk.clone();
+                let slots = table.chunk_slots;
+                let (mut fx, mut fy, mut fz, mut least) =
+                    (vec![0.0; slots], vec![0.0; slots], vec![0.0; slots], vec![0.0; slots]);
+                let mut out = ChunkForces { force: [&mut fx, &mut fy, &mut fz], min_stretch: &mut least };
+                if dispatched {
+                    lattice_spring_forces(&mut chunk, &inputs, &table.particle_of, rule, &mut out);
+                } else {
+                    lattice_bricks(&mut chunk, &inputs, &table.particle_of, rule, &mut out, brick_forces);
+                }
+                ([bits(&fx), bits(&fy), bits(&fz)], bits(&least), chunk)
+            })
+            .collect()
+    }
+
+    /// Where the CPU has AVX-512, the dispatched kernel computes blocks in pairs: on random
+    /// displacements and boosts of a grid block, with bonds breaking, its forces, smallest
+    /// stretches, blocks and breaks are the portable kernel's, bit for bit.
+    #[test]
+    fn the_dispatched_lattice_kernel_gives_the_portable_kernels_bits() {
+        let text = "[scene]\nname = \"t\"\noutput_dir = \"out\"\nseed = 1\n[geometry]\nsource = \"box\"\n\
+                    box_size_m = [0.013, 0.009, 0.007]\nsampler = \"grid\"\nspacing_m = 0.001\n\
+                    horizon_factor = 3.0\n[material]\ndensity_kg_m3 = 2200.0\nbulk_modulus_pa = 1e10\n";
+        let config = PipelineConfig::from_toml_str(text, Path::new("/nonexistent/pipeline.toml")).expect("config");
+        let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
+        let values = EntryValues::new(&particles, 1e15, 1.0, None, StiffnessCorrection::Energy, PartialVolumes::None);
+        let SpringTable::Lattice(mut table) = SpringTable::new(&particles, &values, LayoutChoice::Fastest) else {
+            panic!("a grid block is on the lattice")
+        };
+        assert!(table.chunks.len() > 1, "bonds between chunks too");
+        let mut breaks = 0;
+        for seed in 0..6 {
+            let mut rng = shatter_core::random::SplitMix64::new(seed);
+            let mut random = |scale: f64| (rng.next_f64() - 0.5) as f32 * scale as f32;
+            let SlotViews { inputs: [ux, uy, uz, boost], .. } = table.slots.split_mut();
+            for (slot, &particle) in table.particle_of.iter().enumerate() {
+                if particle != NO_PARTICLE {
+                    // stretches up to a few thresholds; some boosts, some zero
+                    (ux[slot], uy[slot], uz[slot]) = (random(2e-5), random(2e-5), random(2e-5));
+                    boost[slot] = if seed % 2 == 0 { random(4e-3).max(0.0) } else { 0.0 };
+                }
+            }
+            let disp = [ux.to_vec(), uy.to_vec(), uz.to_vec()];
+            let boost = boost.to_vec();
+            for rule in [BreakRule::Max, BreakRule::Min] {
+                let portable = run(&table, &disp, &boost, rule, false);
+                let dispatched = run(&table, &disp, &boost, rule, true);
+                for (c, (ours, theirs)) in portable.iter().zip(&dispatched).enumerate() {
+                    assert_eq!(ours.0, theirs.0, "seed {seed} chunk {c}: forces");
+                    assert_eq!(ours.1, theirs.1, "seed {seed} chunk {c}: smallest stretches");
+                    assert_eq!(ours.2, theirs.2, "seed {seed} chunk {c}: blocks and breaks");
+                    breaks += ours.2.breaks.len();
+                }
+                assert!(portable.iter().any(|(force, _, _)| force[0].iter().any(|f| f32::from_bits(*f) != 0.0)));
+            }
+        }
+        assert!(breaks > 100, "only {breaks} bonds broke: the break path is not exercised");
     }
 }

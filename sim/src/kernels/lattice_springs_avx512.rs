@@ -1,0 +1,219 @@
+//! The lattice layout's brick kernel in explicit AVX-512 instructions: two blocks of a brick at a
+//! time, their sixteen lanes in one register, through the same operations as the portable brick
+//! kernel in `lattice_springs`. The sums then take the two blocks' lanes one block after the
+//! other, as the portable kernel does, so the two give the same bits. The compiler does not get
+//! there from the portable code: it keeps sixteen-lane arrays on the stack.
+//!
+//! Its `unsafe` is the call into this module's `#[target_feature]` function, made right after the
+//! CPU has been checked for AVX-512F (see `docs/DECISIONS.md`).
+
+use std::arch::x86_64::{
+    __m128, __m256, __m512, _CMP_GT_OQ, _CMP_UNORD_Q, _mm256_add_ps, _mm256_blendv_ps, _mm256_castpd_ps,
+    _mm256_castps_pd, _mm256_cmp_ps, _mm256_min_ps, _mm256_set_m128, _mm256_set1_ps, _mm512_add_ps, _mm512_castpd_ps,
+    _mm512_castpd256_pd512, _mm512_castps_pd, _mm512_castps256_ps512, _mm512_castps512_ps256, _mm512_cmp_ps_mask,
+    _mm512_div_ps, _mm512_extractf64x4_pd, _mm512_insertf64x4, _mm512_maskz_mov_ps, _mm512_mul_ps,
+    _mm512_permutexvar_ps, _mm512_set1_ps, _mm512_setr_epi32, _mm512_sqrt_ps, _mm512_sub_ps,
+};
+
+use shatter_core::config::sim::BreakRule;
+
+use super::lanes::{LANES, Lanes, load};
+use super::lattice_springs::{BlockPlace, ChunkPass, break_lanes, lattice_bricks};
+use super::springs::ChunkForces;
+use crate::bond_layouts::lattice_layout::{ChunkShape, LatticeChunk, SlotInputs};
+
+/// [`super::lattice_spring_forces`] with the AVX-512 brick kernel, if this CPU has AVX-512F
+/// (detected once, then cached by the standard library). Returns whether it ran.
+pub(super) fn lattice_spring_forces(
+    chunk: &mut LatticeChunk,
+    inputs: &SlotInputs<'_>,
+    particle_of: &[u32],
+    rule: BreakRule,
+    out: &mut ChunkForces,
+) -> bool {
+    if !std::arch::is_x86_feature_detected!("avx512f") {
+        return false;
+    }
+    // SAFETY: a `#[target_feature]` function's one precondition is that the CPU has the
+    // features it enables; AVX-512F was detected on this CPU just above.
+    #[allow(unsafe_code)]
+    unsafe {
+        lattice_spring_forces_avx512(chunk, inputs, particle_of, rule, out);
+    }
+    true
+}
+
+#[target_feature(enable = "avx512f")]
+fn lattice_spring_forces_avx512(
+    chunk: &mut LatticeChunk,
+    inputs: &SlotInputs<'_>,
+    particle_of: &[u32],
+    rule: BreakRule,
+    out: &mut ChunkForces,
+) {
+    lattice_bricks(
+        chunk,
+        inputs,
+        particle_of,
+        rule,
+        out,
+        #[inline(always)]
+        |pass, b, own, bound| brick_forces(pass, b, own, bound),
+    );
+}
+
+/// Two blocks' eight lanes, the first block's low.
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn join(low: __m256, high: __m256) -> __m512 {
+    _mm512_castpd_ps(_mm512_insertf64x4::<1>(_mm512_castpd256_pd512(_mm256_castps_pd(low)), _mm256_castps_pd(high)))
+}
+
+/// The two blocks' lanes of a pair.
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn halves(pair: __m512) -> [__m256; 2] {
+    [_mm512_castps512_ps256(pair), _mm256_castpd_ps(_mm512_extractf64x4_pd::<1>(_mm512_castps_pd(pair)))]
+}
+
+/// Eight lanes as a register.
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn lanes(values: Lanes) -> __m256 {
+    bytemuck::cast(values)
+}
+
+/// `a.min(b)` lane by lane, as the portable kernel's `f32::min` compiles: b where a is NaN, else
+/// the smaller, a where they are equal.
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn min_of(a: __m256, b: __m256) -> __m256 {
+    _mm256_blendv_ps(_mm256_min_ps(b, a), b, _mm256_cmp_ps::<_CMP_UNORD_Q>(a, a))
+}
+
+/// a0 b0 + a1 b1 + a2 b2, lane by lane, summed in that order.
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn sum_of_products(a: &[__m512; 3], b: &[__m512; 3]) -> __m512 {
+    _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(a[0], b[0]), _mm512_mul_ps(a[1], b[1])), _mm512_mul_ps(a[2], b[2]))
+}
+
+/// `value` where `condition` is positive, else 0, lane by lane.
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn where_positive(condition: __m512, value: __m512) -> __m512 {
+    _mm512_maskz_mov_ps(_mm512_cmp_ps_mask::<_CMP_GT_OQ>(condition, _mm512_set1_ps(0.0)), value)
+}
+
+/// The portable brick kernel of `lattice_springs` in AVX-512 instructions: brick `b`'s internal
+/// blocks two at a time, then its external ones (an odd one last, beside a copy of itself whose
+/// lanes are dropped), each pair applied block by block.
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn brick_forces(pass: &mut ChunkPass, b: usize, own: usize, bound: Lanes) -> ([Lanes; 3], Lanes) {
+    let ChunkShape { first_slot: first, brick_start, internal_end, partner_slot, .. } = pass.shape;
+    let disp = pass.disp;
+    let mine = [lanes(load(disp[0], own)), lanes(load(disp[1], own)), lanes(load(disp[2], own))];
+    let me = [join(mine[0], mine[0]), join(mine[1], mine[1]), join(mine[2], mine[2])];
+    let bound_lanes = lanes(bound);
+    let bound = join(bound_lanes, bound_lanes);
+    // Lane l of the rest pair [x0 y0 z0 L0 x1 y1 z1 L1] for the low half, l + 4 for the high.
+    let picks = [
+        _mm512_setr_epi32(0, 0, 0, 0, 0, 0, 0, 0, 4, 4, 4, 4, 4, 4, 4, 4),
+        _mm512_setr_epi32(1, 1, 1, 1, 1, 1, 1, 1, 5, 5, 5, 5, 5, 5, 5, 5),
+        _mm512_setr_epi32(2, 2, 2, 2, 2, 2, 2, 2, 6, 6, 6, 6, 6, 6, 6, 6),
+        _mm512_setr_epi32(3, 3, 3, 3, 3, 3, 3, 3, 7, 7, 7, 7, 7, 7, 7, 7),
+    ];
+    let zero = _mm256_set1_ps(0.0);
+    let mut force_sum = [zero; 3];
+    let mut smallest = zero;
+    let (start, middle, end) = (brick_start[b] as usize, internal_end[b] as usize, brick_start[b + 1] as usize);
+    for (range, internal) in [(start..middle, true), (middle..end, false)] {
+        for block in range.clone().step_by(2) {
+            let count = if block + 1 < range.end { 2 } else { 1 };
+            let pair = [block, block + count - 1];
+            let partner = [partner_slot[pair[0]] as usize, partner_slot[pair[1]] as usize];
+            let theirs = |axis: usize| join(lanes(load(disp[axis], partner[0])), lanes(load(disp[axis], partner[1])));
+            let eta =
+                [_mm512_sub_ps(theirs(0), me[0]), _mm512_sub_ps(theirs(1), me[1]), _mm512_sub_ps(theirs(2), me[2])];
+            let rest: [__m128; 2] = [bytemuck::cast(pass.rest[pair[0]]), bytemuck::cast(pass.rest[pair[1]])];
+            let packed = _mm512_castps256_ps512(_mm256_set_m128(rest[1], rest[0]));
+            let xi = [
+                _mm512_permutexvar_ps(picks[0], packed),
+                _mm512_permutexvar_ps(picks[1], packed),
+                _mm512_permutexvar_ps(picks[2], packed),
+            ];
+            let rest_length = _mm512_permutexvar_ps(picks[3], packed);
+            let (first_bonds, next_bonds) = (&pass.blocks[pair[0]], &pass.blocks[pair[1]]);
+            let stiffness = join(lanes(first_bonds.stiffness), lanes(next_bonds.stiffness));
+            let threshold = join(lanes(first_bonds.threshold), lanes(next_bonds.threshold));
+
+            let y = [_mm512_add_ps(xi[0], eta[0]), _mm512_add_ps(xi[1], eta[1]), _mm512_add_ps(xi[2], eta[2])];
+            let length = _mm512_sqrt_ps(sum_of_products(&y, &y));
+            let growth = _mm512_add_ps(
+                _mm512_mul_ps(_mm512_set1_ps(2.0), sum_of_products(&xi, &eta)),
+                sum_of_products(&eta, &eta),
+            );
+            let denominator = _mm512_mul_ps(_mm512_mul_ps(rest_length, _mm512_add_ps(length, rest_length)), length);
+            let inverse = where_positive(denominator, _mm512_div_ps(_mm512_set1_ps(1.0), denominator));
+            let mut stretch = where_positive(stiffness, _mm512_mul_ps(_mm512_mul_ps(growth, length), inverse));
+            let mut scale = _mm512_mul_ps(_mm512_mul_ps(stiffness, growth), inverse);
+
+            let suspects = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(stretch, _mm512_add_ps(threshold, bound));
+            if suspects != 0 {
+                let (stretch_halves, scale_halves) = (halves(stretch), halves(scale));
+                let mut stretches: [Lanes; 2] = [bytemuck::cast(stretch_halves[0]), bytemuck::cast(stretch_halves[1])];
+                let mut scales: [Lanes; 2] = [bytemuck::cast(scale_halves[0]), bytemuck::cast(scale_halves[1])];
+                for half in 0..count {
+                    if (suspects >> (LANES * half)) & 0xff != 0 {
+                        let k = pair[half];
+                        let ids = &pass.bond_id[k * LANES..(k + 1) * LANES];
+                        let place = BlockPlace { own, partner: partner[half], internal, ids };
+                        let bonds = &mut pass.blocks[k];
+                        break_lanes(
+                            &pass.context,
+                            bonds,
+                            &place,
+                            pass.breaks,
+                            [&mut stretches[half], &mut scales[half]],
+                        );
+                    }
+                }
+                stretch = join(lanes(stretches[0]), lanes(stretches[1]));
+                scale = join(lanes(scales[0]), lanes(scales[1]));
+            }
+
+            let force = [_mm512_mul_ps(y[0], scale), _mm512_mul_ps(y[1], scale), _mm512_mul_ps(y[2], scale)];
+            // The reaction: x - f is x + (-f), bit for bit.
+            let minus = _mm512_set1_ps(-1.0);
+            let reaction = [
+                halves(_mm512_mul_ps(force[0], minus)),
+                halves(_mm512_mul_ps(force[1], minus)),
+                halves(_mm512_mul_ps(force[2], minus)),
+            ];
+            let force = [halves(force[0]), halves(force[1]), halves(force[2])];
+            let stretch = halves(stretch);
+            for half in 0..count {
+                for axis in 0..3 {
+                    force_sum[axis] = _mm256_add_ps(force_sum[axis], force[axis][half]);
+                }
+                smallest = min_of(smallest, stretch[half]);
+                if internal {
+                    let at = partner[half] - first;
+                    let totals = &mut pass.totals;
+                    for axis in 0..3 {
+                        let total = &mut totals.force[axis][at..at + LANES];
+                        let updated: Lanes = bytemuck::cast(_mm256_add_ps(lanes(load(total, 0)), reaction[axis][half]));
+                        total.copy_from_slice(&updated);
+                    }
+                    let total = &mut totals.min_stretch[at..at + LANES];
+                    let updated: Lanes = bytemuck::cast(min_of(lanes(load(total, 0)), stretch[half]));
+                    total.copy_from_slice(&updated);
+                }
+            }
+        }
+    }
+    let force_sum: [Lanes; 3] =
+        [bytemuck::cast(force_sum[0]), bytemuck::cast(force_sum[1]), bytemuck::cast(force_sum[2])];
+    (force_sum, bytemuck::cast(smallest))
+}
