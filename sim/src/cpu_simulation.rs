@@ -406,13 +406,18 @@ impl CpuSimulation {
         // Current positions, for collisions and body forces.
         {
             let [px, py, pz] = position_scratch;
-            (px.par_iter_mut(), py.par_iter_mut(), pz.par_iter_mut()).into_par_iter().enumerate().for_each(
-                |(i, (x, y, z))| {
-                    *x = rest[0][i] + disp[0][i];
-                    *y = rest[1][i] + disp[1][i];
-                    *z = rest[2][i] + disp[2][i];
-                },
-            );
+            (px.par_chunks_mut(size), py.par_chunks_mut(size), pz.par_chunks_mut(size))
+                .into_par_iter()
+                .enumerate()
+                .for_each(|(c, (x, y, z))| {
+                    let chunk = c * size..c * size + x.len();
+                    for (axis, out) in [x, y, z].into_iter().enumerate() {
+                        let (rest, disp) = (&rest[axis][chunk.clone()], &disp[axis][chunk.clone()]);
+                        for ((x, r), u) in out.iter_mut().zip(rest).zip(disp) {
+                            *x = r + u;
+                        }
+                    }
+                });
         }
         let position = [&position_scratch[0][..], &position_scratch[1][..], &position_scratch[2][..]];
         if let Some(contacts) = contacts.as_mut() {
