@@ -244,8 +244,10 @@ pub struct FloorLook {
 
 impl FloorLook {
     fn albedo(&self, p: [f32; 3]) -> [f32; 3] {
-        let u = (p[0] / self.tile).rem_euclid(1.0);
-        let v = (p[2] / self.tile).rem_euclid(1.0);
+        // x - floor(x) is rem_euclid(x, 1) without its library call: the same real number
+        // rounded once (exactly, for x >= 0), but +0 for -0 and whole negative x (texel 0 either way).
+        let fraction = |x: f32| x - x.floor();
+        let (u, v) = (fraction(p[0] / self.tile), fraction(p[2] / self.tile));
         let x = ((u * self.size[0] as f32) as usize).min(self.size[0] - 1);
         let y = ((v * self.size[1] as f32) as usize).min(self.size[1] - 1);
         self.texels[y * self.size[0] + x]
@@ -365,12 +367,12 @@ fn floor_radiance(look: &Look, p: [f32; 3], d: [f32; 3]) -> [f32; 3] {
 fn shade_opaque(look: &Look, albedo: [f32; 3], normal: [f32; 3], view: [f32; 3], specular: f32) -> [f32; 3] {
     let irradiance = sh_irradiance(&look.sh, normal);
     let l = look.key.direction;
-    let h = {
+    // A matte surface (specular +0, as the floor) has no highlight: +0 (a positive shininess
+    // keeps the power finite, so the product would be +0 too).
+    let highlight = if specular.to_bits() != 0 && dot(normal, l) > 0.0 {
         let v = [l[0] - view[0], l[1] - view[1], l[2] - view[2]];
         let length = dot(v, v).sqrt().max(1e-12);
-        v.map(|c| c / length)
-    };
-    let highlight = if dot(normal, l) > 0.0 {
+        let h = v.map(|c| c / length);
         specular * (look.shininess + 8.0) / (8.0 * std::f32::consts::PI) * dot(normal, h).max(0.0).powf(look.shininess)
     } else {
         0.0
