@@ -8,11 +8,11 @@
 //! CPU has been checked for AVX-512F (see `docs/DECISIONS.md`).
 
 use std::arch::x86_64::{
-    __m128, __m256, __m512, _CMP_GT_OQ, _CMP_UNORD_Q, _mm256_add_ps, _mm256_blendv_ps, _mm256_castpd_ps,
-    _mm256_castps_pd, _mm256_cmp_ps, _mm256_min_ps, _mm256_set_m128, _mm256_set1_ps, _mm512_add_ps, _mm512_castpd_ps,
-    _mm512_castpd256_pd512, _mm512_castps_pd, _mm512_castps256_ps512, _mm512_castps512_ps256, _mm512_cmp_ps_mask,
-    _mm512_div_ps, _mm512_extractf64x4_pd, _mm512_insertf64x4, _mm512_maskz_mov_ps, _mm512_mul_ps,
-    _mm512_permutexvar_ps, _mm512_set1_ps, _mm512_setr_epi32, _mm512_sqrt_ps, _mm512_sub_ps,
+    __m128, __m256, __m512, _CMP_GT_OQ, _mm256_add_ps, _mm256_castpd_ps, _mm256_castps_pd, _mm256_min_ps,
+    _mm256_set_m128, _mm256_set1_ps, _mm512_add_ps, _mm512_castpd_ps, _mm512_castpd256_pd512, _mm512_castps_pd,
+    _mm512_castps256_ps512, _mm512_castps512_ps256, _mm512_cmp_ps_mask, _mm512_div_ps, _mm512_extractf64x4_pd,
+    _mm512_insertf64x4, _mm512_maskz_mov_ps, _mm512_mul_ps, _mm512_permutexvar_ps, _mm512_set1_ps, _mm512_setr_epi32,
+    _mm512_sqrt_ps, _mm512_sub_ps,
 };
 
 use shatter_core::config::sim::BreakRule;
@@ -83,12 +83,11 @@ fn lanes(values: Lanes) -> __m256 {
     bytemuck::cast(values)
 }
 
-/// `a.min(b)` lane by lane, as the portable kernel's `f32::min` compiles: b where a is NaN, else
-/// the smaller, a where they are equal.
+/// [`super::lanes::min`]: b where b < a, else a.
 #[target_feature(enable = "avx512f")]
 #[inline]
 fn min_of(a: __m256, b: __m256) -> __m256 {
-    _mm256_blendv_ps(_mm256_min_ps(b, a), b, _mm256_cmp_ps::<_CMP_UNORD_Q>(a, a))
+    _mm256_min_ps(b, a)
 }
 
 /// a0 b0 + a1 b1 + a2 b2, lane by lane, summed in that order.
