@@ -9,10 +9,10 @@
 
 use std::arch::x86_64::{
     __m128, __m256, __m512, _CMP_GT_OQ, _mm256_add_ps, _mm256_castpd_ps, _mm256_castps_pd, _mm256_min_ps,
-    _mm256_set_m128, _mm256_set1_ps, _mm512_add_ps, _mm512_castpd_ps, _mm512_castpd256_pd512, _mm512_castps_pd,
-    _mm512_castps256_ps512, _mm512_castps512_ps256, _mm512_cmp_ps_mask, _mm512_div_ps, _mm512_extractf64x4_pd,
-    _mm512_insertf64x4, _mm512_maskz_mov_ps, _mm512_mul_ps, _mm512_permutexvar_ps, _mm512_set1_ps, _mm512_setr_epi32,
-    _mm512_sqrt_ps, _mm512_sub_ps,
+    _mm256_set_m128, _mm256_set1_ps, _mm256_sub_ps, _mm512_add_ps, _mm512_castpd_ps, _mm512_castpd256_pd512,
+    _mm512_castps_pd, _mm512_castps256_ps512, _mm512_castps512_ps256, _mm512_cmp_ps_mask, _mm512_div_ps,
+    _mm512_extractf64x4_pd, _mm512_insertf64x4, _mm512_maskz_mov_ps, _mm512_mul_ps, _mm512_permutexvar_ps,
+    _mm512_set1_ps, _mm512_setr_epi32, _mm512_sqrt_ps, _mm512_sub_ps,
 };
 
 use shatter_core::config::sim::BreakRule;
@@ -183,13 +183,6 @@ fn brick_forces(pass: &mut ChunkPass, b: usize, own: usize, bound: Lanes) -> ([L
             }
 
             let force = [_mm512_mul_ps(y[0], scale), _mm512_mul_ps(y[1], scale), _mm512_mul_ps(y[2], scale)];
-            // The reaction: x - f is x + (-f), bit for bit.
-            let minus = _mm512_set1_ps(-1.0);
-            let reaction = [
-                halves(_mm512_mul_ps(force[0], minus)),
-                halves(_mm512_mul_ps(force[1], minus)),
-                halves(_mm512_mul_ps(force[2], minus)),
-            ];
             let force = [halves(force[0]), halves(force[1]), halves(force[2])];
             let stretch = halves(stretch);
             for half in 0..count {
@@ -202,7 +195,8 @@ fn brick_forces(pass: &mut ChunkPass, b: usize, own: usize, bound: Lanes) -> ([L
                     let totals = &mut pass.totals;
                     for axis in 0..3 {
                         let total = &mut totals.force[axis][at..at + LANES];
-                        let updated: Lanes = bytemuck::cast(_mm256_add_ps(lanes(load(total, 0)), reaction[axis][half]));
+                        // The reaction, x - f: the portable kernel's x + (-f), bit for bit.
+                        let updated: Lanes = bytemuck::cast(_mm256_sub_ps(lanes(load(total, 0)), force[axis][half]));
                         total.copy_from_slice(&updated);
                     }
                     let total = &mut totals.min_stretch[at..at + LANES];
