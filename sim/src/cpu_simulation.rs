@@ -433,8 +433,10 @@ impl CpuSimulation {
             }
             MaterialBonds::Pmb(SpringTable::Rows(table)) => {
                 // The row kernel's gather records.
-                records.par_iter_mut().enumerate().for_each(|(i, record)| {
-                    *record = ParticleRecord { disp: [disp[0][i], disp[1][i], disp[2][i]], boost: boost[i] };
+                records.par_chunks_mut(size).enumerate().for_each(|(c, records)| {
+                    for (i, record) in (c * size..).zip(records) {
+                        *record = ParticleRecord { disp: [disp[0][i], disp[1][i], disp[2][i]], boost: boost[i] };
+                    }
                 });
                 let records = &*records;
                 (
