@@ -8,7 +8,7 @@
 //! CPU has been checked for AVX-512F (see `docs/DECISIONS.md`).
 
 use std::arch::x86_64::{
-    __m128, __m256, __m512, _CMP_GT_OQ, _mm256_add_ps, _mm256_castpd_ps, _mm256_castps_pd, _mm256_min_ps,
+    __m128, __m256, __m512, __m512i, _CMP_GT_OQ, _mm256_add_ps, _mm256_castpd_ps, _mm256_castps_pd, _mm256_min_ps,
     _mm256_set_m128, _mm256_set1_ps, _mm256_sub_ps, _mm512_add_ps, _mm512_castpd_ps, _mm512_castpd256_pd512,
     _mm512_castps_pd, _mm512_castps256_ps512, _mm512_castps512_ps256, _mm512_cmp_ps_mask, _mm512_div_ps,
     _mm512_extractf64x4_pd, _mm512_insertf64x4, _mm512_maskz_mov_ps, _mm512_mul_ps, _mm512_permutexvar_ps,
@@ -110,103 +110,137 @@ fn where_positive(condition: __m512, value: __m512) -> __m512 {
 #[target_feature(enable = "avx512f")]
 #[inline]
 fn brick_forces(pass: &mut ChunkPass, b: usize, own: usize, bound: Lanes) -> ([Lanes; 3], Lanes) {
-    let ChunkShape { first_slot: first, brick_start, internal_end, partner_slot, .. } = pass.shape;
+    let ChunkShape { brick_start, internal_end, .. } = pass.shape;
     let disp = pass.disp;
     let mine = [lanes(load(disp[0], own)), lanes(load(disp[1], own)), lanes(load(disp[2], own))];
-    let me = [join(mine[0], mine[0]), join(mine[1], mine[1]), join(mine[2], mine[2])];
-    let bound_lanes = lanes(bound);
-    let bound = join(bound_lanes, bound_lanes);
-    // Lane l of the rest pair [x0 y0 z0 L0 x1 y1 z1 L1] for the low half, l + 4 for the high.
-    let picks = [
-        _mm512_setr_epi32(0, 0, 0, 0, 0, 0, 0, 0, 4, 4, 4, 4, 4, 4, 4, 4),
-        _mm512_setr_epi32(1, 1, 1, 1, 1, 1, 1, 1, 5, 5, 5, 5, 5, 5, 5, 5),
-        _mm512_setr_epi32(2, 2, 2, 2, 2, 2, 2, 2, 6, 6, 6, 6, 6, 6, 6, 6),
-        _mm512_setr_epi32(3, 3, 3, 3, 3, 3, 3, 3, 7, 7, 7, 7, 7, 7, 7, 7),
-    ];
+    let bound = lanes(bound);
+    let brick = Brick {
+        own,
+        me: [join(mine[0], mine[0]), join(mine[1], mine[1]), join(mine[2], mine[2])],
+        bound: join(bound, bound),
+        // Lane l of the rest pair [x0 y0 z0 L0 x1 y1 z1 L1] for the low half, l + 4 for the high.
+        picks: [
+            _mm512_setr_epi32(0, 0, 0, 0, 0, 0, 0, 0, 4, 4, 4, 4, 4, 4, 4, 4),
+            _mm512_setr_epi32(1, 1, 1, 1, 1, 1, 1, 1, 5, 5, 5, 5, 5, 5, 5, 5),
+            _mm512_setr_epi32(2, 2, 2, 2, 2, 2, 2, 2, 6, 6, 6, 6, 6, 6, 6, 6),
+            _mm512_setr_epi32(3, 3, 3, 3, 3, 3, 3, 3, 7, 7, 7, 7, 7, 7, 7, 7),
+        ],
+    };
     let zero = _mm256_set1_ps(0.0);
-    let mut force_sum = [zero; 3];
-    let mut smallest = zero;
+    let mut sums = BrickSums { force: [zero; 3], smallest: zero };
     let (start, middle, end) = (brick_start[b] as usize, internal_end[b] as usize, brick_start[b + 1] as usize);
-    for (range, internal) in [(start..middle, true), (middle..end, false)] {
-        for block in range.clone().step_by(2) {
-            let count = if block + 1 < range.end { 2 } else { 1 };
-            let pair = [block, block + count - 1];
-            let partner = [partner_slot[pair[0]] as usize, partner_slot[pair[1]] as usize];
-            let theirs = |axis: usize| join(lanes(load(disp[axis], partner[0])), lanes(load(disp[axis], partner[1])));
-            let eta =
-                [_mm512_sub_ps(theirs(0), me[0]), _mm512_sub_ps(theirs(1), me[1]), _mm512_sub_ps(theirs(2), me[2])];
-            let rest: [__m128; 2] = [bytemuck::cast(pass.rest[pair[0]]), bytemuck::cast(pass.rest[pair[1]])];
-            let packed = _mm512_castps256_ps512(_mm256_set_m128(rest[1], rest[0]));
-            let xi = [
-                _mm512_permutexvar_ps(picks[0], packed),
-                _mm512_permutexvar_ps(picks[1], packed),
-                _mm512_permutexvar_ps(picks[2], packed),
-            ];
-            let rest_length = _mm512_permutexvar_ps(picks[3], packed);
-            let (first_bonds, next_bonds) = (&pass.blocks[pair[0]], &pass.blocks[pair[1]]);
-            let stiffness = join(lanes(first_bonds.stiffness), lanes(next_bonds.stiffness));
-            let threshold = join(lanes(first_bonds.threshold), lanes(next_bonds.threshold));
+    let mut block = start;
+    while block + 1 < middle {
+        pair_forces::<true, 2>(pass, &brick, block, &mut sums);
+        block += 2;
+    }
+    if block < middle {
+        pair_forces::<true, 1>(pass, &brick, block, &mut sums);
+    }
+    let mut block = middle;
+    while block + 1 < end {
+        pair_forces::<false, 2>(pass, &brick, block, &mut sums);
+        block += 2;
+    }
+    if block < end {
+        pair_forces::<false, 1>(pass, &brick, block, &mut sums);
+    }
+    let force: [Lanes; 3] =
+        [bytemuck::cast(sums.force[0]), bytemuck::cast(sums.force[1]), bytemuck::cast(sums.force[2])];
+    (force, bytemuck::cast(sums.smallest))
+}
 
-            let y = [_mm512_add_ps(xi[0], eta[0]), _mm512_add_ps(xi[1], eta[1]), _mm512_add_ps(xi[2], eta[2])];
-            let length = _mm512_sqrt_ps(sum_of_products(&y, &y));
-            let growth = _mm512_add_ps(
-                _mm512_mul_ps(_mm512_set1_ps(2.0), sum_of_products(&xi, &eta)),
-                sum_of_products(&eta, &eta),
-            );
-            let denominator = _mm512_mul_ps(_mm512_mul_ps(rest_length, _mm512_add_ps(length, rest_length)), length);
-            let inverse = where_positive(denominator, _mm512_div_ps(_mm512_set1_ps(1.0), denominator));
-            let mut stretch = where_positive(stiffness, _mm512_mul_ps(_mm512_mul_ps(growth, length), inverse));
-            let mut scale = _mm512_mul_ps(_mm512_mul_ps(stiffness, growth), inverse);
+/// What a brick's pairs share: its first slot, its displacements and break bound in both halves,
+/// and the permutations that spread a pair's rest vectors and lengths over the lanes.
+struct Brick {
+    own: usize,
+    me: [__m512; 3],
+    bound: __m512,
+    picks: [__m512i; 4],
+}
 
-            let suspects = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(stretch, _mm512_add_ps(threshold, bound));
-            if suspects != 0 {
-                let (stretch_halves, scale_halves) = (halves(stretch), halves(scale));
-                let mut stretches: [Lanes; 2] = [bytemuck::cast(stretch_halves[0]), bytemuck::cast(stretch_halves[1])];
-                let mut scales: [Lanes; 2] = [bytemuck::cast(scale_halves[0]), bytemuck::cast(scale_halves[1])];
-                for half in 0..count {
-                    if (suspects >> (LANES * half)) & 0xff != 0 {
-                        let k = pair[half];
-                        let ids = &pass.bond_id[k * LANES..(k + 1) * LANES];
-                        let place = BlockPlace { own, partner: partner[half], internal, ids };
-                        let bonds = &mut pass.blocks[k];
-                        break_lanes(
-                            &pass.context,
-                            bonds,
-                            &place,
-                            pass.breaks,
-                            [&mut stretches[half], &mut scales[half]],
-                        );
-                    }
-                }
-                stretch = join(lanes(stretches[0]), lanes(stretches[1]));
-                scale = join(lanes(scales[0]), lanes(scales[1]));
-            }
+/// A brick's running sums over its blocks: force and smallest stretch, lane by lane.
+struct BrickSums {
+    force: [__m256; 3],
+    smallest: __m256,
+}
 
-            let force = [_mm512_mul_ps(y[0], scale), _mm512_mul_ps(y[1], scale), _mm512_mul_ps(y[2], scale)];
-            let force = [halves(force[0]), halves(force[1]), halves(force[2])];
-            let stretch = halves(stretch);
-            for half in 0..count {
-                for axis in 0..3 {
-                    force_sum[axis] = _mm256_add_ps(force_sum[axis], force[axis][half]);
-                }
-                smallest = min_of(smallest, stretch[half]);
-                if internal {
-                    let at = partner[half] - first;
-                    let totals = &mut pass.totals;
-                    for axis in 0..3 {
-                        let total = &mut totals.force[axis][at..at + LANES];
-                        // The reaction, x - f: the portable kernel's x + (-f), bit for bit.
-                        let updated: Lanes = bytemuck::cast(_mm256_sub_ps(lanes(load(total, 0)), force[axis][half]));
-                        total.copy_from_slice(&updated);
-                    }
-                    let total = &mut totals.min_stretch[at..at + LANES];
-                    let updated: Lanes = bytemuck::cast(min_of(lanes(load(total, 0)), stretch[half]));
-                    total.copy_from_slice(&updated);
-                }
+/// Blocks `block` and `block + 1` of the brick (`COUNT` 2), or `block` beside a copy of itself
+/// (`COUNT` 1), internal or external (`INTERNAL`): computed in one 16-lane pass, then applied
+/// block by block to the sums and, for internal blocks, to the partners' totals.
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn pair_forces<const INTERNAL: bool, const COUNT: usize>(
+    pass: &mut ChunkPass,
+    brick: &Brick,
+    block: usize,
+    sums: &mut BrickSums,
+) {
+    let (disp, picks) = (pass.disp, &brick.picks);
+    let pair = [block, block + COUNT - 1];
+    let partner = [pass.shape.partner_slot[pair[0]] as usize, pass.shape.partner_slot[pair[1]] as usize];
+    let theirs = |axis: usize| join(lanes(load(disp[axis], partner[0])), lanes(load(disp[axis], partner[1])));
+    let me = &brick.me;
+    let eta = [_mm512_sub_ps(theirs(0), me[0]), _mm512_sub_ps(theirs(1), me[1]), _mm512_sub_ps(theirs(2), me[2])];
+    let rest: [__m128; 2] = [bytemuck::cast(pass.rest[pair[0]]), bytemuck::cast(pass.rest[pair[1]])];
+    let packed = _mm512_castps256_ps512(_mm256_set_m128(rest[1], rest[0]));
+    let xi = [
+        _mm512_permutexvar_ps(picks[0], packed),
+        _mm512_permutexvar_ps(picks[1], packed),
+        _mm512_permutexvar_ps(picks[2], packed),
+    ];
+    let rest_length = _mm512_permutexvar_ps(picks[3], packed);
+    let (first_bonds, next_bonds) = (&pass.blocks[pair[0]], &pass.blocks[pair[1]]);
+    let stiffness = join(lanes(first_bonds.stiffness), lanes(next_bonds.stiffness));
+    let threshold = join(lanes(first_bonds.threshold), lanes(next_bonds.threshold));
+
+    let y = [_mm512_add_ps(xi[0], eta[0]), _mm512_add_ps(xi[1], eta[1]), _mm512_add_ps(xi[2], eta[2])];
+    let length = _mm512_sqrt_ps(sum_of_products(&y, &y));
+    let growth =
+        _mm512_add_ps(_mm512_mul_ps(_mm512_set1_ps(2.0), sum_of_products(&xi, &eta)), sum_of_products(&eta, &eta));
+    let denominator = _mm512_mul_ps(_mm512_mul_ps(rest_length, _mm512_add_ps(length, rest_length)), length);
+    let inverse = where_positive(denominator, _mm512_div_ps(_mm512_set1_ps(1.0), denominator));
+    let mut stretch = where_positive(stiffness, _mm512_mul_ps(_mm512_mul_ps(growth, length), inverse));
+    let mut scale = _mm512_mul_ps(_mm512_mul_ps(stiffness, growth), inverse);
+
+    let suspects = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(stretch, _mm512_add_ps(threshold, brick.bound));
+    if suspects != 0 {
+        let (stretch_halves, scale_halves) = (halves(stretch), halves(scale));
+        let mut stretches: [Lanes; 2] = [bytemuck::cast(stretch_halves[0]), bytemuck::cast(stretch_halves[1])];
+        let mut scales: [Lanes; 2] = [bytemuck::cast(scale_halves[0]), bytemuck::cast(scale_halves[1])];
+        for half in 0..COUNT {
+            if (suspects >> (LANES * half)) & 0xff != 0 {
+                let k = pair[half];
+                let ids = &pass.bond_id[k * LANES..(k + 1) * LANES];
+                let place = BlockPlace { own: brick.own, partner: partner[half], internal: INTERNAL, ids };
+                let bonds = &mut pass.blocks[k];
+                break_lanes(&pass.context, bonds, &place, pass.breaks, [&mut stretches[half], &mut scales[half]]);
             }
         }
+        stretch = join(lanes(stretches[0]), lanes(stretches[1]));
+        scale = join(lanes(scales[0]), lanes(scales[1]));
     }
-    let force_sum: [Lanes; 3] =
-        [bytemuck::cast(force_sum[0]), bytemuck::cast(force_sum[1]), bytemuck::cast(force_sum[2])];
-    (force_sum, bytemuck::cast(smallest))
+
+    let force = [_mm512_mul_ps(y[0], scale), _mm512_mul_ps(y[1], scale), _mm512_mul_ps(y[2], scale)];
+    let force = [halves(force[0]), halves(force[1]), halves(force[2])];
+    let stretch = halves(stretch);
+    for half in 0..COUNT {
+        for axis in 0..3 {
+            sums.force[axis] = _mm256_add_ps(sums.force[axis], force[axis][half]);
+        }
+        sums.smallest = min_of(sums.smallest, stretch[half]);
+        if INTERNAL {
+            let at = partner[half] - pass.shape.first_slot;
+            let totals = &mut pass.totals;
+            for axis in 0..3 {
+                let total = &mut totals.force[axis][at..at + LANES];
+                // The reaction, x - f: the portable kernel's x + (-f), bit for bit.
+                let updated: Lanes = bytemuck::cast(_mm256_sub_ps(lanes(load(total, 0)), force[axis][half]));
+                total.copy_from_slice(&updated);
+            }
+            let total = &mut totals.min_stretch[at..at + LANES];
+            let updated: Lanes = bytemuck::cast(min_of(lanes(load(total, 0)), stretch[half]));
+            total.copy_from_slice(&updated);
+        }
+    }
 }
