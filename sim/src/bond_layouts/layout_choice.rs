@@ -235,14 +235,27 @@ impl SpringTable {
     }
 }
 
+/// The spring table of a grid-sampled box of `size_m` (1 mm spacing, N = 3) and its particles,
+/// for tests of the lattice layout.
+#[cfg(test)]
+pub(crate) fn grid_box_table(size_m: [f64; 3]) -> (ParticleSet, SpringTable) {
+    use shatter_core::config::sim::{PartialVolumes, StiffnessCorrection};
+    let text = format!(
+        "[scene]\nname = \"t\"\noutput_dir = \"out\"\nseed = 1\n[geometry]\nsource = \"box\"\n\
+         box_size_m = [{}, {}, {}]\nsampler = \"grid\"\nspacing_m = 0.001\nhorizon_factor = 3.0\n\
+         [material]\ndensity_kg_m3 = 2200.0\nbulk_modulus_pa = 1e10\n",
+        size_m[0], size_m[1], size_m[2]
+    );
+    let path = std::path::Path::new("/nonexistent/pipeline.toml");
+    let config = shatter_core::config::PipelineConfig::from_toml_str(&text, path).expect("config");
+    let particles = shatter_preprocess::preprocess(&config, &shatter_core::NoProgress).expect("preprocess").particles;
+    let values = EntryValues::new(&particles, 1e15, 1.0, None, StiffnessCorrection::Energy, PartialVolumes::None);
+    let table = SpringTable::new(&particles, &values, LayoutChoice::Fastest);
+    (particles, table)
+}
+
 #[cfg(test)]
 mod tests {
-    use std::path::Path;
-
-    use shatter_core::NoProgress;
-    use shatter_core::config::PipelineConfig;
-    use shatter_core::config::sim::{PartialVolumes, StiffnessCorrection};
-
     use super::*;
 
     /// On the lattice layout the springs' sum reads the displacements by slot and computes the
@@ -250,13 +263,7 @@ mod tests {
     /// particles (the row layout's way) to the bit.
     #[test]
     fn the_lattice_sum_of_springs_is_the_entry_sum_to_the_bit() {
-        let text = "[scene]\nname = \"t\"\noutput_dir = \"out\"\nseed = 1\n[geometry]\nsource = \"box\"\n\
-                    box_size_m = [0.011, 0.007, 0.005]\nsampler = \"grid\"\nspacing_m = 0.001\n\
-                    horizon_factor = 3.0\n[material]\ndensity_kg_m3 = 2200.0\nbulk_modulus_pa = 1e10\n";
-        let config = PipelineConfig::from_toml_str(text, Path::new("/nonexistent/pipeline.toml")).expect("config");
-        let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
-        let values = EntryValues::new(&particles, 1e15, 1.0, None, StiffnessCorrection::Energy, PartialVolumes::None);
-        let mut table = SpringTable::new(&particles, &values, LayoutChoice::Fastest);
+        let (particles, mut table) = grid_box_table([0.011, 0.007, 0.005]);
         let SpringTable::Lattice(lattice) = &table else { panic!("a grid block is on the lattice") };
         assert!(lattice.chunks.len() > 1, "bonds between chunks too");
         // some bonds broken (zero stiffness), random displacements

@@ -220,16 +220,9 @@ pub(super) fn break_lanes(
 
 #[cfg(test)]
 mod tests {
-    use std::path::Path;
-
-    use shatter_core::NoProgress;
-    use shatter_core::config::PipelineConfig;
-    use shatter_core::config::sim::{PartialVolumes, StiffnessCorrection};
-
     use super::*;
-    use crate::bond_layouts::EntryValues;
     use crate::bond_layouts::lattice_layout::{LatticeTable, NO_PARTICLE, SlotViews};
-    use crate::bond_layouts::layout_choice::{LayoutChoice, SpringTable};
+    use crate::bond_layouts::layout_choice::{SpringTable, grid_box_table};
 
     /// Everything a pass writes, chunk by chunk: forces and smallest stretches (as bits), and
     /// the chunk after the pass (its blocks and the ids of the bonds it saw break).
@@ -263,15 +256,8 @@ mod tests {
     /// stretches, blocks and breaks are the portable kernel's, bit for bit.
     #[test]
     fn the_dispatched_lattice_kernel_gives_the_portable_kernels_bits() {
-        let text = "[scene]\nname = \"t\"\noutput_dir = \"out\"\nseed = 1\n[geometry]\nsource = \"box\"\n\
-                    box_size_m = [0.013, 0.009, 0.007]\nsampler = \"grid\"\nspacing_m = 0.001\n\
-                    horizon_factor = 3.0\n[material]\ndensity_kg_m3 = 2200.0\nbulk_modulus_pa = 1e10\n";
-        let config = PipelineConfig::from_toml_str(text, Path::new("/nonexistent/pipeline.toml")).expect("config");
-        let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
-        let values = EntryValues::new(&particles, 1e15, 1.0, None, StiffnessCorrection::Energy, PartialVolumes::None);
-        let SpringTable::Lattice(mut table) = SpringTable::new(&particles, &values, LayoutChoice::Fastest) else {
-            panic!("a grid block is on the lattice")
-        };
+        let (_, table) = grid_box_table([0.013, 0.009, 0.007]);
+        let SpringTable::Lattice(mut table) = table else { panic!("a grid block is on the lattice") };
         assert!(table.chunks.len() > 1, "bonds between chunks too");
         let mut breaks = 0;
         for seed in 0..6 {

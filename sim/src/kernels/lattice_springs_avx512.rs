@@ -15,6 +15,8 @@ use std::arch::x86_64::{
     _mm512_set1_ps, _mm512_setr_epi32, _mm512_sqrt_ps, _mm512_sub_ps,
 };
 
+use std::ops::Range;
+
 use shatter_core::config::sim::BreakRule;
 
 use super::lanes::{LANES, Lanes, load};
@@ -129,25 +131,26 @@ fn brick_forces(pass: &mut ChunkPass, b: usize, own: usize, bound: Lanes) -> ([L
     let zero = _mm256_set1_ps(0.0);
     let mut sums = BrickSums { force: [zero; 3], smallest: zero };
     let (start, middle, end) = (brick_start[b] as usize, internal_end[b] as usize, brick_start[b + 1] as usize);
-    let mut block = start;
-    while block + 1 < middle {
-        pair_forces::<true, 2>(pass, &brick, block, &mut sums);
-        block += 2;
-    }
-    if block < middle {
-        pair_forces::<true, 1>(pass, &brick, block, &mut sums);
-    }
-    let mut block = middle;
-    while block + 1 < end {
-        pair_forces::<false, 2>(pass, &brick, block, &mut sums);
-        block += 2;
-    }
-    if block < end {
-        pair_forces::<false, 1>(pass, &brick, block, &mut sums);
-    }
+    range_forces::<true>(pass, &brick, start..middle, &mut sums);
+    range_forces::<false>(pass, &brick, middle..end, &mut sums);
     let force: [Lanes; 3] =
         [bytemuck::cast(sums.force[0]), bytemuck::cast(sums.force[1]), bytemuck::cast(sums.force[2])];
     (force, bytemuck::cast(sums.smallest))
+}
+
+/// The brick's blocks `blocks`, all internal or all external (`INTERNAL`), in pairs, an odd one
+/// last.
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn range_forces<const INTERNAL: bool>(pass: &mut ChunkPass, brick: &Brick, blocks: Range<usize>, sums: &mut BrickSums) {
+    let mut block = blocks.start;
+    while block + 1 < blocks.end {
+        pair_forces::<INTERNAL, 2>(pass, brick, block, sums);
+        block += 2;
+    }
+    if block < blocks.end {
+        pair_forces::<INTERNAL, 1>(pass, brick, block, sums);
+    }
 }
 
 /// What a brick's pairs share: its first slot, its displacements and break bound in both halves,

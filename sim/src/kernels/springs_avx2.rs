@@ -4,8 +4,8 @@
 //! whole and eight of them are transposed into lanes with shuffles, and the reactions of internal
 //! bonds are transposed back and scattered as one 16-byte update per partner.
 //!
-//! The only `unsafe` of the workspace is the call into this module's `#[target_feature]`
-//! function, made right after the CPU has been checked for AVX2 (see `docs/DECISIONS.md`).
+//! Its `unsafe` is the call into this module's `#[target_feature]` function, made right after
+//! the CPU has been checked for AVX2 (see `docs/DECISIONS.md`).
 
 use std::arch::x86_64::{
     __m128, __m256, _CMP_GT_OQ, _mm_blend_ps, _mm_min_ps, _mm_sub_ps, _mm256_add_ps, _mm256_and_ps, _mm256_castpd_ps,
