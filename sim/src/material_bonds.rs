@@ -5,9 +5,8 @@
 //! A new model adds one arm here and a folder of its own; the integrator, contact, body forces,
 //! art direction and frame loop do not change.
 
-use crate::bond_layouts::layout_choice::{SpringTable, StoredBond};
+use crate::bond_layouts::layout_choice::{SpringNow, SpringTable, StoredBond};
 use crate::elastoplastic::FamilyBonds;
-use crate::kernels;
 
 /// The bonds of a run, by material model.
 #[derive(Debug, Clone)]
@@ -55,9 +54,7 @@ impl MaterialBonds {
             MaterialBonds::Pmb(table) => {
                 let mut energy = vec![0.0f64; disp[0].len()];
                 table.for_each_entry(|bond| {
-                    let eta = [0, 1, 2].map(|a| disp[a][bond.j] - disp[a][bond.i]);
-                    let (stretch, _, _) = kernels::stretch(bond.rest_vector, eta, bond.rest_length_m);
-                    let half = half_spring_energy_j(bond, stretch);
+                    let half = half_spring_energy_j(bond, SpringNow::at(bond, disp).stretch);
                     energy[bond.i] += half;
                     if bond.internal {
                         // stored once: the partner's half too

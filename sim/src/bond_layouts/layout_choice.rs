@@ -48,6 +48,16 @@ pub struct SpringNow {
     pub stretch: f32,
 }
 
+impl SpringNow {
+    /// Entry `bond` at the particles' displacements `disp` (metres; `bond.i` and `bond.j` are
+    /// particles).
+    pub fn at(bond: &StoredBond, disp: &[Vec<f32>; 3]) -> SpringNow {
+        let eta = [0, 1, 2].map(|a| disp[a][bond.j] - disp[a][bond.i]);
+        let (stretch, _, _) = kernels::stretch(bond.rest_vector, eta, bond.rest_length_m);
+        SpringNow { bond: *bond, eta, stretch }
+    }
+}
+
 /// The bond layout of a CPU simulation.
 #[derive(Debug, Clone)]
 pub enum SpringTable {
@@ -209,11 +219,7 @@ impl SpringTable {
     /// displacements (padding skipped).
     fn entry_sum(&self, c: usize, disp: &[Vec<f32>; 3], value: &impl Fn(&SpringNow) -> f64) -> f64 {
         let mut sum = 0.0;
-        self.for_each_entry_of_chunk(c, |bond| {
-            let eta = [0, 1, 2].map(|a| disp[a][bond.j] - disp[a][bond.i]);
-            let (stretch, _, _) = kernels::stretch(bond.rest_vector, eta, bond.rest_length_m);
-            sum += value(&SpringNow { bond: *bond, eta, stretch });
-        });
+        self.for_each_entry_of_chunk(c, |bond| sum += value(&SpringNow::at(bond, disp)));
         sum
     }
 
