@@ -114,7 +114,9 @@ impl GpuTracer {
         let environment: Vec<[f32; 4]> = look.environment.texels.iter().map(|t| vec4(*t, 0.0)).collect();
         let environment = ctx.create_storage_buffer("environment", &environment)?;
         let (floor_size, floor_texels) = match &look.floor {
-            Some(floor) => (floor.size, floor.texels.iter().map(|t| vec4(*t, 0.0)).collect()),
+            Some(floor) => {
+                (floor.size, (0..floor.texels.len()).map(|i| vec4(floor.texels.linear_at(i), 0.0)).collect())
+            }
             None => ([1, 1], vec![[0.0; 4]]),
         };
         let floor_texels = ctx.create_storage_buffer("floor texture", &floor_texels)?;

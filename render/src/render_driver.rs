@@ -26,7 +26,7 @@ use crate::image_out::{FrameHeader, FrameLayers, ImageError, write_exr, write_pn
 use crate::lighting::{EnvironmentMap, LightingError, key_light, sh_project};
 use crate::motion::motion_vectors;
 use crate::scene::{Camera, SceneGeometry};
-use crate::trace::{FloorLook, Look, Pixel, Rendered, render};
+use crate::trace::{FloorLook, FloorTexels, Look, Pixel, Rendered, render};
 
 /// Why rendering failed.
 #[derive(Debug, thiserror::Error)]
@@ -163,7 +163,7 @@ pub fn look(render: &RenderConfig) -> Result<Look, RenderError> {
         Some(floor) => {
             let (size, texels) = match &floor.texture {
                 Some(path) => load_texture(path)?,
-                None => ([1, 1], vec![floor.albedo.map(|v| v as f32)]),
+                None => ([1, 1], FloorTexels::Linear(vec![floor.albedo.map(|v| v as f32)])),
             };
             Some(FloorLook { height: floor.height_m as f32, tile: floor.tile_size_m as f32, size, texels })
         }
@@ -187,17 +187,13 @@ pub fn look(render: &RenderConfig) -> Result<Look, RenderError> {
     })
 }
 
-/// An sRGB texture as linear texels.
-fn load_texture(path: &Path) -> Result<([usize; 2], Vec<[f32; 3]>), RenderError> {
+/// An sRGB texture's size and texels.
+fn load_texture(path: &Path) -> Result<([usize; 2], FloorTexels), RenderError> {
     let image = image::open(path)
         .map_err(|error| RenderError::Input(format!("render.floor.texture: {}: cannot read: {error}", path.display())))?
         .into_rgb8();
-    let linear = |v: u8| {
-        let c = f32::from(v) / 255.0;
-        if c <= 0.040_45 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
-    };
-    let texels = image.pixels().map(|p| p.0.map(linear)).collect();
-    Ok(([image.width() as usize, image.height() as usize], texels))
+    let texels = image.pixels().map(|p| p.0).collect();
+    Ok(([image.width() as usize, image.height() as usize], FloorTexels::srgb8(texels)))
 }
 
 /// The camera of a scene: configured, or framing the body's rest bounds.

@@ -238,8 +238,8 @@ pub struct FloorLook {
     pub tile: f32,
     /// Texture width and height (1 x 1 for a plain albedo).
     pub size: [usize; 2],
-    /// Linear albedo texels, row-major.
-    pub texels: Vec<[f32; 3]>,
+    /// Albedo texels, row-major.
+    pub texels: FloorTexels,
 }
 
 impl FloorLook {
@@ -250,8 +250,59 @@ impl FloorLook {
         let (u, v) = (fraction(p[0] / self.tile), fraction(p[2] / self.tile));
         let x = ((u * self.size[0] as f32) as usize).min(self.size[0] - 1);
         let y = ((v * self.size[1] as f32) as usize).min(self.size[1] - 1);
-        self.texels[y * self.size[0] + x]
+        self.texels.linear_at(y * self.size[0] + x)
     }
+}
+
+/// A floor's albedo texels, row-major.
+#[derive(Debug, Clone)]
+pub enum FloorTexels {
+    /// Linear albedo.
+    Linear(Vec<[f32; 3]>),
+    /// 8-bit sRGB (an image file's), decoded through a table of the 256 values' linear albedo:
+    /// the same linear values bit for bit, in a quarter of the bytes, so that more of a large
+    /// texture stays in cache (the floor's texel loads were most of its shading time).
+    Srgb8 {
+        /// The texels as stored.
+        texels: Vec<[u8; 3]>,
+        /// Linear albedo of each 8-bit value.
+        linear: Box<[f32; 256]>,
+    },
+}
+
+impl FloorTexels {
+    /// 8-bit sRGB texels.
+    pub fn srgb8(texels: Vec<[u8; 3]>) -> FloorTexels {
+        let linear = Box::new(std::array::from_fn(|v| srgb_to_linear(v as u8)));
+        FloorTexels::Srgb8 { texels, linear }
+    }
+
+    /// Number of texels.
+    pub fn len(&self) -> usize {
+        match self {
+            FloorTexels::Linear(texels) => texels.len(),
+            FloorTexels::Srgb8 { texels, .. } => texels.len(),
+        }
+    }
+
+    /// True without texels.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Texel `i`'s linear albedo.
+    pub fn linear_at(&self, i: usize) -> [f32; 3] {
+        match self {
+            FloorTexels::Linear(texels) => texels[i],
+            FloorTexels::Srgb8 { texels, linear } => texels[i].map(|v| linear[usize::from(v)]),
+        }
+    }
+}
+
+/// The linear value of an 8-bit sRGB value (IEC 61966-2-1's decoding).
+fn srgb_to_linear(v: u8) -> f32 {
+    let c = f32::from(v) / 255.0;
+    if c <= 0.040_45 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
 }
 
 /// One pixel's layers.
@@ -687,6 +738,29 @@ mod tests {
 
     use super::*;
     use crate::lighting::{EnvironmentMap, key_light, sh_project};
+
+    #[test]
+    fn an_srgb8_floor_texel_decodes_to_the_standards_linear_value() {
+        let texels = FloorTexels::srgb8((0..=255u8).map(|v| [v, 255 - v, v / 2]).collect());
+        assert_eq!(texels.len(), 256);
+        for v in 0..=255u8 {
+            let reference = |v: u8| {
+                let c = f64::from(v) / 255.0;
+                if c <= 0.040_45 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+            };
+            let got = texels.linear_at(usize::from(v));
+            for (channel, byte) in [v, 255 - v, v / 2].into_iter().enumerate() {
+                let want = reference(byte);
+                assert!((f64::from(got[channel]) - want).abs() <= 1e-6 * want.max(1e-3), "{byte}: {got:?} vs {want}");
+            }
+        }
+        assert_eq!(texels.linear_at(0)[0], 0.0);
+        assert_eq!(texels.linear_at(255)[0], 1.0);
+        // the floor looks the texel up where the point falls in its tile
+        let floor = FloorLook { height: 0.0, tile: 1.0, size: [16, 16], texels };
+        assert_eq!(floor.albedo([0.5 / 16.0, 0.0, 1.5 / 16.0]), floor.texels.linear_at(16));
+        assert_eq!(floor.albedo([-0.5 / 16.0, 0.0, 0.0]), floor.texels.linear_at(15));
+    }
 
     fn set(positions: Vec<[f32; 3]>, elements: Elements) -> ParticleSet {
         let n = positions.len();

@@ -15,7 +15,7 @@ use shatter_render::cryptomatte::{fragment_matte, material_matte};
 use shatter_render::image_out::{FrameHeader, FrameLayers, write_exr};
 use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
 use shatter_render::scene::{Camera, SceneGeometry};
-use shatter_render::trace::{FloorLook, Look, NONE, closest_hit, render};
+use shatter_render::trace::{FloorLook, FloorTexels, Look, NONE, closest_hit, render};
 
 const FLOOR_Y: f32 = -0.5;
 
@@ -42,7 +42,12 @@ fn look() -> Look {
         fracture_albedo: [0.8; 3],
         specular: 0.0,
         shininess: 32.0,
-        floor: Some(FloorLook { height: FLOOR_Y, tile: 1.0, size: [1, 1], texels: vec![[0.5; 3]] }),
+        floor: Some(FloorLook {
+            height: FLOOR_Y,
+            tile: 1.0,
+            size: [1, 1],
+            texels: FloorTexels::Linear(vec![[0.5; 3]]),
+        }),
         max_bounces: 2,
         glass_split_events: 0,
         opaque_cubes: false,

@@ -11,7 +11,7 @@ use shatter_core::particles::Elements;
 use shatter_render::image_out::write_png;
 use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
 use shatter_render::scene::{Camera, SceneGeometry};
-use shatter_render::trace::{FloorLook, Look, Pixel, render};
+use shatter_render::trace::{FloorLook, FloorTexels, Look, Pixel, render};
 
 fn slab() -> SceneGeometry {
     let spacing = 0.01f32;
@@ -54,7 +54,7 @@ fn look(bounces: u32, split: u32) -> Look {
             height: 0.0,
             tile: 0.2,
             size: [2, 2],
-            texels: vec![[0.9, 0.6, 0.3], [0.05; 3], [0.05; 3], [0.9, 0.6, 0.3]],
+            texels: FloorTexels::Linear(vec![[0.9, 0.6, 0.3], [0.05; 3], [0.05; 3], [0.9, 0.6, 0.3]]),
         }),
         max_bounces: bounces,
         glass_split_events: split,

@@ -13,7 +13,7 @@ use shatter_render::gpu_trace::GpuTracer;
 use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
 use shatter_render::mattes::SURFACE_FRACTURE;
 use shatter_render::scene::{Camera, SceneGeometry};
-use shatter_render::trace::{FloorLook, Look, NONE, render};
+use shatter_render::trace::{FloorLook, FloorTexels, Look, NONE, render};
 
 fn set(positions: Vec<[f32; 3]>, elements: Elements) -> ParticleSet {
     let adjacency =
@@ -57,7 +57,7 @@ fn look(floor: bool) -> Look {
             height: -1.0,
             tile: 0.5,
             size: [2, 2],
-            texels: vec![[0.9; 3], [0.1; 3], [0.1; 3], [0.9; 3]],
+            texels: FloorTexels::Linear(vec![[0.9; 3], [0.1; 3], [0.1; 3], [0.9; 3]]),
         }),
         max_bounces: 6,
         glass_split_events: 2,
