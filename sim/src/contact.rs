@@ -100,6 +100,30 @@ impl SpatialHash {
 /// The skin of the contact list as a fraction of the contact distance.
 pub const SKIN_FRACTION: f32 = 0.5;
 
+/// The bond of a pair that has none.
+pub const NO_BOND: u64 = u64::MAX;
+
+/// Which pairs are bonded: contact pushes only pairs that are not joined by an intact bond.
+pub trait BondLookup: Sync {
+    /// The id of the bond joining particles i and j, or [`NO_BOND`].
+    fn bond_between(&self, i: usize, j: usize) -> u64;
+    /// True when `bond` (an id from [`BondLookup::bond_between`], or [`NO_BOND`]) is a bond that
+    /// has not broken.
+    fn intact(&self, bond: u64) -> bool;
+}
+
+/// One of a particle's contact candidates: the other particle, and the bond joining the two
+/// ([`NO_BOND`] for none), looked up once when the pair is listed rather than in every step's
+/// collision pass (a search of the particle's bonds, which a tet shell's close pairs paid for in
+/// a quarter of each step).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Candidate {
+    /// The other particle.
+    pub particle: u32,
+    /// The bond joining the pair, or [`NO_BOND`].
+    pub bond: u64,
+}
+
 /// Candidate contact pairs: each particle's list holds every particle within the contact
 /// distance, and more.
 ///
@@ -132,7 +156,7 @@ pub struct ContactList {
     hashed_at: [Vec<f32>; 3],
     /// Where each particle was when its list was last searched (infinite before).
     built_at: [Vec<f32>; 3],
-    lists: Vec<Vec<u32>>,
+    lists: Vec<Vec<Candidate>>,
     /// Whether each particle is searched in the current update (all false between updates).
     searched_now: Vec<bool>,
     searches: u64,
@@ -171,8 +195,9 @@ impl ContactList {
     }
 
     /// Searches again the lists of the particles at `x` that have moved more than a quarter of
-    /// the skin since their last search (all of them at first).
-    pub fn update(&mut self, x: [&[f32]; 3]) {
+    /// the skin since their last search (all of them at first); `bonds` names the bond of each
+    /// pair listed.
+    pub fn update(&mut self, x: [&[f32]; 3], bonds: &impl BondLookup) {
         let n = x[0].len();
         let reach = self.distance + self.skin;
         let limit = (0.25 * self.skin).powi(2);
@@ -209,7 +234,7 @@ impl ContactList {
         }
         let hash = &self.hash;
         let look = (1.0 + HASH_MARGIN) * reach;
-        let found: Vec<Vec<u32>> = moved
+        let found: Vec<Vec<Candidate>> = moved
             .par_iter()
             .map(|&i| {
                 let p = [x[0][i], x[1][i], x[2][i]];
@@ -217,10 +242,10 @@ impl ContactList {
                 hash.for_each_candidate(p, look, |j| {
                     let d2: f32 = (0..3).map(|a| (p[a] - x[a][j]).powi(2)).sum();
                     if j != i && d2 < reach * reach {
-                        near.push(j as u32);
+                        near.push(Candidate { particle: j as u32, bond: bonds.bond_between(i, j) });
                     }
                 });
-                near.sort_unstable();
+                near.sort_unstable_by_key(|candidate| candidate.particle);
                 near
             })
             .collect();
@@ -229,21 +254,22 @@ impl ContactList {
         for &i in &moved {
             self.searched_now[i] = true;
         }
+        let find = |list: &[Candidate], particle: u32| list.binary_search_by_key(&particle, |c| c.particle);
         for (&i, near) in moved.iter().zip(&found) {
             let me = i as u32;
             let old = std::mem::take(&mut self.lists[i]);
-            for &j in old.iter().filter(|&&j| !self.searched_now[j as usize]) {
-                if near.binary_search(&j).is_err() {
-                    let list = &mut self.lists[j as usize];
-                    if let Ok(at) = list.binary_search(&me) {
+            for other in old.iter().filter(|c| !self.searched_now[c.particle as usize]) {
+                if find(near, other.particle).is_err() {
+                    let list = &mut self.lists[other.particle as usize];
+                    if let Ok(at) = find(list, me) {
                         list.remove(at);
                     }
                 }
             }
-            for &j in near.iter().filter(|&&j| !self.searched_now[j as usize]) {
-                let list = &mut self.lists[j as usize];
-                if let Err(at) = list.binary_search(&me) {
-                    list.insert(at, me);
+            for other in near.iter().filter(|c| !self.searched_now[c.particle as usize]) {
+                let list = &mut self.lists[other.particle as usize];
+                if let Err(at) = find(list, me) {
+                    list.insert(at, Candidate { particle: me, bond: other.bond });
                 }
             }
         }
@@ -258,7 +284,7 @@ impl ContactList {
     }
 
     /// Particle i's candidates, in increasing index.
-    pub fn candidates(&self, i: usize) -> &[u32] {
+    pub fn candidates(&self, i: usize) -> &[Candidate] {
         &self.lists[i]
     }
 }
@@ -293,6 +319,39 @@ pub fn repulsion(stiffness: f32, distance: f32, d: [f32; 3], r: f32) -> [f32; 3]
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// No pair is bonded.
+    struct Unbonded;
+
+    impl BondLookup for Unbonded {
+        fn bond_between(&self, _: usize, _: usize) -> u64 {
+            NO_BOND
+        }
+
+        fn intact(&self, _: u64) -> bool {
+            false
+        }
+    }
+
+    /// Pairs whose indices sum to a multiple of 3 are bonded, with id lo * n + hi.
+    struct EveryThirdPair {
+        n: usize,
+    }
+
+    impl BondLookup for EveryThirdPair {
+        fn bond_between(&self, i: usize, j: usize) -> u64 {
+            if (i + j) % 3 == 0 { (i.min(j) * self.n + i.max(j)) as u64 } else { NO_BOND }
+        }
+
+        fn intact(&self, bond: u64) -> bool {
+            bond != NO_BOND
+        }
+    }
+
+    /// Particle i's candidates' particles.
+    fn listed(list: &ContactList, i: usize) -> Vec<u32> {
+        list.candidates(i).iter().map(|c| c.particle).collect()
+    }
 
     #[test]
     fn candidates_include_every_close_particle() {
@@ -333,6 +392,7 @@ mod tests {
         let (n, distance) = (1500, 0.01f32);
         let mut x: [Vec<f32>; 3] = [0, 1, 2].map(|_| (0..n).map(|_| next() * 0.1).collect());
         let mut list = ContactList::new(n, distance);
+        let bonds = EveryThirdPair { n };
         for step in 0..300 {
             // One particle in ten jumps about at random, up to 3 mm a step along each axis; the
             // others creep steadily, up to 20 um a step.
@@ -341,9 +401,9 @@ mod tests {
                     *value += if i % 10 == 0 { 6e-3 * next() } else { 4e-5 * (((i * 3 + a) % 7) as f32 / 7.0 - 0.5) };
                 }
             }
-            list.update([&x[0], &x[1], &x[2]]);
+            list.update([&x[0], &x[1], &x[2]], &bonds);
             for i in 0..n {
-                let near = list.candidates(i);
+                let near = listed(&list, i);
                 assert!(near.windows(2).all(|pair| pair[0] < pair[1]), "sorted, no repeats");
                 for j in 0..n {
                     let r2: f32 = (0..3).map(|a| (x[a][i] - x[a][j]).powi(2)).sum();
@@ -351,8 +411,10 @@ mod tests {
                         assert!(near.contains(&(j as u32)), "step {step}: {j} missing near {i}");
                     }
                 }
-                for &j in near {
-                    assert!(list.candidates(j as usize).contains(&(i as u32)), "pairs are listed both ways");
+                for candidate in list.candidates(i) {
+                    let j = candidate.particle as usize;
+                    assert!(listed(&list, j).contains(&(i as u32)), "pairs are listed both ways");
+                    assert_eq!(candidate.bond, bonds.bond_between(i, j), "{i}-{j}: the pair's bond");
                 }
             }
         }
@@ -373,17 +435,17 @@ mod tests {
         let (reach, half) = (distance + skin, 0.5 * skin);
         let mut x = [vec![0.0, reach - half + 2e-4], vec![0.0, 0.0], vec![0.0, 0.0]];
         let mut list = ContactList::new(2, distance);
-        list.update([&x[0], &x[1], &x[2]]);
-        assert_eq!(list.candidates(0), &[1]);
+        list.update([&x[0], &x[1], &x[2]], &Unbonded);
+        assert_eq!(listed(&list, 0), [1]);
         x[0][0] = -(half - 1e-4);
         x[1][1] = half + 1e-4;
-        list.update([&x[0], &x[1], &x[2]]);
+        list.update([&x[0], &x[1], &x[2]], &Unbonded);
         x[0][0] = half - 1e-4;
         x[0][1] -= half - 1e-4;
         let r = ((x[0][1] - x[0][0]).powi(2) + x[1][1].powi(2)).sqrt();
         assert!(r < distance, "{r}: the pair has come within the contact distance");
-        list.update([&x[0], &x[1], &x[2]]);
-        assert_eq!((list.candidates(0), list.candidates(1)), (&[1][..], &[0][..]));
+        list.update([&x[0], &x[1], &x[2]], &Unbonded);
+        assert_eq!((listed(&list, 0), listed(&list, 1)), (vec![1], vec![0]));
     }
 
     #[test]

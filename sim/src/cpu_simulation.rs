@@ -13,9 +13,9 @@ use crate::bond_layouts::EntryValues;
 use crate::bond_layouts::lattice_layout::{LatticeTable, NO_PARTICLE, PmbSlot, SlotInputs, SlotViews};
 use crate::bond_layouts::layout_choice::{LayoutChoice, SpringTable};
 use crate::bond_layouts::row_layout::chunk_size;
-use crate::contact::ContactList;
+use crate::contact::{BondLookup, ContactList, NO_BOND};
 use crate::elastoplastic::FamilyBonds;
-use crate::kernels::{self, BodyForces, BondLookup, ChunkForces, ParticleRecord, PassRules, SphereNow};
+use crate::kernels::{self, BodyForces, ChunkForces, ParticleRecord, PassRules, SphereNow};
 use crate::material_bonds::MaterialBonds;
 use crate::model::{Model, MovingSphere, hold_grips};
 use crate::state::{Dynamics, Energy, kinetic_energy_j};
@@ -49,16 +49,17 @@ impl BondIndex {
 }
 
 impl BondLookup for BondIndex {
-    fn intact(&self, i: usize, j: usize) -> bool {
+    fn bond_between(&self, i: usize, j: usize) -> u64 {
         let (lo, hi) = (i.min(j), i.max(j) as u32);
         let row = self.offsets[lo] as usize..self.offsets[lo + 1] as usize;
         match self.neighbor[row.clone()].binary_search(&hi) {
-            Ok(k) => {
-                let id = (row.start + k) as u64;
-                self.broken[(id / 64) as usize] & (1 << (id % 64)) == 0
-            }
-            Err(_) => false,
+            Ok(k) => (row.start + k) as u64,
+            Err(_) => NO_BOND,
         }
+    }
+
+    fn intact(&self, bond: u64) -> bool {
+        bond != NO_BOND && self.broken[(bond / 64) as usize] & (1 << (bond % 64)) == 0
     }
 }
 
@@ -421,7 +422,7 @@ impl CpuSimulation {
         }
         let position = [&position_scratch[0][..], &position_scratch[1][..], &position_scratch[2][..]];
         if let Some(contacts) = contacts.as_mut() {
-            contacts.update(position);
+            contacts.update(position, &*index);
         }
         let rule = model.break_rule;
         let pass_rules = model.pass_rules();

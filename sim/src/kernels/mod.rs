@@ -16,17 +16,11 @@ mod springs_avx2;
 pub use lattice_springs::lattice_spring_forces;
 pub use springs::{ChunkForces, ParticleRecord, PassRules, spring_forces, stretch};
 
-use crate::contact::{ContactList, contact_reach, repulsion};
+use crate::contact::{BondLookup, Candidate, ContactList, contact_reach, repulsion};
 use crate::model::Floor;
 
-/// Checks whether particles i and j are joined by an intact bond.
-pub trait BondLookup: Sync {
-    /// True when i and j share a bond that has not broken.
-    fn intact(&self, i: usize, j: usize) -> bool;
-}
-
 /// Adds to each particle i of the chunk (from `first`) the sum, over its contact candidates j in
-/// their fixed order, of the force `push(i, j, d, r2, rest2)` returns, given the offset
+/// their fixed order, of the force `push(i, candidate, d, r2, rest2)` returns, given the offset
 /// d = x_i - x_j, its squared length r2 and the squared rest distance rest2 (None: no force).
 #[inline(always)]
 fn sum_over_candidates(
@@ -35,7 +29,7 @@ fn sum_over_candidates(
     rest: [&[f32]; 3],
     contacts: &ContactList,
     force: &mut [&mut [f32]; 3],
-    push: impl Fn(usize, usize, [f32; 3], f32, f32) -> Option<[f32; 3]>,
+    push: impl Fn(usize, &Candidate, [f32; 3], f32, f32) -> Option<[f32; 3]>,
 ) {
     let len = force[0].len();
     for local in 0..len {
@@ -47,12 +41,12 @@ fn sum_over_candidates(
         let p = [position[0][i], position[1][i], position[2][i]];
         let x = [rest[0][i], rest[1][i], rest[2][i]];
         let mut sum = [0.0f32; 3];
-        for &j in candidates {
-            let j = j as usize;
+        for candidate in candidates {
+            let j = candidate.particle as usize;
             let d = [p[0] - position[0][j], p[1] - position[1][j], p[2] - position[2][j]];
             let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
             let xi = [x[0] - rest[0][j], x[1] - rest[1][j], x[2] - rest[2][j]];
-            if let Some(f) = push(i, j, d, r2, xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]) {
+            if let Some(f) = push(i, candidate, d, r2, xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]) {
                 sum = [sum[0] + f[0], sum[1] + f[1], sum[2] + f[2]];
             }
         }
@@ -76,9 +70,9 @@ pub fn collisions(
     distance: f32,
     force: &mut [&mut [f32]; 3],
 ) {
-    sum_over_candidates(first, position, rest, contacts, force, |i, j, d, r2, rest2| {
+    sum_over_candidates(first, position, rest, contacts, force, |_, candidate, d, r2, rest2| {
         let reach = contact_reach(distance, rest2);
-        if r2 >= reach * reach || r2 == 0.0 || bonds.intact(i, j) {
+        if r2 >= reach * reach || r2 == 0.0 || bonds.intact(candidate.bond) {
             return None;
         }
         Some(repulsion(stiffness, reach, d, r2.sqrt()))
@@ -100,7 +94,8 @@ pub fn short_range(
     lambda: f32,
     force: &mut [&mut [f32]; 3],
 ) {
-    sum_over_candidates(first, position, rest, contacts, force, |i, j, d, r2, rest2| {
+    sum_over_candidates(first, position, rest, contacts, force, |i, candidate, d, r2, rest2| {
+        let j = candidate.particle as usize;
         let reach = (0.9 * rest2.sqrt()).min(1.35 * lambda);
         if r2 >= reach * reach || r2 == 0.0 {
             return None;
