@@ -340,7 +340,7 @@ mod tests {
 
     impl BondLookup for EveryThirdPair {
         fn bond_between(&self, i: usize, j: usize) -> u64 {
-            if (i + j) % 3 == 0 { (i.min(j) * self.n + i.max(j)) as u64 } else { NO_BOND }
+            if (i + j).is_multiple_of(3) { (i.min(j) * self.n + i.max(j)) as u64 } else { NO_BOND }
         }
 
         fn intact(&self, bond: u64) -> bool {
