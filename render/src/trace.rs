@@ -408,10 +408,26 @@ fn floor_t(look: &Look, origin: [f32; 3], direction: [f32; 3]) -> f32 {
     }
 }
 
-/// Radiance of the floor at `p` seen along `d`.
-fn floor_radiance(look: &Look, p: [f32; 3], d: [f32; 3]) -> [f32; 3] {
-    let floor = look.floor.as_ref().map_or([0.5; 3], |f| f.albedo(p));
-    shade_opaque(look, floor, [0.0, 1.0, 0.0], d, 0.0)
+/// Albedo of the floor at `p`.
+fn floor_albedo(look: &Look, p: [f32; 3]) -> [f32; 3] {
+    look.floor.as_ref().map_or([0.5; 3], |f| f.albedo(p))
+}
+
+/// Radiance of the floor, of albedo `albedo` where it is seen, along `d`.
+fn floor_radiance(look: &Look, albedo: [f32; 3], d: [f32; 3]) -> [f32; 3] {
+    shade_opaque(look, albedo, [0.0, 1.0, 0.0], d, 0.0)
+}
+
+/// The floor's albedo where each camera ray of a packet meets it, for those that meet it before
+/// their nearest hit (`hits`); the others' are left as they are. Looked up in one pass, the
+/// texel loads of a packet overlap, where each ray's trace would otherwise wait on its own.
+fn first_floor_albedos(look: &Look, origin: [f32; 3], directions: &[[f32; 3]], hits: &[Hit], out: &mut [[f32; 3]]) {
+    for ((d, hit), albedo) in directions.iter().zip(hits).zip(out) {
+        let t_floor = floor_t(look, origin, *d);
+        if t_floor < hit.t {
+            *albedo = floor_albedo(look, along(origin, *d, t_floor));
+        }
+    }
 }
 
 /// Diffuse irradiance from the SH plus a normalized Blinn-Phong highlight of the key light.
@@ -452,8 +468,10 @@ fn split(
 }
 
 /// Radiance along one camera ray, and its first-surface layers, given its nearest hit
-/// (`first_hit`, as [`closest_hit`] finds it from t = 0; [`render`] finds them in packets). The
-/// shader's `trace_ray` finds it itself.
+/// (`first_hit`, as [`closest_hit`] finds it from t = 0; [`render`] finds them in packets) and,
+/// where the ray meets the floor first, the floor's albedo there (`first_floor_albedo`, as
+/// [`first_floor_albedos`] finds it). The shader's `trace_ray` finds both itself.
+#[allow(clippy::too_many_arguments)]
 fn trace_ray(
     scene: &SceneGeometry,
     look: &Look,
@@ -462,6 +480,7 @@ fn trace_ray(
     pixel: u32,
     sample: u32,
     first_hit: Hit,
+    first_floor_albedo: [f32; 3],
 ) -> Pixel {
     let mut result = Pixel::EMPTY;
     let eps = 4.0 * scene.slack;
@@ -509,7 +528,8 @@ fn trace_ray(
                     result =
                         Pixel { alpha: 1.0, depth: t_floor, normal: [0.0, 1.0, 0.0], surface: SURFACE_FLOOR, ..result };
                 }
-                let shade = floor_radiance(look, p, d);
+                let albedo = if first { first_floor_albedo } else { floor_albedo(look, p) };
+                let shade = floor_radiance(look, albedo, d);
                 for c in 0..3 {
                     result.color[c] += path.throughput[c] * shade[c];
                 }
@@ -568,7 +588,7 @@ fn trace_ray(
             // or the environment, rather than going black.
             let t_floor = floor_t(look, path.origin, path.direction);
             let escape = if t_floor.is_finite() {
-                floor_radiance(look, along(path.origin, path.direction, t_floor), path.direction)
+                floor_radiance(look, floor_albedo(look, along(path.origin, path.direction, t_floor)), path.direction)
             } else {
                 look.environment.radiance(path.direction)
             };
@@ -624,16 +644,19 @@ pub fn render(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32)
         let mut alphas = [0.0f32; PACKET];
         let mut directions = [[0.0f32; 3]; PACKET];
         let mut hits = [Hit::MISS; PACKET];
+        let mut floor_albedos = [[0.0f32; 3]; PACKET];
         for tile in Tile::across(width, top, rows.len() / width) {
             let count = tile.len();
             sums[..count].fill([0.0; 3]);
             alphas[..count].fill(0.0);
             for sample in 0..samples {
                 tile.first_hits(scene, camera, (sample, samples), &mut directions, &mut hits);
+                first_floor_albedos(look, camera.origin, &directions[..count], &hits[..count], &mut floor_albedos);
                 for k in 0..count {
                     let (x, y) = tile.pixel(k);
                     let pixel = (y * width + x) as u32;
-                    let traced = trace_ray(scene, look, camera.origin, directions[k], pixel, sample, hits[k]);
+                    let (direction, hit, floor) = (directions[k], hits[k], floor_albedos[k]);
+                    let traced = trace_ray(scene, look, camera.origin, direction, pixel, sample, hit, floor);
                     let local = (y - top) * width + x;
                     if sample == 0 {
                         rows[local] = traced;
