@@ -14,6 +14,8 @@
 
 use std::collections::BTreeMap;
 
+use rayon::prelude::*;
+
 use crate::mattes::{MatteCounts, SURFACE_NAMES};
 
 /// Ranks stored per pixel: two RGBA layers. (The specification's default is 6; a pixel here
@@ -122,7 +124,7 @@ fn rank(mut entries: Vec<(u32, u32)>, samples: u32) -> [(u32, f32); RANKS] {
 pub fn fragment_matte(counts: &[MatteCounts], fragments: &[u32]) -> Matte {
     let bits: BTreeMap<u32, u32> = fragments.iter().map(|&f| (f, id_bits(&fragment_name(f)))).collect();
     let ranks = counts
-        .iter()
+        .par_iter()
         .map(|c| {
             let entries = c
                 .fragments
@@ -142,7 +144,8 @@ pub fn fragment_matte(counts: &[MatteCounts], fragments: &[u32]) -> Matte {
 /// The material matte: outer surface, fracture faces, floor.
 pub fn material_matte(counts: &[MatteCounts]) -> Matte {
     let bits = SURFACE_NAMES.map(id_bits);
-    let ranks = counts.iter().map(|c| rank((0..3).map(|k| (bits[k], c.surfaces[k])).collect(), c.samples)).collect();
+    let ranks =
+        counts.par_iter().map(|c| rank((0..3).map(|k| (bits[k], c.surfaces[k])).collect(), c.samples)).collect();
     let manifest = SURFACE_NAMES.iter().zip(bits).map(|(name, b)| (name.to_string(), b)).collect();
     Matte { name: MATERIAL_MATTE.to_string(), manifest, ranks }
 }

@@ -8,6 +8,7 @@
 //! The floor, the background and frames with no neighbour on a side hold zero.
 
 use glam::{DQuat, DVec3};
+use rayon::prelude::*;
 use shatter_core::fragments::FragmentFrame;
 
 use crate::scene::Camera;
@@ -40,7 +41,7 @@ pub fn motion_vectors(
     let width = camera.width as usize;
     let eye = DVec3::from_array(camera.origin.map(f64::from));
     pixels
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(index, pixel)| {
             if pixel.element == NONE || !pixel.depth.is_finite() {
