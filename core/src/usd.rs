@@ -6,6 +6,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use glam::{DMat3, DQuat, DVec3};
+use rayon::prelude::*;
 
 use crate::debris_points::DebrisFrame;
 use crate::fragments::FragmentFrame;
@@ -110,27 +111,10 @@ pub fn write_usda(path: &Path, shot: &UsdShot) -> std::io::Result<()> {
     }
     let mut out = Vec::with_capacity(1 << 20);
     out.extend_from_slice(text.as_bytes());
-    for (piece, mesh) in meshes.iter().enumerate() {
-        let mut prim = String::new();
-        let _ = writeln!(prim, "    def Mesh \"piece_{piece:05}\"\n    {{");
-        prim.push_str("        uniform token subdivisionScheme = \"none\"\n");
-        prim.push_str("        uniform bool doubleSided = 0\n");
-        prim.push_str("        int[] faceVertexCounts = [");
-        join(&mut prim, mesh.face_sizes.iter().map(|c| c.to_string()));
-        prim.push_str("]\n        int[] faceVertexIndices = [");
-        join(&mut prim, mesh.indices.iter().map(|c| c.to_string()));
-        prim.push_str("]\n        point3f[] points = [");
-        join(&mut prim, mesh.points.iter().map(|p| format!("({}, {}, {})", p[0], p[1], p[2])));
-        prim.push_str("]\n        matrix4d xformOp:transform.timeSamples = {\n");
-        for (index, frame_transforms) in transforms.iter().enumerate() {
-            let m = matrix(&frame_transforms[piece]);
-            let rows: Vec<String> =
-                m.iter().map(|row| format!("({}, {}, {}, {})", row[0], row[1], row[2], row[3])).collect();
-            let _ = writeln!(prim, "            {}: ({}),", first_frame + index as u32, rows.join(", "));
-        }
-        prim.push_str("        }\n        uniform token[] xformOpOrder = [\"xformOp:transform\"]\n");
-        prim.push_str(&face_subsets(mesh));
-        prim.push_str("    }\n");
+    // Each piece's prim (and each frame of the debris) formatted in parallel, joined in order.
+    let prims: Vec<String> =
+        meshes.par_iter().enumerate().map(|(piece, mesh)| piece_prim(piece, mesh, transforms, first_frame)).collect();
+    for prim in prims {
         out.extend_from_slice(prim.as_bytes());
     }
     out.extend_from_slice(LOOKS.as_bytes());
@@ -139,6 +123,31 @@ pub fn write_usda(path: &Path, shot: &UsdShot) -> std::io::Result<()> {
     }
     out.extend_from_slice(b"}\n");
     crate::atomic_file::write_atomically(path, &[&out])
+}
+
+/// The prim of piece `piece`: its mesh at rest, its transform at each frame, its face subsets.
+fn piece_prim(piece: usize, mesh: &SurfaceMesh, transforms: &[Vec<PieceTransform>], first_frame: u32) -> String {
+    let mut prim = String::new();
+    let _ = writeln!(prim, "    def Mesh \"piece_{piece:05}\"\n    {{");
+    prim.push_str("        uniform token subdivisionScheme = \"none\"\n");
+    prim.push_str("        uniform bool doubleSided = 0\n");
+    prim.push_str("        int[] faceVertexCounts = [");
+    join(&mut prim, mesh.face_sizes.iter().map(|c| c.to_string()));
+    prim.push_str("]\n        int[] faceVertexIndices = [");
+    join(&mut prim, mesh.indices.iter().map(|c| c.to_string()));
+    prim.push_str("]\n        point3f[] points = [");
+    join(&mut prim, mesh.points.iter().map(|p| format!("({}, {}, {})", p[0], p[1], p[2])));
+    prim.push_str("]\n        matrix4d xformOp:transform.timeSamples = {\n");
+    for (index, frame_transforms) in transforms.iter().enumerate() {
+        let m = matrix(&frame_transforms[piece]);
+        let rows: Vec<String> =
+            m.iter().map(|row| format!("({}, {}, {}, {})", row[0], row[1], row[2], row[3])).collect();
+        let _ = writeln!(prim, "            {}: ({}),", first_frame + index as u32, rows.join(", "));
+    }
+    prim.push_str("        }\n        uniform token[] xformOpOrder = [\"xformOp:transform\"]\n");
+    prim.push_str(&face_subsets(mesh));
+    prim.push_str("    }\n");
+    prim
 }
 
 /// The materials the face subsets bind: neutral looks an artist rebinds (documented in
@@ -196,13 +205,19 @@ fn face_subsets(mesh: &SurfaceMesh) -> String {
 fn debris_prim(debris: &[DebrisFrame], first_frame: u32, width_m: f64, velocity_scale: &[f64]) -> String {
     let mut prim = String::from("    def Points \"debris\"\n    {\n");
     let vector = |v: &[f32; 3]| format!("({}, {}, {})", v[0], v[1], v[2]);
-    let mut samples = |kind: &str, name: &str, value: &dyn Fn(usize, &DebrisFrame) -> Vec<String>| {
+    let mut samples = |kind: &str, name: &str, value: &(dyn Fn(usize, &DebrisFrame) -> Vec<String> + Sync)| {
         let _ = writeln!(prim, "        {kind} {name}.timeSamples = {{");
-        for (index, frame) in debris.iter().enumerate() {
-            let _ = write!(prim, "            {}: [", first_frame + index as u32);
-            join(&mut prim, value(index, frame).into_iter());
-            prim.push_str("],\n");
-        }
+        let lines: Vec<String> = debris
+            .par_iter()
+            .enumerate()
+            .map(|(index, frame)| {
+                let mut line = format!("            {}: [", first_frame + index as u32);
+                join(&mut line, value(index, frame).into_iter());
+                line.push_str("],\n");
+                line
+            })
+            .collect();
+        prim.extend(lines);
         prim.push_str("        }\n");
     };
     samples("point3f[]", "points", &|_, f| f.position.iter().map(vector).collect());
