@@ -115,7 +115,7 @@ pub trait BondLookup: Sync {
 /// One of a particle's contact candidates: the other particle, and the bond joining the two
 /// ([`NO_BOND`] for none), looked up once when the pair is listed rather than in every step's
 /// collision pass (a search of the particle's bonds, which a tet shell's close pairs paid for in
-/// a quarter of each step).
+/// a fifth of each step).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Candidate {
     /// The other particle.
