@@ -52,11 +52,6 @@ fn main() {
         "bond updates: {} particles ({side}^3), {bonds} bonds at N = 3, {steps} steps; a bond update = one bond, one step",
         particles.len()
     );
-    if std::env::var_os("PROFILE_ONE").is_some() {
-        let t = bond_timing::time_ours(&levine, &particles, steps, 1);
-        println!("one {t}");
-        return;
-    }
     let one = time_one_and_all(&levine, &particles, steps, updates);
     let lammps_rules = block(side, "lammps");
     let rules_one = time_ours(&lammps_rules, &particles, steps, 1);
