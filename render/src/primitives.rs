@@ -125,6 +125,57 @@ pub fn paired_span(
     (!outside && wide_in <= wide_out).then_some(span)
 }
 
+/// A cube given as [`paired_span`] takes it, seen from one origin: the room from the origin to
+/// each plane along the plane's own normal (plane 2k's in `upper[k]`, plane 2k + 1's in
+/// `lower[k]`), which every ray from that origin shares.
+#[derive(Debug, Clone, Copy)]
+pub struct CubeFromOrigin<'a> {
+    axes: &'a [[f32; 3]; 3],
+    upper: [f32; 3],
+    lower: [f32; 3],
+}
+
+impl<'a> CubeFromOrigin<'a> {
+    /// The cube with axes `axes` and plane distances `distances`, from `origin`.
+    pub fn new(axes: &'a [[f32; 3]; 3], distances: &[f32; 6], origin: [f32; 3]) -> CubeFromOrigin<'a> {
+        let mut cube = CubeFromOrigin { axes, upper: [0.0; 3], lower: [0.0; 3] };
+        for (k, &normal) in axes.iter().enumerate() {
+            let distance = dot(normal, origin);
+            (cube.upper[k], cube.lower[k]) = (distances[2 * k] - distance, distances[2 * k + 1] + distance);
+        }
+        cube
+    }
+
+    /// Where the ray from the origin along `direction` enters the cube: the t and plane of
+    /// [`paired_span`]'s span for it when that exists, starts at or after `t_min` and enters
+    /// through a plane, else None. The same operations as [`paired_span`] in the same order, so
+    /// the same bits, without what an entry does not need: the origin's distances (shared by
+    /// every ray from it) and the exit's three divisions.
+    pub fn entry(&self, slack: f32, direction: [f32; 3], t_min: f32) -> Option<(f32, u32)> {
+        let (mut t_in, mut plane_in) = (f32::NEG_INFINITY, u32::MAX);
+        let (mut wide_in, mut wide_out) = (f32::NEG_INFINITY, f32::INFINITY);
+        let mut outside = false;
+        for (k, &normal) in self.axes.iter().enumerate() {
+            let (facing, upper, lower) = (dot(normal, direction), self.upper[k], self.lower[k]);
+            outside |= facing == 0.0 && (upper + slack < 0.0 || lower + slack < 0.0);
+            if facing == 0.0 {
+                // (a NaN facing goes on and changes nothing, as in `paired_span`)
+                continue;
+            }
+            let (room_in, room_out, plane) =
+                if facing < 0.0 { (upper, lower, 2 * k as u32) } else { (lower, upper, 2 * k as u32 + 1) };
+            let speed = facing.abs();
+            let entry = room_in / -speed;
+            wide_in = wide_in.max((room_in + slack) / -speed);
+            wide_out = wide_out.min((room_out + slack) / speed);
+            if entry > t_in {
+                (t_in, plane_in) = (entry, plane);
+            }
+        }
+        (!outside && wide_in <= wide_out && t_in >= t_min && plane_in != u32::MAX).then_some((t_in, plane_in))
+    }
+}
+
 /// Planes whose arithmetic [`polytope_span`] does side by side (a cube's 6 fit).
 const SPAN_LANES: usize = 8;
 
@@ -378,13 +429,13 @@ mod tests {
 
     /// The paired span is the general one to the bit, on random turned cubes and rays, rays
     /// along the cubes' axes and the world's (zero facings) and origins on their planes included;
-    /// so is the paired point test.
+    /// so are the paired point test and the entry from an origin's shared rooms.
     #[test]
     fn a_paired_span_is_the_polytope_span_to_the_bit() {
         let mut rng = shatter_core::random::SplitMix64::new(11);
         let mut r = move || rng.next_f64() as f32 - 0.5;
         let bits = |span: Option<Span>| span.map(|s| (s.t_in.to_bits(), s.t_out.to_bits(), s.plane_in, s.plane_out));
-        let (mut hits, mut misses, mut insides) = (0, 0, 0);
+        let (mut hits, mut misses, mut insides, mut entries) = (0, 0, 0, 0);
         for trial in 0..20_000 {
             let turned = glam::Quat::from_xyzw(r(), r(), r(), r()).normalize();
             let axes = if trial % 4 == 0 {
@@ -411,6 +462,17 @@ mod tests {
             let distances = planes.map(|p| p[3]);
             let paired = paired_span(&axes, &distances, slack, origin, direction);
             assert_eq!(bits(paired), bits(expected), "trial {trial}");
+            // the entry from the origin's shared rooms: the span's, where it starts at or after
+            // t_min through a plane (t_min before, at and after the span's start)
+            let cube = CubeFromOrigin::new(&axes, &distances, origin);
+            for t_min in [0.0, expected.map_or(0.0, |s| s.t_in), expected.map_or(1.0, |s| s.t_in + 1e-3)] {
+                let want = expected
+                    .filter(|s| s.t_in >= t_min && s.plane_in != u32::MAX)
+                    .map(|s| (s.t_in.to_bits(), s.plane_in));
+                let got = cube.entry(slack, direction, t_min).map(|(t, plane)| (t.to_bits(), plane));
+                assert_eq!(got, want, "trial {trial}, t_min {t_min}");
+                entries += usize::from(got.is_some());
+            }
             // inside (mid-span), on the rim (where the span begins) or anywhere
             let t = match expected {
                 Some(span) if trial % 3 == 0 => 0.5 * (span.t_in + span.t_out),
@@ -424,6 +486,7 @@ mod tests {
             if expected.is_some() { hits += 1 } else { misses += 1 }
         }
         assert!(hits > 3000 && misses > 3000, "{hits} hits, {misses} misses");
+        assert!(entries > 3000, "{entries} entries");
         assert!(insides > 3000 && insides < 17_000, "{insides} points inside");
         let mut unpaired = cube_planes([0.0; 3], 0.5, AXES);
         unpaired[3][1] = -0.999_999_9;

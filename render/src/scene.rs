@@ -116,6 +116,30 @@ impl SceneGeometry {
         }
     }
 
+    /// Element `e`'s axes and plane distances as [`paired_span`] reads them, if it is a cube
+    /// whose planes are in opposite pairs.
+    pub fn cube(&self, e: usize) -> Option<(&[[f32; 3]; 3], &[f32; 6])> {
+        self.cube_slabs.get(e).map(|cube| (&self.cube_axes[cube.axes as usize], &cube.distances))
+    }
+
+    /// The unit outward normal of element `e`'s plane `plane` (its last plane's past the end):
+    /// for a cube in opposite pairs from its axes (plane 2k + 1's is plane 2k's negated, bit for
+    /// bit), whose few sets stay in cache where the planes would be a miss per hit.
+    pub fn plane_normal(&self, e: usize, plane: u32) -> [f32; 3] {
+        match self.cube(e) {
+            Some((axes, _)) => {
+                let k = plane.min(5) as usize;
+                let axis = axes[k / 2];
+                if k.is_multiple_of(2) { axis } else { axis.map(|v| -v) }
+            }
+            None => {
+                let planes = self.planes_of(e);
+                let p = planes[(plane as usize).min(planes.len() - 1)];
+                [p[0], p[1], p[2]]
+            }
+        }
+    }
+
     /// True when plane `plane` of element `e` is a fracture face where it is seen.
     pub fn is_fracture_face(&self, e: usize, plane: u32) -> bool {
         self.element_type == ElementType::Trimtope || (self.interior_faces[e] >> plane) & 1 == 1
@@ -597,6 +621,41 @@ mod tests {
             elements: Elements::Cubes { half_size_m: vec![0.05; n], orientation: [0.0, 0.0, 0.0, 1.0] },
             bonds: Bonds { offsets: vec![0; n + 1], ..Bonds::default() },
             adjacency: Vec::new(),
+        }
+    }
+
+    /// A plane's normal from a cube's axes is its plane's, bit for bit, for turned cubes and a
+    /// sheared one; past the last plane, the last plane's.
+    #[test]
+    fn plane_normals_are_the_planes_own() {
+        let mut particles = cubes(vec![[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.0, 0.1, 0.3]]);
+        particles.elements = Elements::Cubes {
+            half_size_m: vec![0.05; 3],
+            orientation: glam::Quat::from_euler(glam::EulerRot::XYZ, 0.3, -0.7, 1.1).to_array(),
+        };
+        let turned = SceneGeometry::build(&particles, None);
+        assert!(turned.cube(0).is_some(), "turned cubes keep their axes");
+        let a = [[1.2, 0.3, 0.0], [0.0, 0.9, 0.1], [0.05, 0.0, 1.1]];
+        let rows = [a[0][0], a[0][1], a[0][2], 0.0, a[1][0], a[1][1], a[1][2], 0.0, a[2][0], a[2][1], a[2][2], 0.0];
+        let frame = FragmentFrame {
+            meta: FragmentMeta { frame: 2, step: 1, time_s: 0.0, smoothed: false, inputs: None },
+            fragment_of: vec![0, 0, 0],
+            rotation: vec![[0.0, 0.0, 0.0, 1.0]],
+            translation_m: vec![[0.0; 3]],
+            elements: vec![3],
+            mass_kg: vec![3.0],
+            element_affine: Some(vec![rows, AFFINE_RIGID, AFFINE_RIGID]),
+        };
+        let deformed = SceneGeometry::build(&particles, Some(&frame));
+        for scene in [&turned, &deformed] {
+            for e in 0..3 {
+                let planes = scene.planes_of(e);
+                for plane in (0..planes.len() as u32).chain([u32::MAX]) {
+                    let p = planes[(plane as usize).min(planes.len() - 1)];
+                    let want = [p[0], p[1], p[2]].map(f32::to_bits);
+                    assert_eq!(scene.plane_normal(e, plane).map(f32::to_bits), want, "element {e}, plane {plane}");
+                }
+            }
         }
     }
 

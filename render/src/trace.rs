@@ -2,7 +2,8 @@
 //! k-d tree with CSG union semantics, glass paths through unions of touching cubes, opaque
 //! tetrahedra and trimtopes, the floor and the environment. One difference of method, not of
 //! result: [`render`] finds its camera rays' first surfaces in packets ([`closest_hits`]), each
-//! exactly what the shader's single-ray search finds.
+//! exactly what the shader's single-ray search finds (the packet's rays share their origin's
+//! rooms to a cube's planes, [`crate::primitives::CubeFromOrigin`]).
 //!
 //! Union semantics: a ray from outside first meets the union of elements at the nearest entry
 //! of any element, so inner faces are never seen. Inside glass, the ray walks from element to
@@ -18,7 +19,7 @@ use shatter_core::particles::ElementType;
 use crate::element_kdtree::{PACKET, each_ray};
 use crate::lighting::{EnvironmentMap, KeyLight, sh_irradiance};
 use crate::mattes::{MatteCounts, SURFACE_FLOOR, SURFACE_FRACTURE, SURFACE_NONE, SURFACE_OUTER};
-use crate::primitives::{TrimtopeHit, along, dot, trimtope_hit};
+use crate::primitives::{CubeFromOrigin, TrimtopeHit, along, dot, trimtope_hit};
 use crate::scene::{Camera, SceneGeometry};
 
 /// No element.
@@ -70,10 +71,12 @@ fn entry_t(entry: TrimtopeHit) -> f32 {
 fn resolve(scene: &SceneGeometry, e: u32, entry: TrimtopeHit) -> Hit {
     match entry {
         TrimtopeHit::Miss => Hit::MISS,
-        TrimtopeHit::Face { t, plane } => {
-            let p = scene.planes_of(e as usize)[plane as usize];
-            Hit { t, element: e, normal: [p[0], p[1], p[2]], fracture: scene.is_fracture_face(e as usize, plane) }
-        }
+        TrimtopeHit::Face { t, plane } => Hit {
+            t,
+            element: e,
+            normal: scene.plane_normal(e as usize, plane),
+            fracture: scene.is_fracture_face(e as usize, plane),
+        },
         TrimtopeHit::Surface { t, triangle } => {
             let tri = scene.triangles_of(e as usize)[triangle as usize];
             let n = crate::primitives::cross(
@@ -123,8 +126,19 @@ pub fn closest_hit(scene: &SceneGeometry, origin: [f32; 3], direction: [f32; 3],
 pub fn closest_hits(scene: &SceneGeometry, origin: [f32; 3], directions: &[[f32; 3]], hits: &mut [Hit]) {
     let mut nearest = [Nearest::NONE; PACKET];
     let traversed = scene.index.traverse_packet(&scene.fragment, origin, directions, 0.0, |e, rays| {
-        for r in each_ray(rays) {
-            nearest[r].offer(e, element_entry(scene, e as usize, origin, directions[r], 0.0));
+        if let Some((axes, distances)) = scene.cube(e as usize) {
+            let cube = CubeFromOrigin::new(axes, distances, origin);
+            for r in each_ray(rays) {
+                let entry = match cube.entry(scene.slack, directions[r], 0.0) {
+                    Some((t, plane)) => TrimtopeHit::Face { t, plane },
+                    None => TrimtopeHit::Miss,
+                };
+                nearest[r].offer(e, entry);
+            }
+        } else {
+            for r in each_ray(rays) {
+                nearest[r].offer(e, element_entry(scene, e as usize, origin, directions[r], 0.0));
+            }
         }
         nearest.map(|n| n.t)
     });
@@ -182,10 +196,7 @@ pub fn union_exit(scene: &SceneGeometry, element: u32, origin: [f32; 3], directi
         let next = next_element(scene, current, span.plane_out, along(exit, direction, step));
         stalled = if t < step { stalled + 1 } else { 0 };
         if next == NONE || span.plane_out == NONE || stalled > STALLED_STEPS {
-            // the planes only for the normal of the face the walk leaves by
-            let planes = scene.planes_of(current as usize);
-            let p = planes[span.plane_out.min(planes.len() as u32 - 1) as usize];
-            return (travelled + t, [p[0], p[1], p[2]], current);
+            return (travelled + t, scene.plane_normal(current as usize, span.plane_out), current);
         }
         travelled += t;
         from = exit;
