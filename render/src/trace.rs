@@ -51,12 +51,19 @@ fn element_entry(scene: &SceneGeometry, e: usize, origin: [f32; 3], direction: [
         let (planes, triangles, groups) = (scene.planes_of(e), scene.triangles_of(e), scene.triangle_groups_of(e));
         return trimtope_hit(planes, triangles, groups, scene.sites[e], scene.slack, origin, direction, t_min);
     }
-    match scene.span_of(e, origin, direction) {
-        Some(span) if span.t_in >= t_min && span.plane_in != NONE => {
-            TrimtopeHit::Face { t: span.t_in, plane: span.plane_in }
-        }
-        _ => TrimtopeHit::Miss,
-    }
+    let entry = match scene.cube(e) {
+        Some((axes, distances)) => CubeFromOrigin::new(axes, distances, origin).entry(scene.slack, direction, t_min),
+        None => scene
+            .span_of(e, origin, direction)
+            .filter(|span| span.t_in >= t_min && span.plane_in != NONE)
+            .map(|span| (span.t_in, span.plane_in)),
+    };
+    face_entry(entry)
+}
+
+/// A polytope's entry, (t, plane) or none, as a [`TrimtopeHit`].
+fn face_entry(entry: Option<(f32, u32)>) -> TrimtopeHit {
+    entry.map_or(TrimtopeHit::Miss, |(t, plane)| TrimtopeHit::Face { t, plane })
 }
 
 /// The ray parameter of an entry (infinity for a miss).
@@ -129,11 +136,7 @@ pub fn closest_hits(scene: &SceneGeometry, origin: [f32; 3], directions: &[[f32;
         if let Some((axes, distances)) = scene.cube(e as usize) {
             let cube = CubeFromOrigin::new(axes, distances, origin);
             for r in each_ray(rays) {
-                let entry = match cube.entry(scene.slack, directions[r], 0.0) {
-                    Some((t, plane)) => TrimtopeHit::Face { t, plane },
-                    None => TrimtopeHit::Miss,
-                };
-                nearest[r].offer(e, entry);
+                nearest[r].offer(e, face_entry(cube.entry(scene.slack, directions[r], 0.0)));
             }
         } else {
             for r in each_ray(rays) {
