@@ -95,34 +95,7 @@ pub fn paired_span(
     origin: [f32; 3],
     direction: [f32; 3],
 ) -> Option<Span> {
-    let mut span = Span { t_in: f32::NEG_INFINITY, t_out: f32::INFINITY, plane_in: u32::MAX, plane_out: u32::MAX };
-    let (mut wide_in, mut wide_out) = (f32::NEG_INFINITY, f32::INFINITY);
-    let mut outside = false;
-    for (k, &normal) in axes.iter().enumerate() {
-        let (facing, distance) = (dot(normal, direction), dot(normal, origin));
-        // the rooms of plane 2k (facing `facing`) and 2k + 1 (facing -`facing`)
-        let (upper, lower) = (distances[2 * k] - distance, distances[2 * k + 1] + distance);
-        outside |= facing == 0.0 && (upper + slack < 0.0 || lower + slack < 0.0);
-        if facing == 0.0 {
-            // neither plane entered nor left (a NaN facing goes on, and changes nothing: every
-            // comparison with it fails and max and min pass over it, as in `polytope_span`)
-            continue;
-        }
-        let (room_in, room_out, plane_in) =
-            if facing < 0.0 { (upper, lower, 2 * k as u32) } else { (lower, upper, 2 * k as u32 + 1) };
-        // the entered plane faces -|facing|, the left one |facing|
-        let speed = facing.abs();
-        let (t_in, t_out) = (room_in / -speed, room_out / speed);
-        wide_in = wide_in.max((room_in + slack) / -speed);
-        wide_out = wide_out.min((room_out + slack) / speed);
-        if t_in > span.t_in {
-            (span.t_in, span.plane_in) = (t_in, plane_in);
-        }
-        if t_out < span.t_out {
-            (span.t_out, span.plane_out) = (t_out, plane_in ^ 1);
-        }
-    }
-    (!outside && wide_in <= wide_out).then_some(span)
+    CubeFromOrigin::new(axes, distances, origin).span(slack, direction)
 }
 
 /// A cube given as [`paired_span`] takes it, seen from one origin: the room from the origin to
@@ -146,33 +119,61 @@ impl<'a> CubeFromOrigin<'a> {
         cube
     }
 
-    /// Where the ray from the origin along `direction` enters the cube: the t and plane of
-    /// [`paired_span`]'s span for it when that exists, starts at or after `t_min` and enters
-    /// through a plane, else None. The same operations as [`paired_span`] in the same order, so
-    /// the same bits, without what an entry does not need: the origin's distances (shared by
-    /// every ray from it) and the exit's three divisions.
+    /// The span of the ray from the origin along `direction` ([`paired_span`]).
+    pub fn span(&self, slack: f32, direction: [f32; 3]) -> Option<Span> {
+        self.span_parts::<true, true>(slack, direction)
+    }
+
+    /// Where the ray from the origin along `direction` enters the cube: the t and plane of its
+    /// span when that exists, starts at or after `t_min` and enters through a plane, else None;
+    /// without the exit's three divisions (a nearest-hit search asks for entries only).
     pub fn entry(&self, slack: f32, direction: [f32; 3], t_min: f32) -> Option<(f32, u32)> {
-        let (mut t_in, mut plane_in) = (f32::NEG_INFINITY, u32::MAX);
+        self.span_parts::<true, false>(slack, direction)
+            .filter(|span| span.t_in >= t_min && span.plane_in != u32::MAX)
+            .map(|span| (span.t_in, span.plane_in))
+    }
+
+    /// Where the ray from the origin along `direction` leaves the cube, t and plane, when its span
+    /// exists; without the entry's three divisions (a walk through a union asks for exits only).
+    pub fn exit(&self, slack: f32, direction: [f32; 3]) -> Option<(f32, u32)> {
+        self.span_parts::<false, true>(slack, direction).map(|span| (span.t_out, span.plane_out))
+    }
+
+    /// The span, its entry computed only with `ENTRY` and its exit only with `EXIT` (else left as
+    /// an empty span's: infinite, no plane); whether it exists does not depend on them.
+    fn span_parts<const ENTRY: bool, const EXIT: bool>(&self, slack: f32, direction: [f32; 3]) -> Option<Span> {
+        let mut span = Span { t_in: f32::NEG_INFINITY, t_out: f32::INFINITY, plane_in: u32::MAX, plane_out: u32::MAX };
         let (mut wide_in, mut wide_out) = (f32::NEG_INFINITY, f32::INFINITY);
         let mut outside = false;
         for (k, &normal) in self.axes.iter().enumerate() {
+            // the rooms of plane 2k (facing `facing`) and 2k + 1 (facing -`facing`)
             let (facing, upper, lower) = (dot(normal, direction), self.upper[k], self.lower[k]);
             outside |= facing == 0.0 && (upper + slack < 0.0 || lower + slack < 0.0);
             if facing == 0.0 {
-                // (a NaN facing goes on and changes nothing, as in `paired_span`)
+                // neither plane entered nor left (a NaN facing goes on, and changes nothing: every
+                // comparison with it fails and max and min pass over it, as in `polytope_span`)
                 continue;
             }
-            let (room_in, room_out, plane) =
+            let (room_in, room_out, plane_in) =
                 if facing < 0.0 { (upper, lower, 2 * k as u32) } else { (lower, upper, 2 * k as u32 + 1) };
+            // the entered plane faces -|facing|, the left one |facing|
             let speed = facing.abs();
-            let entry = room_in / -speed;
             wide_in = wide_in.max((room_in + slack) / -speed);
             wide_out = wide_out.min((room_out + slack) / speed);
-            if entry > t_in {
-                (t_in, plane_in) = (entry, plane);
+            if ENTRY {
+                let t_in = room_in / -speed;
+                if t_in > span.t_in {
+                    (span.t_in, span.plane_in) = (t_in, plane_in);
+                }
+            }
+            if EXIT {
+                let t_out = room_out / speed;
+                if t_out < span.t_out {
+                    (span.t_out, span.plane_out) = (t_out, plane_in ^ 1);
+                }
             }
         }
-        (!outside && wide_in <= wide_out && t_in >= t_min && plane_in != u32::MAX).then_some((t_in, plane_in))
+        (!outside && wide_in <= wide_out).then_some(span)
     }
 }
 
@@ -429,7 +430,7 @@ mod tests {
 
     /// The paired span is the general one to the bit, on random turned cubes and rays, rays
     /// along the cubes' axes and the world's (zero facings) and origins on their planes included;
-    /// so are the paired point test and the entry from an origin's shared rooms.
+    /// so are the paired point test and the entry and exit from an origin's shared rooms.
     #[test]
     fn a_paired_span_is_the_polytope_span_to_the_bit() {
         let mut rng = shatter_core::random::SplitMix64::new(11);
@@ -473,6 +474,8 @@ mod tests {
                 assert_eq!(got, want, "trial {trial}, t_min {t_min}");
                 entries += usize::from(got.is_some());
             }
+            let exit = cube.exit(slack, direction).map(|(t, plane)| (t.to_bits(), plane));
+            assert_eq!(exit, expected.map(|s| (s.t_out.to_bits(), s.plane_out)), "trial {trial}");
             // inside (mid-span), on the rim (where the span begins) or anywhere
             let t = match expected {
                 Some(span) if trial % 3 == 0 => 0.5 * (span.t_in + span.t_out),

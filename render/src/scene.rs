@@ -14,8 +14,8 @@ use shatter_core::particles::{ElementType, Elements, ParticleSet};
 use crate::element_index::{ElementIndex, RestTree};
 use crate::element_kdtree::Aabb;
 use crate::primitives::{
-    Plane, Span, WIDEN, cube_planes, in_opposite_pairs, paired_contains, paired_span, polytope_contains, polytope_span,
-    sort_triangles_spatially, tet_planes, triangle_groups,
+    CubeFromOrigin, Plane, Span, WIDEN, cube_planes, in_opposite_pairs, paired_contains, paired_span,
+    polytope_contains, polytope_span, sort_triangles_spatially, tet_planes, triangle_groups,
 };
 use crate::trace::NONE;
 
@@ -113,6 +113,17 @@ impl SceneGeometry {
             paired_span(&self.cube_axes[cube.axes as usize], &cube.distances, self.slack, origin, direction)
         } else {
             polytope_span(self.planes_of(e), self.slack, origin, direction)
+        }
+    }
+
+    /// Where the ray `origin + t direction` leaves element `e`'s polytope: the t and plane of the
+    /// end of [`SceneGeometry::span_of`]'s span, when that exists.
+    pub fn exit_of(&self, e: usize, origin: [f32; 3], direction: [f32; 3]) -> Option<(f32, u32)> {
+        match self.cube(e) {
+            Some((axes, distances)) => CubeFromOrigin::new(axes, distances, origin).exit(self.slack, direction),
+            None => {
+                polytope_span(self.planes_of(e), self.slack, origin, direction).map(|span| (span.t_out, span.plane_out))
+            }
         }
     }
 

@@ -191,15 +191,15 @@ pub fn union_exit(scene: &SceneGeometry, element: u32, origin: [f32; 3], directi
     let mut from = origin;
     let mut stalled = 0;
     for _ in 0..100_000 {
-        let Some(span) = scene.span_of(current as usize, from, direction) else {
+        let Some((t_out, plane_out)) = scene.exit_of(current as usize, from, direction) else {
             break;
         };
-        let t = span.t_out.max(0.0);
+        let t = t_out.max(0.0);
         let exit = along(from, direction, t);
-        let next = next_element(scene, current, span.plane_out, along(exit, direction, step));
+        let next = next_element(scene, current, plane_out, along(exit, direction, step));
         stalled = if t < step { stalled + 1 } else { 0 };
-        if next == NONE || span.plane_out == NONE || stalled > STALLED_STEPS {
-            return (travelled + t, scene.plane_normal(current as usize, span.plane_out), current);
+        if next == NONE || plane_out == NONE || stalled > STALLED_STEPS {
+            return (travelled + t, scene.plane_normal(current as usize, plane_out), current);
         }
         travelled += t;
         from = exit;
