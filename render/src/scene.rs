@@ -78,6 +78,9 @@ pub struct CubeSlabs {
     pub distances: [f32; 6],
     /// Index into [`SceneGeometry::cube_axes`].
     pub axes: u32,
+    /// The cube's fracture faces ([`SceneGeometry::interior_faces`]'s entry), kept in the padding
+    /// beside the distances: a nearest hit's lookup then finds them in the line its test loaded.
+    pub interior_faces: u32,
 }
 
 impl SceneGeometry {
@@ -153,7 +156,8 @@ impl SceneGeometry {
 
     /// True when plane `plane` of element `e` is a fracture face where it is seen.
     pub fn is_fracture_face(&self, e: usize, plane: u32) -> bool {
-        self.element_type == ElementType::Trimtope || (self.interior_faces[e] >> plane) & 1 == 1
+        let faces = self.cube_slabs.get(e).map_or_else(|| self.interior_faces[e], |cube| cube.interior_faces);
+        self.element_type == ElementType::Trimtope || (faces >> plane) & 1 == 1
     }
 
     /// Element `e`'s surface triangles.
@@ -260,6 +264,9 @@ impl SceneGeometry {
         scene.face_neighbours = face_neighbours(particles, &scene.plane_offsets);
         scene.interior_faces =
             interior_faces(&scene.face_neighbours, &scene.plane_offsets, cube_seams(particles, fragments));
+        for (cube, faces) in scene.cube_slabs.iter_mut().zip(&scene.interior_faces) {
+            cube.interior_faces = *faces;
+        }
         let deformed = affine.is_some_and(|maps| maps.iter().any(|map| !is_affine_rigid(map)));
         let moved = match (fragments, rest) {
             (Some(frame), Some(rest)) if !deformed => {
@@ -292,7 +299,7 @@ fn cube_slabs(planes: &[Plane]) -> (Vec<CubeSlabs>, Vec<[[f32; 3]; 3]>) {
                 }),
             };
             last = Some((key, at));
-            CubeSlabs { distances: std::array::from_fn(|k| cube[k][3]), axes: at }
+            CubeSlabs { distances: std::array::from_fn(|k| cube[k][3]), axes: at, interior_faces: 0 }
         })
         .collect();
     (slabs, axes)
