@@ -156,8 +156,8 @@ impl SceneGeometry {
 
     /// True when plane `plane` of element `e` is a fracture face where it is seen.
     pub fn is_fracture_face(&self, e: usize, plane: u32) -> bool {
-        let faces = self.cube_slabs.get(e).map_or_else(|| self.interior_faces[e], |cube| cube.interior_faces);
-        self.element_type == ElementType::Trimtope || (faces >> plane) & 1 == 1
+        let faces = || self.cube_slabs.get(e).map_or_else(|| self.interior_faces[e], |cube| cube.interior_faces);
+        self.element_type == ElementType::Trimtope || (faces() >> plane) & 1 == 1
     }
 
     /// Element `e`'s surface triangles.
