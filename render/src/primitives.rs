@@ -77,30 +77,20 @@ pub fn polytope_span(planes: &[Plane], slack: f32, origin: [f32; 3], direction: 
 }
 
 /// Whether `planes` are six in opposite pairs, as [`cube_planes`] makes them: plane 2k + 1's
-/// normal is plane 2k's negated, bit for bit (what [`paired_span`] needs).
+/// normal is plane 2k's negated, bit for bit (what [`CubeFromOrigin`] needs).
 pub fn in_opposite_pairs(planes: &[Plane]) -> bool {
     planes.len() == 6 && planes.chunks(2).all(|pair| (0..3).all(|i| pair[1][i].to_bits() == (-pair[0][i]).to_bits()))
 }
 
-/// [`polytope_span`] of six planes [`in_opposite_pairs`], given as the normals of planes 0, 2
-/// and 4 (`axes`) and the six planes' distances: the same span to the bit, from half the
-/// arithmetic and a third of the bytes. Negating a normal negates its dot products exactly
-/// (every product and sum rounds symmetrically), so one facing and one distance per pair give
-/// both planes': of a pair, the plane the ray faces is entered and the other left, and the pairs
-/// are weighed in order, as the planes are there (ties go to the lower).
-pub fn paired_span(
-    axes: &[[f32; 3]; 3],
-    distances: &[f32; 6],
-    slack: f32,
-    origin: [f32; 3],
-    direction: [f32; 3],
-) -> Option<Span> {
-    CubeFromOrigin::new(axes, distances, origin).span(slack, direction)
-}
-
-/// A cube given as [`paired_span`] takes it, seen from one origin: the room from the origin to
-/// each plane along the plane's own normal (plane 2k's in `upper[k]`, plane 2k + 1's in
-/// `lower[k]`), which every ray from that origin shares.
+/// A cube whose six planes are [`in_opposite_pairs`], given as the normals of planes 0, 2 and 4
+/// (`axes`) and the six planes' distances, seen from one origin: the room from the origin to each
+/// plane along the plane's own normal (plane 2k's in `upper[k]`, plane 2k + 1's in `lower[k]`),
+/// which every ray from that origin shares. Its span ([`CubeFromOrigin::span`]) is
+/// [`polytope_span`]'s to the bit, from half the arithmetic and a third of the bytes. Negating a
+/// normal negates its dot products exactly (every product and sum rounds symmetrically), so one
+/// facing and one distance per pair give both planes': of a pair, the plane the ray faces is
+/// entered and the other left, and the pairs are weighed in order, as the planes are there (ties
+/// go to the lower).
 #[derive(Debug, Clone, Copy)]
 pub struct CubeFromOrigin<'a> {
     axes: &'a [[f32; 3]; 3],
@@ -119,7 +109,8 @@ impl<'a> CubeFromOrigin<'a> {
         cube
     }
 
-    /// The span of the ray from the origin along `direction` ([`paired_span`]).
+    /// The span of the ray from the origin along `direction` inside the cube widened by `slack`
+    /// ([`polytope_span`]).
     pub fn span(&self, slack: f32, direction: [f32; 3]) -> Option<Span> {
         self.span_parts::<true, true>(slack, direction)
     }
@@ -185,7 +176,7 @@ pub fn polytope_contains(planes: &[Plane], slack: f32, point: [f32; 3]) -> bool 
     planes.iter().all(|p| dot([p[0], p[1], p[2]], point) <= p[3] + slack)
 }
 
-/// [`polytope_contains`] of six planes [`in_opposite_pairs`], given as [`paired_span`] takes
+/// [`polytope_contains`] of six planes [`in_opposite_pairs`], given as [`CubeFromOrigin`] takes
 /// them: the same answer to the bit from one dot product a pair.
 pub fn paired_contains(axes: &[[f32; 3]; 3], distances: &[f32; 6], slack: f32, point: [f32; 3]) -> bool {
     axes.iter().enumerate().all(|(k, &normal)| {
@@ -432,7 +423,7 @@ mod tests {
     /// along the cubes' axes and the world's (zero facings) and origins on their planes included;
     /// so are the paired point test and the entry and exit from an origin's shared rooms.
     #[test]
-    fn a_paired_span_is_the_polytope_span_to_the_bit() {
+    fn a_cubes_span_from_its_slabs_is_the_polytope_span_to_the_bit() {
         let mut rng = shatter_core::random::SplitMix64::new(11);
         let mut r = move || rng.next_f64() as f32 - 0.5;
         let bits = |span: Option<Span>| span.map(|s| (s.t_in.to_bits(), s.t_out.to_bits(), s.plane_in, s.plane_out));
@@ -461,11 +452,10 @@ mod tests {
             let slack = if trial % 3 == 0 { 0.0 } else { 1e-3 };
             let expected = polytope_span(&planes, slack, origin, direction);
             let distances = planes.map(|p| p[3]);
-            let paired = paired_span(&axes, &distances, slack, origin, direction);
-            assert_eq!(bits(paired), bits(expected), "trial {trial}");
-            // the entry from the origin's shared rooms: the span's, where it starts at or after
-            // t_min through a plane (t_min before, at and after the span's start)
             let cube = CubeFromOrigin::new(&axes, &distances, origin);
+            assert_eq!(bits(cube.span(slack, direction)), bits(expected), "trial {trial}");
+            // the entry: the span's, where it starts at or after t_min through a plane (t_min
+            // before, at and after the span's start)
             for t_min in [0.0, expected.map_or(0.0, |s| s.t_in), expected.map_or(1.0, |s| s.t_in + 1e-3)] {
                 let want = expected
                     .filter(|s| s.t_in >= t_min && s.plane_in != u32::MAX)

@@ -14,8 +14,8 @@ use shatter_core::particles::{ElementType, Elements, ParticleSet};
 use crate::element_index::{ElementIndex, RestTree};
 use crate::element_kdtree::Aabb;
 use crate::primitives::{
-    CubeFromOrigin, Plane, Span, WIDEN, cube_planes, in_opposite_pairs, paired_contains, paired_span,
-    polytope_contains, polytope_span, sort_triangles_spatially, tet_planes, triangle_groups,
+    CubeFromOrigin, Plane, WIDEN, cube_planes, in_opposite_pairs, paired_contains, polytope_contains, polytope_span,
+    sort_triangles_spatially, tet_planes, triangle_groups,
 };
 use crate::trace::NONE;
 
@@ -61,14 +61,14 @@ pub struct SceneGeometry {
     /// How far elements are widened in ray tests (so touching elements leave no cracks), metres.
     pub slack: f32,
     /// When every element has six planes [`in_opposite_pairs`] (cubes placed rigidly), each
-    /// one's plane distances and axes, as [`paired_span`] reads them; else empty.
+    /// one's plane distances and axes, as [`CubeFromOrigin`] reads them; else empty.
     pub cube_slabs: Vec<CubeSlabs>,
     /// The distinct axes of the cubes in `cube_slabs` (one set for each fragment's turn).
     pub cube_axes: Vec<[[f32; 3]; 3]>,
 }
 
 /// A cube's six plane distances and the index of its axes (the normals of planes 0, 2 and 4) in
-/// [`SceneGeometry::cube_axes`]: what [`paired_span`] reads of a cube whose planes are
+/// [`SceneGeometry::cube_axes`]: what [`CubeFromOrigin`] reads of a cube whose planes are
 /// [`in_opposite_pairs`], in a third of the bytes of the planes themselves (two to a cache
 /// line: the nearest-hit search waits on memory).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -109,18 +109,9 @@ impl SceneGeometry {
         }
     }
 
-    /// The span of the ray `origin + t direction` inside element `e`'s polytope widened by
-    /// [`SceneGeometry::slack`] ([`polytope_span`]).
-    pub fn span_of(&self, e: usize, origin: [f32; 3], direction: [f32; 3]) -> Option<Span> {
-        if let Some(cube) = self.cube_slabs.get(e) {
-            paired_span(&self.cube_axes[cube.axes as usize], &cube.distances, self.slack, origin, direction)
-        } else {
-            polytope_span(self.planes_of(e), self.slack, origin, direction)
-        }
-    }
-
-    /// Where the ray `origin + t direction` leaves element `e`'s polytope: the t and plane of the
-    /// end of [`SceneGeometry::span_of`]'s span, when that exists.
+    /// Where the ray `origin + t direction` leaves element `e`'s polytope widened by
+    /// [`SceneGeometry::slack`]: the t and plane of the end of its span ([`polytope_span`]), when
+    /// that exists.
     pub fn exit_of(&self, e: usize, origin: [f32; 3], direction: [f32; 3]) -> Option<(f32, u32)> {
         match self.cube(e) {
             Some((axes, distances)) => CubeFromOrigin::new(axes, distances, origin).exit(self.slack, direction),
@@ -130,7 +121,7 @@ impl SceneGeometry {
         }
     }
 
-    /// Element `e`'s axes and plane distances as [`paired_span`] reads them, if it is a cube
+    /// Element `e`'s axes and plane distances as [`CubeFromOrigin`] reads them, if it is a cube
     /// whose planes are in opposite pairs.
     pub fn cube(&self, e: usize) -> Option<(&[[f32; 3]; 3], &[f32; 6])> {
         self.cube_slabs.get(e).map(|cube| (&self.cube_axes[cube.axes as usize], &cube.distances))

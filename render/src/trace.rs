@@ -19,7 +19,7 @@ use shatter_core::particles::ElementType;
 use crate::element_kdtree::{PACKET, each_ray};
 use crate::lighting::{EnvironmentMap, KeyLight, sh_irradiance};
 use crate::mattes::{MatteCounts, SURFACE_FLOOR, SURFACE_FRACTURE, SURFACE_NONE, SURFACE_OUTER};
-use crate::primitives::{CubeFromOrigin, TrimtopeHit, along, dot, trimtope_hit};
+use crate::primitives::{CubeFromOrigin, TrimtopeHit, along, dot, polytope_span, trimtope_hit};
 use crate::scene::{Camera, SceneGeometry};
 
 /// No element.
@@ -53,8 +53,7 @@ fn element_entry(scene: &SceneGeometry, e: usize, origin: [f32; 3], direction: [
     }
     let entry = match scene.cube(e) {
         Some((axes, distances)) => CubeFromOrigin::new(axes, distances, origin).entry(scene.slack, direction, t_min),
-        None => scene
-            .span_of(e, origin, direction)
+        None => polytope_span(scene.planes_of(e), scene.slack, origin, direction)
             .filter(|span| span.t_in >= t_min && span.plane_in != NONE)
             .map(|span| (span.t_in, span.plane_in)),
     };
