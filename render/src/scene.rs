@@ -78,8 +78,9 @@ pub struct CubeSlabs {
     pub distances: [f32; 6],
     /// Index into [`SceneGeometry::cube_axes`].
     pub axes: u32,
-    /// The cube's fracture faces ([`SceneGeometry::interior_faces`]'s entry), kept in the padding
-    /// beside the distances: a nearest hit's lookup then finds them in the line its test loaded.
+    /// The cube's interior faces, fracture faces where seen ([`SceneGeometry::interior_faces`]'s
+    /// entry, copied): kept in the padding beside the distances, so that a nearest hit's lookup
+    /// finds them in the line its test loaded.
     pub interior_faces: u32,
 }
 
@@ -147,8 +148,14 @@ impl SceneGeometry {
 
     /// True when plane `plane` of element `e` is a fracture face where it is seen.
     pub fn is_fracture_face(&self, e: usize, plane: u32) -> bool {
-        let faces = || self.cube_slabs.get(e).map_or_else(|| self.interior_faces[e], |cube| cube.interior_faces);
-        self.element_type == ElementType::Trimtope || (faces() >> plane) & 1 == 1
+        if self.element_type == ElementType::Trimtope {
+            return true;
+        }
+        let faces = match self.cube_slabs.get(e) {
+            Some(cube) => cube.interior_faces,
+            None => self.interior_faces[e],
+        };
+        (faces >> plane) & 1 == 1
     }
 
     /// Element `e`'s surface triangles.
