@@ -163,8 +163,9 @@ impl SpringTable {
     /// The sum of `value` over all stored entries, each with its bond's stretch vector at the
     /// displacements `disp`: summed per chunk in entry order ([`SpringTable::for_each_entry`]'s),
     /// in parallel, then over chunks in order (the same on any thread count). The lattice
-    /// layout reads the displacements by slot, eight lanes of a block at once; padding lanes
-    /// (zero stiffness) are offered too, and `value` must give +0 for them.
+    /// layout reads the displacements by slot, eight lanes of a block at once. Entries of zero
+    /// stiffness (broken bonds, and the lattice's padding lanes) are not offered: they add
+    /// nothing, so `value` is taken to be +0 for them.
     pub fn sum_springs(&self, disp: &[Vec<f32>; 3], value: impl Fn(&SpringNow) -> f64 + Sync) -> f64 {
         let sums: Vec<f64> = match self {
             SpringTable::Rows(_) => {
@@ -186,11 +187,14 @@ impl SpringTable {
                             for (block, internal) in shape.brick_blocks(brick) {
                                 let partner = shape.partner_slot[block] as usize;
                                 let (bonds, rest) = (&chunk.blocks[block], &chunk.rest[block]);
+                                if bonds.stiffness == [0.0; LANES] {
+                                    continue;
+                                }
                                 let xi = rest.vector_m.map(|axis| [axis; LANES]);
                                 let eta =
                                     [0, 1, 2].map(|a| sub(load(&slot_disp[a], partner), load(&slot_disp[a], own)));
                                 let stretch = lane_stretch(&xi, &eta, [rest.length_m; LANES]);
-                                let values: [f64; LANES] = std::array::from_fn(|lane| {
+                                for lane in (0..LANES).filter(|lane| bonds.stiffness[*lane] != 0.0) {
                                     let bond = StoredBond {
                                         i: own + lane,
                                         j: partner + lane,
@@ -200,10 +204,7 @@ impl SpringTable {
                                         internal,
                                     };
                                     let eta = [eta[0][lane], eta[1][lane], eta[2][lane]];
-                                    value(&SpringNow { bond, eta, stretch: stretch[lane] })
-                                });
-                                for v in values {
-                                    sum += v;
+                                    sum += value(&SpringNow { bond, eta, stretch: stretch[lane] });
                                 }
                             }
                         }
@@ -216,10 +217,14 @@ impl SpringTable {
     }
 
     /// Chunk `c`'s part of [`SpringTable::sum_springs`], entry by entry through the particles'
-    /// displacements (padding skipped).
+    /// displacements (padding and zero stiffness skipped).
     fn entry_sum(&self, c: usize, disp: &[Vec<f32>; 3], value: &impl Fn(&SpringNow) -> f64) -> f64 {
         let mut sum = 0.0;
-        self.for_each_entry_of_chunk(c, |bond| sum += value(&SpringNow::at(bond, disp)));
+        self.for_each_entry_of_chunk(c, |bond| {
+            if bond.stiffness != 0.0 {
+                sum += value(&SpringNow::at(bond, disp));
+            }
+        });
         sum
     }
 
@@ -265,8 +270,8 @@ mod tests {
     use super::*;
 
     /// On the lattice layout the springs' sum reads the displacements by slot and computes the
-    /// stretches a block's lanes at once, padding included; it is the entry-by-entry sum over the
-    /// particles (the row layout's way) to the bit.
+    /// stretches a block's lanes at once; it is the entry-by-entry sum over the particles (the
+    /// row layout's way) to the bit.
     #[test]
     fn the_lattice_sum_of_springs_is_the_entry_sum_to_the_bit() {
         let (particles, mut table) = grid_box_table([0.011, 0.007, 0.005]);

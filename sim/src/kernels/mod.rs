@@ -122,9 +122,20 @@ pub struct SphereNow {
 /// The paper's eq. 7 projectile force on a particle at `p`.
 pub fn projectile_force(sphere: &SphereNow, p: [f32; 3]) -> [f32; 3] {
     let d = [p[0] - sphere.center[0], p[1] - sphere.center[1], p[2] - sphere.center[2]];
-    let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
     let radius = sphere.radius;
-    if !(r >= 0.75 * radius && r <= 1.5 * radius) {
+    let (inner, outer) = (0.75 * radius, 1.5 * radius);
+    // Most particles are far outside the shell: the square root is left out where r^2 alone
+    // settles it. A margin of 1e-6, far above the square root's rounding (6e-8), keeps every
+    // particle the test below would let through.
+    let r2_wide = f64::from(r2);
+    if r2_wide > f64::from(outer) * f64::from(outer) * (1.0 + 1e-6)
+        || r2_wide < f64::from(inner) * f64::from(inner) * (1.0 - 1e-6)
+    {
+        return [0.0; 3];
+    }
+    let r = r2.sqrt();
+    if !(r >= inner && r <= outer) {
         return [0.0; 3];
     }
     let shape = 16.0 * (r - 0.75 * radius) * (r - 1.5 * radius) * (r - 1.5 * radius);
@@ -202,12 +213,28 @@ pub fn body_forces(
     power
 }
 
+/// Half a velocity kick: v + dt/2 F/m.
+#[inline(always)]
+fn half_kick(v: f32, half_dt: f32, force: f32, inverse_mass: f32) -> f32 {
+    v + half_dt * force * inverse_mass
+}
+
+/// A vertical velocity `v` at `height`: reflected and scaled by the restitution where the
+/// particle is below the floor and moves down.
+#[inline(always)]
+fn bounce(v: f32, height: f32, floor: Option<Floor>) -> f32 {
+    match floor {
+        Some(floor) if height < floor.height_m && v < 0.0 => v * -floor.restitution,
+        _ => v,
+    }
+}
+
 /// Position update (first half of velocity Verlet): v += dt/2 F/m, then u += dt v.
 pub fn kick_drift(dt: f32, inverse_mass: &[f32], force: [&[f32]; 3], velocity: [&mut [f32]; 3], disp: [&mut [f32]; 3]) {
     let half = 0.5 * dt;
     for (axis, (v, u)) in velocity.into_iter().zip(disp).enumerate() {
         for i in 0..v.len() {
-            v[i] += half * force[axis][i] * inverse_mass[i];
+            v[i] = half_kick(v[i], half, force[axis][i], inverse_mass[i]);
             u[i] += dt * v[i];
         }
     }
@@ -226,14 +253,36 @@ pub fn kick_floor(
     let half = 0.5 * dt;
     for (axis, v) in velocity.into_iter().enumerate() {
         for i in 0..v.len() {
-            v[i] += half * force[axis][i] * inverse_mass[i];
-            if axis == 1
-                && let Some(floor) = floor
-                && height.0[i] + height.1[i] < floor.height_m
-                && v[i] < 0.0
-            {
-                v[i] *= -floor.restitution;
+            v[i] = half_kick(v[i], half, force[axis][i], inverse_mass[i]);
+            if axis == 1 {
+                v[i] = bounce(v[i], height.0[i] + height.1[i], floor);
             }
+        }
+    }
+}
+
+/// [`kick_floor`] of one step, then [`kick_drift`] of the next (the forces are the same), in
+/// one pass over the particles: the two passes' operations in their order, particle by particle.
+/// The floor test reads the height before the drift, as `kick_floor` does; `rest_y` is the rest
+/// height.
+pub fn kick_floor_drift(
+    dt: f32,
+    inverse_mass: &[f32],
+    force: [&[f32]; 3],
+    rest_y: &[f32],
+    floor: Option<Floor>,
+    velocity: [&mut [f32]; 3],
+    disp: [&mut [f32]; 3],
+) {
+    let half = 0.5 * dt;
+    for (axis, (v, u)) in velocity.into_iter().zip(disp).enumerate() {
+        for i in 0..v.len() {
+            let mut kicked = half_kick(v[i], half, force[axis][i], inverse_mass[i]);
+            if axis == 1 {
+                kicked = bounce(kicked, rest_y[i] + u[i], floor);
+            }
+            v[i] = half_kick(kicked, half, force[axis][i], inverse_mass[i]);
+            u[i] += dt * v[i];
         }
     }
 }
@@ -252,6 +301,66 @@ mod tests {
         assert!((s - 1e-6).abs() < 1e-12, "{s}");
         let (s, _, _) = stretch(xi, [0.0; 3], 1e-3);
         assert_eq!(s, 0.0);
+    }
+
+    #[test]
+    fn the_fused_kick_is_the_closing_kick_then_the_opening_one_to_the_bit() {
+        let mut rng = shatter_core::random::SplitMix64::new(11);
+        let n = 257;
+        let mut values = |scale: f64| -> Vec<f32> { (0..n).map(|_| ((rng.next_f64() - 0.5) * scale) as f32).collect() };
+        let inverse_mass: Vec<f32> = values(2.0).iter().map(|m| 1e3 * (1.5 + m)).collect();
+        let force = [values(1e-2), values(1e-2), values(1e-2)];
+        let rest_y = values(2e-3);
+        let (velocity, disp) = ([values(4.0), values(4.0), values(4.0)], [values(1e-3), values(1e-3), values(1e-3)]);
+        let force = [&force[0][..], &force[1][..], &force[2][..]];
+        for floor in [None, Some(Floor { height_m: 0.0, restitution: 0.5 })] {
+            let dt = 1e-4;
+            let (mut v, mut u) = (velocity.clone(), disp.clone());
+            let [vx, vy, vz] = &mut v;
+            let [ux, uy, uz] = &mut u;
+            kick_floor(dt, &inverse_mass, force, (&rest_y, uy), floor, [vx, vy, vz]);
+            kick_drift(dt, &inverse_mass, force, [vx, vy, vz], [ux, uy, uz]);
+            let (mut fused_v, mut fused_u) = (velocity.clone(), disp.clone());
+            let [fvx, fvy, fvz] = &mut fused_v;
+            let [fux, fuy, fuz] = &mut fused_u;
+            kick_floor_drift(dt, &inverse_mass, force, &rest_y, floor, [fvx, fvy, fvz], [fux, fuy, fuz]);
+            for axis in 0..3 {
+                let bits = |values: &[f32]| values.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
+                assert_eq!(bits(&fused_v[axis]), bits(&v[axis]), "velocity, axis {axis}, floor {floor:?}");
+                assert_eq!(bits(&fused_u[axis]), bits(&u[axis]), "displacement, axis {axis}, floor {floor:?}");
+            }
+        }
+        // some particles bounced
+        let below = (0..n).filter(|&i| rest_y[i] + disp[1][i] < 0.0 && velocity[1][i] < 0.0).count();
+        assert!(below > 10, "{below}");
+    }
+
+    #[test]
+    fn the_shell_test_on_r_squared_lets_through_what_the_one_on_r_does() {
+        // particles on rays at distances around both shell radii, a few ulps apart
+        let sphere =
+            SphereNow { center: [0.01, -0.02, 0.03], heading: [0.0, 0.0, -1.0], radius: 0.004, stiffness: 4e5 };
+        let mut through = 0;
+        for edge in [0.75f32 * sphere.radius, 1.5 * sphere.radius] {
+            for ulps in -64i32..=64 {
+                let r = f32::from_bits((edge.to_bits() as i32 + ulps) as u32);
+                for direction in [[1.0f32, 0.0, 0.0], [0.6, 0.0, 0.8], [0.48, 0.6, 0.64]] {
+                    let p: [f32; 3] = std::array::from_fn(|a| sphere.center[a] + r * direction[a]);
+                    let d: [f32; 3] = std::array::from_fn(|a| p[a] - sphere.center[a]);
+                    let exact = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                    let inside = exact >= 0.75 * sphere.radius && exact <= 1.5 * sphere.radius;
+                    let f = projectile_force(&sphere, p);
+                    // inside the shell the force is not zero but at its inner edge, where it is
+                    if inside && exact > 0.75 * sphere.radius {
+                        assert_ne!(f, [0.0; 3], "r {exact} let through by the test on r");
+                        through += 1;
+                    } else if !inside {
+                        assert_eq!(f, [0.0; 3], "r {exact} outside");
+                    }
+                }
+            }
+        }
+        assert!(through > 100, "{through}");
     }
 
     #[test]
