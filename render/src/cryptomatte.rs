@@ -16,7 +16,7 @@ use std::collections::BTreeMap;
 
 use rayon::prelude::*;
 
-use crate::mattes::{MatteCounts, SURFACE_NAMES};
+use crate::mattes::{MATTE_SLOTS, MatteCounts, SURFACE_NAMES};
 
 /// Ranks stored per pixel: two RGBA layers. (The specification's default is 6; a pixel here
 /// seldom sees more than 3 fragments, and each layer is 4 more float channels per frame.)
@@ -111,7 +111,7 @@ impl Matte {
 }
 
 /// Ranks (id bits, samples) by falling samples, ties by id bits, as coverages of `samples`.
-fn rank(mut entries: Vec<(u32, u32)>, samples: u32) -> [(u32, f32); RANKS] {
+fn rank(entries: &mut [(u32, u32)], samples: u32) -> [(u32, f32); RANKS] {
     entries.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
     let mut ranks = [(0u32, 0.0f32); RANKS];
     for (slot, &(bits, count)) in ranks.iter_mut().zip(entries.iter().filter(|e| e.1 > 0)) {
@@ -126,15 +126,14 @@ pub fn fragment_matte(counts: &[MatteCounts], fragments: &[u32]) -> Matte {
     let ranks = counts
         .par_iter()
         .map(|c| {
-            let entries = c
-                .fragments
-                .iter()
-                .filter(|slot| slot[0] != 0)
-                .map(|slot| {
-                    (bits.get(&(slot[0] - 1)).copied().unwrap_or_else(|| id_bits(&fragment_name(slot[0] - 1))), slot[1])
-                })
-                .collect();
-            rank(entries, c.samples)
+            let mut entries = [(0u32, 0u32); MATTE_SLOTS];
+            let mut used = 0;
+            for slot in c.fragments.iter().filter(|slot| slot[0] != 0) {
+                let bits = bits.get(&(slot[0] - 1)).copied().unwrap_or_else(|| id_bits(&fragment_name(slot[0] - 1)));
+                entries[used] = (bits, slot[1]);
+                used += 1;
+            }
+            rank(&mut entries[..used], c.samples)
         })
         .collect();
     let manifest = fragments.iter().map(|&f| (fragment_name(f), bits[&f])).collect();
@@ -144,8 +143,7 @@ pub fn fragment_matte(counts: &[MatteCounts], fragments: &[u32]) -> Matte {
 /// The material matte: outer surface, fracture faces, floor.
 pub fn material_matte(counts: &[MatteCounts]) -> Matte {
     let bits = SURFACE_NAMES.map(id_bits);
-    let ranks =
-        counts.par_iter().map(|c| rank((0..3).map(|k| (bits[k], c.surfaces[k])).collect(), c.samples)).collect();
+    let ranks = counts.par_iter().map(|c| rank(&mut [0, 1, 2].map(|k| (bits[k], c.surfaces[k])), c.samples)).collect();
     let manifest = SURFACE_NAMES.iter().zip(bits).map(|(name, b)| (name.to_string(), b)).collect();
     Matte { name: MATERIAL_MATTE.to_string(), manifest, ranks }
 }

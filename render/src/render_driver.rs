@@ -25,7 +25,7 @@ use crate::gpu_trace::GpuTracer;
 use crate::image_out::{FrameHeader, FrameLayers, ImageError, write_exr, write_png};
 use crate::lighting::{EnvironmentMap, LightingError, key_light, sh_project};
 use crate::motion::motion_vectors;
-use crate::scene::{Camera, SceneGeometry};
+use crate::scene::{Camera, SceneBasis, SceneGeometry};
 use crate::trace::{FloorLook, FloorTexels, Look, Pixel, Rendered, render};
 
 /// Why rendering failed.
@@ -331,9 +331,9 @@ pub fn run_render(
     progress.start("render", frames.len() as u64);
     // Each frame needs its neighbours' motions too; frames already read are kept while needed.
     let mut loaded: BTreeMap<u32, Option<FragmentFrame>> = BTreeMap::new();
-    // One k-d tree of the elements at rest for every frame (the CPU tracer's; see element_index).
-    let rest = (matches!(tracer, Tracer::Cpu) && particles.len() >= REST_TREE_MIN_ELEMENTS)
-        .then(|| SceneGeometry::rest_tree(&particles));
+    // What every frame shares, with one k-d tree of the elements at rest for the CPU tracer
+    // (see element_index).
+    let basis = SceneBasis::new(&particles, matches!(tracer, Tracer::Cpu) && particles.len() >= REST_TREE_MIN_ELEMENTS);
     let mut trace_frames = |write: &mut dyn FnMut(u32, FrameFiles) -> Result<(), RenderError>| {
         for &frame in &frames {
             let neighbours = frame.saturating_sub(1).max(1)..=(frame + 1).min(shot.last);
@@ -346,7 +346,7 @@ pub fn run_render(
             let fragments = loaded[&frame].as_ref();
             let previous = (frame > 1).then(|| loaded[&(frame - 1)].as_ref());
             let next = (frame < shot.last).then(|| loaded[&(frame + 1)].as_ref());
-            let scene = SceneGeometry::build_with(&particles, fragments, rest.as_ref());
+            let scene = SceneGeometry::build_with(&particles, fragments, &basis);
             let rendered = tracer.render(&scene, &look, &camera, samples)?;
             let motion = motion_vectors(&camera, &rendered.pixels, fragments, previous, next);
             let ids: Vec<u32> = (0..fragments.map_or(1, |f| f.fragment_count() as u32)).collect();

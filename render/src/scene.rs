@@ -170,28 +170,13 @@ impl SceneGeometry {
 
     /// The scene of `particles` moved by `fragments` (the rest state when None).
     pub fn build(particles: &ParticleSet, fragments: Option<&FragmentFrame>) -> SceneGeometry {
-        let rest = fragments.map(|_| SceneGeometry::rest_tree(particles));
-        SceneGeometry::build_with(particles, fragments, rest.as_ref())
+        SceneGeometry::build_with(particles, fragments, &SceneBasis::new(particles, fragments.is_some()))
     }
 
-    /// The k-d tree of `particles`' elements at rest, which every frame of a render can share
-    /// (see [`crate::element_index`]).
-    pub fn rest_tree(particles: &ParticleSet) -> RestTree {
-        let exact: Vec<Aabb> = (0..particles.len())
-            .into_par_iter()
-            .map(|e| rigid_element(particles, e, Quat::IDENTITY, Vec3::ZERO).3)
-            .collect();
-        let lambda = particles.meta.lambda_m as f32;
-        RestTree::new(&exact, WIDEN * lambda, lambda)
-    }
-
-    /// [`SceneGeometry::build`] with the render's rest tree (of these particles): rigidly moved
-    /// fragments are then found through it, without a k-d tree built for the frame.
-    pub fn build_with(
-        particles: &ParticleSet,
-        fragments: Option<&FragmentFrame>,
-        rest: Option<&RestTree>,
-    ) -> SceneGeometry {
+    /// [`SceneGeometry::build`] on a render's [`SceneBasis`] (of these particles): what does not
+    /// change from frame to frame is taken from it, and with its rest tree, rigidly moved
+    /// fragments are found through that, without a k-d tree built for the frame.
+    pub fn build_with(particles: &ParticleSet, fragments: Option<&FragmentFrame>, basis: &SceneBasis) -> SceneGeometry {
         let n = particles.len();
         // Each fragment's rigid motion x = q X + t, as the elements are placed (f32).
         let motions: Vec<(Quat, Vec3)> = fragments.map_or_else(Vec::new, |frame| {
@@ -199,74 +184,62 @@ impl SceneGeometry {
                 .map(|f| (Quat::from_array(frame.rotation[f]), DVec3::from_array(frame.translation_m[f]).as_vec3()))
                 .collect()
         });
-        let motion = |e: usize| -> (Quat, Vec3) {
-            match fragments {
-                Some(frame) => motions[frame.fragment_of[e] as usize],
-                None => (Quat::IDENTITY, Vec3::ZERO),
-            }
-        };
         let fragment = match fragments {
             Some(frame) => frame.fragment_of.clone(),
             None => vec![0; n],
         };
-        // Per element: planes, triangles, site, bounds.
         let affine = fragments.and_then(|frame| frame.element_affine.as_ref());
-        let per_element: Vec<ElementParts> = (0..n)
-            .into_par_iter()
-            .map(|e| match affine.map(|maps| &maps[e]).filter(|map| !is_affine_rigid(map)) {
-                Some(map) => deformed_element(particles, e, &Affine::of(map)),
-                None => {
-                    let (q, t) = motion(e);
-                    rigid_element(particles, e, q, t)
-                }
-            })
-            .collect();
-        let element_type = particles.elements.element_type();
+        let deformed = affine.is_some_and(|maps| maps.iter().any(|map| !is_affine_rigid(map)));
+        let slack = WIDEN * particles.meta.lambda_m as f32;
         let mut scene = SceneGeometry {
-            element_type,
-            plane_offsets: Vec::with_capacity(n + 1),
+            element_type: particles.elements.element_type(),
+            plane_offsets: Vec::new(),
             planes: Vec::new(),
-            triangle_offsets: Vec::with_capacity(n + 1),
+            triangle_offsets: Vec::new(),
             triangles: Vec::new(),
-            triangle_group_offsets: Vec::with_capacity(n + 1),
+            triangle_group_offsets: Vec::new(),
             triangle_groups: Vec::new(),
-            sites: Vec::with_capacity(n),
+            sites: Vec::new(),
             fragment,
             interior_faces: Vec::new(),
-            face_neighbours: Vec::new(),
-            element_bounds: Vec::with_capacity(n),
+            face_neighbours: basis.face_neighbours.clone(),
+            element_bounds: Vec::new(),
             index: ElementIndex::world(&[]),
-            slack: WIDEN * particles.meta.lambda_m as f32,
+            slack,
             cube_slabs: Vec::new(),
             cube_axes: Vec::new(),
         };
-        scene.plane_offsets.push(0);
-        scene.triangle_offsets.push(0);
-        scene.triangle_group_offsets.push(0);
-        let slack = scene.slack;
-        for (planes, triangles, site, b) in per_element {
-            scene.planes.extend(planes);
-            scene.plane_offsets.push(scene.planes.len() as u32);
-            scene.triangle_groups.extend(triangle_groups(&triangles));
-            scene.triangle_group_offsets.push(scene.triangle_groups.len() as u32);
-            scene.triangles.extend(triangles);
-            scene.triangle_offsets.push(scene.triangles.len() as u32);
-            scene.sites.push(site);
-            scene
-                .element_bounds
-                .push(Aabb { min: b.min.map(|v| v - 2.0 * slack), max: b.max.map(|v| v + 2.0 * slack) });
+        match &particles.elements {
+            Elements::Cubes { half_size_m, orientation } if !deformed => {
+                let placed =
+                    PlacedCubes { half_size_m, orientation: Quat::from_array(*orientation), motions: &motions };
+                placed.fill(particles, &mut scene);
+            }
+            _ => {
+                let motion = |e: usize| -> (Quat, Vec3) {
+                    if motions.is_empty() { (Quat::IDENTITY, Vec3::ZERO) } else { motions[scene.fragment[e] as usize] }
+                };
+                let parts: Vec<ElementParts> = (0..n)
+                    .into_par_iter()
+                    .map(|e| match affine.map(|maps| &maps[e]).filter(|map| !is_affine_rigid(map)) {
+                        Some(map) => deformed_element(particles, e, &Affine::of(map)),
+                        None => {
+                            let (q, t) = motion(e);
+                            rigid_element(particles, e, q, t)
+                        }
+                    })
+                    .collect();
+                scene.fill_parts(parts);
+            }
         }
-        if element_type == ElementType::Cube && (0..n).into_par_iter().all(|e| in_opposite_pairs(scene.planes_of(e))) {
-            (scene.cube_slabs, scene.cube_axes) = cube_slabs(&scene.planes);
-        }
-        scene.face_neighbours = face_neighbours(particles, &scene.plane_offsets);
-        scene.interior_faces =
-            interior_faces(&scene.face_neighbours, &scene.plane_offsets, cube_seams(particles, fragments));
+        scene.interior_faces = match cube_seams(particles, fragments) {
+            Some(seams) => interior_faces(&scene.face_neighbours, &scene.plane_offsets, Some(seams)),
+            None => basis.interior_faces.clone(),
+        };
         for (cube, faces) in scene.cube_slabs.iter_mut().zip(&scene.interior_faces) {
             cube.interior_faces = *faces;
         }
-        let deformed = affine.is_some_and(|maps| maps.iter().any(|map| !is_affine_rigid(map)));
-        let moved = match (fragments, rest) {
+        let moved = match (fragments, &basis.rest) {
             (Some(frame), Some(rest)) if !deformed => {
                 ElementIndex::of_fragments(rest, &frame.fragment_of, &motions, &scene.element_bounds)
             }
@@ -274,6 +247,149 @@ impl SceneGeometry {
         };
         scene.index = moved.unwrap_or_else(|| ElementIndex::world(&scene.element_bounds));
         scene
+    }
+
+    /// Fills the elements' arrays from each element's parts, in element order; cubes whose
+    /// planes are all [`in_opposite_pairs`] get their [`CubeSlabs`] too.
+    fn fill_parts(&mut self, parts: Vec<ElementParts>) {
+        let n = parts.len();
+        self.plane_offsets = Vec::with_capacity(n + 1);
+        self.triangle_offsets = Vec::with_capacity(n + 1);
+        self.triangle_group_offsets = Vec::with_capacity(n + 1);
+        self.sites = Vec::with_capacity(n);
+        self.element_bounds = Vec::with_capacity(n);
+        self.plane_offsets.push(0);
+        self.triangle_offsets.push(0);
+        self.triangle_group_offsets.push(0);
+        for (planes, triangles, site, b) in parts {
+            self.planes.extend(planes);
+            self.plane_offsets.push(self.planes.len() as u32);
+            self.triangle_groups.extend(triangle_groups(&triangles));
+            self.triangle_group_offsets.push(self.triangle_groups.len() as u32);
+            self.triangles.extend(triangles);
+            self.triangle_offsets.push(self.triangles.len() as u32);
+            self.sites.push(site);
+            self.element_bounds.push(widened(b, self.slack));
+        }
+        if self.element_type == ElementType::Cube
+            && (0..n).into_par_iter().all(|e| in_opposite_pairs(self.planes_of(e)))
+        {
+            (self.cube_slabs, self.cube_axes) = cube_slabs(&self.planes);
+        }
+    }
+}
+
+/// An element's world bounds `b` widened by twice the tracers' `slack` (see
+/// [`SceneGeometry::element_bounds`]).
+fn widened(b: Aabb, slack: f32) -> Aabb {
+    Aabb { min: b.min.map(|v| v - 2.0 * slack), max: b.max.map(|v| v + 2.0 * slack) }
+}
+
+/// What every frame of a render shares: the elements' face neighbours and interior faces, which
+/// follow from their rest adjacency, and, for the CPU tracer of a large scene, the k-d tree of
+/// the elements at rest (see [`crate::element_index`]).
+#[derive(Debug, Clone)]
+pub struct SceneBasis {
+    /// [`SceneGeometry::face_neighbours`].
+    face_neighbours: Vec<u32>,
+    /// [`SceneGeometry::interior_faces`] of every frame without deformed cubes.
+    interior_faces: Vec<u32>,
+    /// The rest tree, if any.
+    rest: Option<RestTree>,
+}
+
+impl SceneBasis {
+    /// The basis of `particles`' frames, with their rest tree when `rest_tree`.
+    pub fn new(particles: &ParticleSet, rest_tree: bool) -> SceneBasis {
+        let plane_offsets = plane_offsets(particles);
+        let face_neighbours = face_neighbours(particles, &plane_offsets);
+        let interior_faces = interior_faces(&face_neighbours, &plane_offsets, None);
+        let rest = rest_tree.then(|| {
+            let exact: Vec<Aabb> = (0..particles.len())
+                .into_par_iter()
+                .map(|e| rigid_element(particles, e, Quat::IDENTITY, Vec3::ZERO).3)
+                .collect();
+            let lambda = particles.meta.lambda_m as f32;
+            RestTree::new(&exact, WIDEN * lambda, lambda)
+        });
+        SceneBasis { face_neighbours, interior_faces, rest }
+    }
+}
+
+/// Where each element's planes start in [`SceneGeometry::planes`] (one more than there are
+/// elements), as every frame places them: six for a cube, four for a tetrahedron, a trimtope's
+/// cell planes.
+fn plane_offsets(particles: &ParticleSet) -> Vec<u32> {
+    match &particles.elements {
+        Elements::Cubes { .. } => (0..=particles.len() as u32).map(|e| 6 * e).collect(),
+        Elements::Tets { .. } => (0..=particles.len() as u32).map(|e| 4 * e).collect(),
+        Elements::Trimtopes { plane_offsets, .. } => plane_offsets.iter().map(|&offset| offset as u32).collect(),
+    }
+}
+
+/// Cubes of one size placed rigidly by their fragments' motions (none: at rest): each
+/// fragment's axes are turned once, and every cube's planes, site, bounds and [`CubeSlabs`] are
+/// written in place, what [`rigid_element`] and [`cube_slabs`] give them, to the bit.
+struct PlacedCubes<'a> {
+    /// Each cube's half size, metres.
+    half_size_m: &'a [f32],
+    /// The cubes' orientation at rest.
+    orientation: Quat,
+    /// Each fragment's motion (empty: at rest).
+    motions: &'a [(Quat, Vec3)],
+}
+
+impl PlacedCubes<'_> {
+    /// Fills `scene`'s element arrays (its `fragment` already set).
+    fn fill(&self, particles: &ParticleSet, scene: &mut SceneGeometry) {
+        let n = particles.len();
+        let at_rest = [(Quat::IDENTITY, Vec3::ZERO)];
+        let motions = if self.motions.is_empty() { &at_rest[..] } else { self.motions };
+        let turned: Vec<[[f32; 3]; 3]> = motions
+            .iter()
+            .map(|(q, _)| {
+                let axes_rotation = *q * self.orientation;
+                [Vec3::X, Vec3::Y, Vec3::Z].map(|a| (axes_rotation * a).to_array())
+            })
+            .collect();
+        // Each motion's entry in the distinct axes, in the order the cubes first show them.
+        let motion_of = |e: usize| if self.motions.is_empty() { 0 } else { scene.fragment[e] as usize };
+        let mut axes_of = vec![u32::MAX; motions.len()];
+        let mut distinct: HashMap<[u32; 9], u32> = HashMap::new();
+        for e in 0..n {
+            let f = motion_of(e);
+            if axes_of[f] == u32::MAX {
+                let key: [u32; 9] = std::array::from_fn(|i| turned[f][i / 3][i % 3].to_bits());
+                axes_of[f] = *distinct.entry(key).or_insert_with(|| {
+                    scene.cube_axes.push(turned[f]);
+                    scene.cube_axes.len() as u32 - 1
+                });
+            }
+        }
+        scene.planes = vec![[0.0; 4]; 6 * n];
+        scene.sites = vec![[0.0; 3]; n];
+        scene.element_bounds = vec![Aabb::EMPTY; n];
+        scene.cube_slabs = vec![CubeSlabs { distances: [0.0; 6], axes: 0, interior_faces: 0 }; n];
+        let slack = scene.slack;
+        let rest_position = &particles.rest_position_m;
+        (scene.planes.par_chunks_mut(6), &mut scene.sites, &mut scene.element_bounds, &mut scene.cube_slabs)
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(e, (planes, site, bounds, slabs))| {
+                let f = motion_of(e);
+                let ((q, t), axes, h) = (motions[f], turned[f], self.half_size_m[e]);
+                *site = (q * Vec3::from_array(rest_position[e]) + t).to_array();
+                let reach = [0, 1, 2].map(|k| h * (axes[0][k].abs() + axes[1][k].abs() + axes[2][k].abs()));
+                let exact =
+                    Aabb { min: [0, 1, 2].map(|k| site[k] - reach[k]), max: [0, 1, 2].map(|k| site[k] + reach[k]) };
+                *bounds = widened(exact, slack);
+                planes.copy_from_slice(&cube_planes(*site, h, axes));
+                *slabs =
+                    CubeSlabs { distances: std::array::from_fn(|k| planes[k][3]), axes: axes_of[f], interior_faces: 0 };
+            });
+        scene.plane_offsets = plane_offsets(particles);
+        scene.triangle_offsets = vec![0; n + 1];
+        scene.triangle_group_offsets = vec![0; n + 1];
     }
 }
 
@@ -786,6 +902,48 @@ mod tests {
         (cubes(positions), frame)
     }
 
+    /// Rigidly placed cubes, whose fragments' axes are turned once and whose planes, bounds and
+    /// slabs are written in place, are what the general build gives them element by element
+    /// ([`rigid_element`], then [`cube_slabs`]), bit for bit: at rest, moved, turned at rest,
+    /// and with two fragments sharing a turn (one entry in the distinct axes).
+    #[test]
+    fn placed_cubes_are_what_the_general_build_gives_them() {
+        let (mut particles, frame) = broken_block();
+        let mut shared = frame.clone();
+        shared.rotation[3] = shared.rotation[1];
+        let turned = DQuat::from_axis_angle(DVec3::new(0.3, -1.0, 0.2).normalize(), 0.7).as_quat().to_array();
+        for orientation in [[0.0, 0.0, 0.0, 1.0], turned] {
+            let Elements::Cubes { orientation: o, .. } = &mut particles.elements else { unreachable!() };
+            *o = orientation;
+            for fragments in [None, Some(&frame), Some(&shared)] {
+                let scene = SceneGeometry::build(&particles, fragments);
+                let parts: Vec<ElementParts> = (0..particles.len())
+                    .map(|e| {
+                        let (q, t) = fragments.map_or((Quat::IDENTITY, Vec3::ZERO), |frame| {
+                            let f = frame.fragment_of[e] as usize;
+                            (Quat::from_array(frame.rotation[f]), DVec3::from_array(frame.translation_m[f]).as_vec3())
+                        });
+                        rigid_element(&particles, e, q, t)
+                    })
+                    .collect();
+                let mut general = scene.clone();
+                (general.planes, general.triangles, general.triangle_groups) = (Vec::new(), Vec::new(), Vec::new());
+                (general.cube_slabs, general.cube_axes) = (Vec::new(), Vec::new());
+                general.fill_parts(parts);
+                for (cube, faces) in general.cube_slabs.iter_mut().zip(&scene.interior_faces) {
+                    cube.interior_faces = *faces;
+                }
+                assert_eq!(general, scene);
+                let distinct = match fragments {
+                    None => 1,
+                    Some(frame) if frame.rotation[3] == frame.rotation[1] => 3,
+                    Some(_) => 4,
+                };
+                assert_eq!(scene.cube_axes.len(), distinct);
+            }
+        }
+    }
+
     #[test]
     fn the_fragments_index_finds_what_a_search_of_every_element_finds() {
         use crate::primitives::polytope_span;
@@ -793,7 +951,7 @@ mod tests {
         let unit = |k: u64| random(k as u32, 0, 0);
         let (particles, frame) = broken_block();
         let scene = SceneGeometry::build(&particles, Some(&frame));
-        let world = SceneGeometry::build_with(&particles, Some(&frame), None);
+        let world = SceneGeometry::build_with(&particles, Some(&frame), &SceneBasis::new(&particles, false));
         assert!(scene.index.world_tree().is_none(), "the fragments are found through the rest tree");
         assert!(world.index.world_tree().is_some());
         // the cubes are tested from their slabs, one set of axes for each fragment's turn
