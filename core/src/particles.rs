@@ -222,6 +222,39 @@ pub struct ValueStats {
     pub mean: f64,
 }
 
+/// Every bond entry (i, j) of `bonds` (rows sorted, neighbours valid) has a twin (j, i) with the
+/// same rest length and threshold, in one pass over the entries: the rows are walked in order,
+/// and row j's entries below j are the twins of the earlier rows' entries (i, j), met in the
+/// order of i, so a cursor per row finds each where it must be (a binary search per entry read
+/// the whole set again in random order).
+fn validate_twins(bonds: &Bonds, n: usize) -> Result<(), String> {
+    let mut cursor: Vec<usize> = bonds.offsets[..n].iter().map(|&offset| offset as usize).collect();
+    for i in 0..n {
+        let row = bonds.row(i);
+        // the entries below i were all met as twins of earlier rows
+        if let Some(&m) = bonds.neighbor[cursor[i]..row.end].first().filter(|&&m| (m as usize) < i) {
+            return Err(format!("bond ({i}, {m}) has no twin entry ({m}, {i})"));
+        }
+        for k in row {
+            let j = bonds.neighbor[k] as usize;
+            if j < i {
+                continue;
+            }
+            let twin = cursor[j];
+            match bonds.neighbor[twin..bonds.offsets[j + 1] as usize].first() {
+                Some(&m) if (m as usize) < i => return Err(format!("bond ({j}, {m}) has no twin entry ({m}, {j})")),
+                Some(&m) if m as usize == i => {}
+                _ => return Err(format!("bond ({i}, {j}) has no twin entry ({j}, {i})")),
+            }
+            if bonds.threshold[twin] != bonds.threshold[k] || bonds.rest_length_m[twin] != bonds.rest_length_m[k] {
+                return Err(format!("bond ({i}, {j}) differs from its twin ({j}, {i})"));
+            }
+            cursor[j] += 1;
+        }
+    }
+    Ok(())
+}
+
 impl ParticleSet {
     /// The face of element `from` that it shares with the adjacent element `to` (an adjacency
     /// pair), numbered as the renderer numbers an element's planes: for a cube, 2 k for the face on
@@ -453,7 +486,7 @@ impl ParticleSet {
             if neighbors.windows(2).any(|pair| pair[0] >= pair[1]) {
                 return Err(format!("bond row {i} is not strictly increasing"));
             }
-            for (k, &j) in row.clone().zip(neighbors) {
+            for (k, &j) in row.zip(neighbors) {
                 if j as usize >= n || j as usize == i {
                     return Err(format!("particle {i} is bonded to invalid particle {j}"));
                 }
@@ -462,15 +495,10 @@ impl ParticleSet {
                 if !(length.is_finite() && length > 0.0 && threshold.is_finite() && threshold > 0.0) {
                     return Err(format!("bond ({i}, {j}) has rest length {length} and threshold {threshold}"));
                 }
-                let Some(twin) = bonds.find(j as usize, i as u32) else {
-                    return Err(format!("bond ({i}, {j}) has no twin entry ({j}, {i})"));
-                };
-                if bonds.threshold[twin] != threshold || bonds.rest_length_m[twin] != length {
-                    return Err(format!("bond ({i}, {j}) differs from its twin ({j}, {i})"));
-                }
             }
             Ok(())
-        })
+        })?;
+        validate_twins(bonds, n)
     }
 
     fn validate_adjacency(&self) -> Result<(), String> {
@@ -627,6 +655,84 @@ mod tests {
         let mut unbonded = sample(all_element_kinds().remove(0));
         unbonded.adjacency = vec![[0, 2]];
         assert!(unbonded.validate().expect_err("adjacency").contains("not bonded"));
+    }
+
+    /// The one-pass twin check finds what a search for every entry's twin finds: on random
+    /// bond sets, whole, with an entry dropped, and with an entry's threshold changed, it fails
+    /// exactly when the search does, naming an entry the search finds without its twin.
+    #[test]
+    fn the_twin_check_finds_what_a_search_for_each_twin_finds() {
+        let without_twin = |bonds: &Bonds| -> Vec<(usize, u32)> {
+            (0..bonds.rows())
+                .flat_map(|i| bonds.row(i).map(move |k| (i, k)))
+                .filter(|&(i, k)| {
+                    let j = bonds.neighbor[k] as usize;
+                    bonds.find(j, i as u32).is_none_or(|twin| {
+                        bonds.threshold[twin] != bonds.threshold[k]
+                            || bonds.rest_length_m[twin] != bonds.rest_length_m[k]
+                    })
+                })
+                .map(|(i, k)| (i, bonds.neighbor[k]))
+                .collect()
+        };
+        let mut failures = 0;
+        for seed in 0..40 {
+            let mut rng = crate::random::SplitMix64::new(seed);
+            let n = 30;
+            let mut rows: Vec<Vec<(u32, f32)>> = vec![Vec::new(); n];
+            for _ in 0..120 {
+                let (i, j) = ((rng.next_u64() % n as u64) as usize, (rng.next_u64() % n as u64) as usize);
+                if i != j && !rows[i].iter().any(|e| e.0 == j as u32) {
+                    let threshold = 0.5 + rng.next_f64() as f32;
+                    rows[i].push((j as u32, threshold));
+                    rows[j].push((i as u32, threshold));
+                }
+            }
+            match seed % 3 {
+                1 => {
+                    let i = (rng.next_u64() % n as u64) as usize;
+                    if !rows[i].is_empty() {
+                        let k = (rng.next_u64() % rows[i].len() as u64) as usize;
+                        rows[i].remove(k);
+                    }
+                }
+                2 => {
+                    let i = (rng.next_u64() % n as u64) as usize;
+                    if let Some(entry) = rows[i].first_mut() {
+                        entry.1 += 0.25;
+                    }
+                }
+                _ => {}
+            }
+            let mut bonds = Bonds { offsets: vec![0], ..Bonds::default() };
+            for row in &mut rows {
+                row.sort_by_key(|e| e.0);
+                for &(j, threshold) in row.iter() {
+                    bonds.neighbor.push(j);
+                    bonds.threshold.push(threshold);
+                    bonds.rest_length_m.push(1.0);
+                }
+                bonds.offsets.push(bonds.neighbor.len() as u64);
+            }
+            let lonely = without_twin(&bonds);
+            match validate_twins(&bonds, n) {
+                Ok(()) => assert!(lonely.is_empty(), "seed {seed}: {lonely:?} passed"),
+                Err(message) => {
+                    failures += 1;
+                    let named = lonely.iter().any(|(i, j)| message.starts_with(&format!("bond ({i}, {j}) ")));
+                    assert!(named, "seed {seed}: {message:?} names none of {lonely:?}");
+                }
+            }
+        }
+        assert!(failures >= 20, "only {failures} defective sets");
+        // a last row's entry below it whose twin no row holds, and no later row would meet
+        let lone = Bonds {
+            offsets: vec![0, 1, 2, 3],
+            neighbor: vec![1, 0, 1],
+            rest_length_m: vec![1.0; 3],
+            threshold: vec![1.0; 3],
+        };
+        assert_eq!(validate_twins(&lone, 3), Err("bond (2, 1) has no twin entry (1, 2)".to_string()));
     }
 
     #[test]
