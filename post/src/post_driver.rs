@@ -111,67 +111,84 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
     let mut debris: Vec<DebrisFrame> = Vec::new();
     let mut last = None;
     progress.start("post", u64::from(total));
-    for frame in 1..=total {
-        let events: Vec<BreakEvent> =
-            blocks.iter().filter(|b| b.frame == frame).flat_map(|b| b.events.iter().copied()).collect();
-        for event in &events {
-            tracker.break_bond(event.bond);
-            if let Some(deformation) = &mut deformation {
-                deformation.break_bond(&particles, event.bond);
+    // Each frame's files are written while the next frame is read and tracked (one frame in
+    // flight); a frame counts as done once its files are.
+    std::thread::scope(|scope| -> Result<(), PostError> {
+        let mut writing: Option<Writing<'_>> = None;
+        let finish = |writing: Option<Writing<'_>>| -> Result<(), PostError> {
+            if let Some(Writing { frame, fragments, handle }) = writing {
+                handle.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))?;
+                progress.advance(1);
+                progress.message(&format!("frame {frame}/{total}: {fragments} fragments"));
             }
-        }
-        let points = PointFrame::read(&layout.frame_points(frame))?;
-        if points.inputs != Some(sim_inputs) {
-            return Err(PostError::MissingInput(format!(
-                "{}: made from another particle file or other [sim] or [material] settings; run `shatter sim` again",
-                layout.frame_points(frame).display()
-            )));
-        }
-        if points.frame != frame {
-            let what = format!("holds frame {}, not {frame} (renamed from another frame's name?)", points.frame);
-            return Err(FrameFileError::Invalid { path: layout.frame_points(frame), what }.into());
-        }
-        if points.damage.len() != particles.len() {
-            return Err(PostError::MissingInput(format!(
-                "{}: {} points, but the particle file has {}; run `shatter sim` again",
-                layout.frame_points(frame).display(),
-                points.damage.len(),
-                particles.len()
-            )));
-        }
-        let position = [&points.position[0][..], &points.position[1][..], &points.position[2][..]];
-        let tracked = tracker.track(position, smoothing);
-        let fragments = FragmentFrame {
-            meta: FragmentMeta {
-                frame,
-                step: points.step,
-                time_s: points.time_s,
-                smoothed: smoothing > 0.0,
-                inputs: Some(digest::post_inputs(sim_inputs, config)),
-            },
-            fragment_of: tracked.fragment_of.clone(),
-            rotation: tracked.motion.iter().map(|m| m.rotation.as_quat().to_array()).collect(),
-            translation_m: tracked.motion.iter().map(|m| m.translation.to_array()).collect(),
-            elements: tracked.elements.clone(),
-            mass_kg: tracked.mass_kg.clone(),
-            element_affine: deformation
-                .as_ref()
-                .map(|d| d.element_affine(&particles, position, &tracked.fragment_of, &tracked.motion)),
+            Ok(())
         };
-        fragments.write(&layout.fragments(frame))?;
-        let frame_debris =
-            debris_frame(frame, &events, &particles.bonds, &points, &tracked.fragment_of, config.sim.dt_s);
-        if config.post.point_caches {
-            write_point_cache(&layout.fragment_points(frame), &points, &tracked.fragment_of)?;
-            debris_points::write_point_cache(&layout.debris_points(frame), &frame_debris, points.step, points.time_s)?;
+        for frame in 1..=total {
+            let events: Vec<BreakEvent> =
+                blocks.iter().filter(|b| b.frame == frame).flat_map(|b| b.events.iter().copied()).collect();
+            for event in &events {
+                tracker.break_bond(event.bond);
+                if let Some(deformation) = &mut deformation {
+                    deformation.break_bond(&particles, event.bond);
+                }
+            }
+            let points = PointFrame::read(&layout.frame_points(frame))?;
+            if points.inputs != Some(sim_inputs) {
+                return Err(PostError::MissingInput(format!(
+                    "{}: made from another particle file or other [sim] or [material] settings; run `shatter sim` again",
+                    layout.frame_points(frame).display()
+                )));
+            }
+            if points.frame != frame {
+                let what = format!("holds frame {}, not {frame} (renamed from another frame's name?)", points.frame);
+                return Err(FrameFileError::Invalid { path: layout.frame_points(frame), what }.into());
+            }
+            if points.damage.len() != particles.len() {
+                return Err(PostError::MissingInput(format!(
+                    "{}: {} points, but the particle file has {}; run `shatter sim` again",
+                    layout.frame_points(frame).display(),
+                    points.damage.len(),
+                    particles.len()
+                )));
+            }
+            let position = [&points.position[0][..], &points.position[1][..], &points.position[2][..]];
+            let tracked = tracker.track(position, smoothing);
+            let fragments = FragmentFrame {
+                meta: FragmentMeta {
+                    frame,
+                    step: points.step,
+                    time_s: points.time_s,
+                    smoothed: smoothing > 0.0,
+                    inputs: Some(digest::post_inputs(sim_inputs, config)),
+                },
+                fragment_of: tracked.fragment_of.clone(),
+                rotation: tracked.motion.iter().map(|m| m.rotation.as_quat().to_array()).collect(),
+                translation_m: tracked.motion.iter().map(|m| m.translation.to_array()).collect(),
+                elements: tracked.elements.clone(),
+                mass_kg: tracked.mass_kg.clone(),
+                element_affine: deformation
+                    .as_ref()
+                    .map(|d| d.element_affine(&particles, position, &tracked.fragment_of, &tracked.motion)),
+            };
+            let frame_debris =
+                debris_frame(frame, &events, &particles.bonds, &points, &tracked.fragment_of, config.sim.dt_s);
+            sim_times.push(points.time_s);
+            let caches = config.post.point_caches.then(|| PointCaches {
+                points_path: layout.fragment_points(frame),
+                debris_path: layout.debris_points(frame),
+                debris: frame_debris.clone(),
+                points,
+            });
+            let files = FrameFiles { path: layout.fragments(frame), fragments, caches };
+            debris.push(frame_debris);
+            history.push((tracked.motion.len(), tracked.motion.clone()));
+            finish(writing.take())?;
+            writing =
+                Some(Writing { frame, fragments: tracked.motion.len(), handle: scope.spawn(move || files.write()) });
+            last = Some(tracked);
         }
-        debris.push(frame_debris);
-        history.push((tracked.motion.len(), tracked.motion.clone()));
-        sim_times.push(points.time_s);
-        progress.advance(1);
-        progress.message(&format!("frame {frame}/{total}: {} fragments", tracked.motion.len()));
-        last = Some(tracked);
-    }
+        finish(writing.take())
+    })?;
     progress.finish();
     let last = last.ok_or_else(|| PostError::MissingInput("the simulation has no frames".into()))?;
     if config.post.usd {
@@ -233,6 +250,43 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
         folder: out_dir,
         wall_s: started.elapsed().as_secs_f64(),
     })
+}
+
+/// A frame whose files are being written: its number, its fragment count and the thread.
+struct Writing<'scope> {
+    frame: u32,
+    fragments: usize,
+    handle: std::thread::ScopedJoinHandle<'scope, Result<(), PostError>>,
+}
+
+/// One frame's files: its fragments file and, when asked for, its point caches.
+struct FrameFiles {
+    /// The fragments file's path.
+    path: PathBuf,
+    fragments: FragmentFrame,
+    caches: Option<PointCaches>,
+}
+
+/// A frame's point caches: the points with their fragment ids, and the debris.
+struct PointCaches {
+    points_path: PathBuf,
+    debris_path: PathBuf,
+    /// The simulation's frame.
+    points: PointFrame,
+    debris: DebrisFrame,
+}
+
+impl FrameFiles {
+    /// Writes the fragments file, then the point caches.
+    fn write(self) -> Result<(), PostError> {
+        self.fragments.write(&self.path)?;
+        if let Some(caches) = &self.caches {
+            write_point_cache(&caches.points_path, &caches.points, &self.fragments.fragment_of)?;
+            let (step, time_s) = (caches.points.step, caches.points.time_s);
+            debris_points::write_point_cache(&caches.debris_path, &caches.debris, step, time_s)?;
+        }
+        Ok(())
+    }
 }
 
 /// A point cache of the fragments folder: positions and fragment ids.
