@@ -355,17 +355,14 @@ impl PlacedCubes<'_> {
         // Each motion's entry in the distinct axes, in the order the cubes first show them.
         let motion_of = |e: usize| if self.motions.is_empty() { 0 } else { scene.fragment[e] as usize };
         let mut axes_of = vec![u32::MAX; motions.len()];
-        let mut distinct: HashMap<[u32; 9], u32> = HashMap::new();
+        let mut distinct = DistinctAxes::default();
         for e in 0..n {
             let f = motion_of(e);
             if axes_of[f] == u32::MAX {
-                let key: [u32; 9] = std::array::from_fn(|i| turned[f][i / 3][i % 3].to_bits());
-                axes_of[f] = *distinct.entry(key).or_insert_with(|| {
-                    scene.cube_axes.push(turned[f]);
-                    scene.cube_axes.len() as u32 - 1
-                });
+                axes_of[f] = distinct.index(turned[f]);
             }
         }
+        scene.cube_axes = distinct.axes;
         scene.planes = vec![[0.0; 4]; 6 * n];
         scene.sites = vec![[0.0; 3]; n];
         scene.element_bounds = vec![Aabb::EMPTY; n];
@@ -396,27 +393,45 @@ impl PlacedCubes<'_> {
 /// The [`CubeSlabs`] of cubes whose planes (six each) are [`in_opposite_pairs`], and their
 /// distinct axes.
 fn cube_slabs(planes: &[Plane]) -> (Vec<CubeSlabs>, Vec<[[f32; 3]; 3]>) {
-    let mut axes: Vec<[[f32; 3]; 3]> = Vec::new();
-    let mut index: HashMap<[u32; 9], u32> = HashMap::new();
+    let mut distinct = DistinctAxes::default();
     // a fragment's cubes are mostly neighbours in the element order: the last cube's axes first
-    let mut last: Option<([u32; 9], u32)> = None;
+    let mut last: Option<([[f32; 3]; 3], u32)> = None;
     let slabs = planes
         .chunks_exact(6)
         .map(|cube| {
             let normals = [0, 2, 4].map(|k| [cube[k][0], cube[k][1], cube[k][2]]);
-            let key: [u32; 9] = std::array::from_fn(|i| normals[i / 3][i % 3].to_bits());
             let at = match last {
-                Some((last_key, at)) if last_key == key => at,
-                _ => *index.entry(key).or_insert_with(|| {
-                    axes.push(normals);
-                    axes.len() as u32 - 1
-                }),
+                Some((last_normals, at)) if bits_of(&last_normals) == bits_of(&normals) => at,
+                _ => distinct.index(normals),
             };
-            last = Some((key, at));
+            last = Some((normals, at));
             CubeSlabs { distances: std::array::from_fn(|k| cube[k][3]), axes: at, interior_faces: 0 }
         })
         .collect();
-    (slabs, axes)
+    (slabs, distinct.axes)
+}
+
+/// The distinct sets of cube axes (bit for bit), in the order they were first met: what
+/// [`SceneGeometry::cube_axes`] holds.
+#[derive(Default)]
+struct DistinctAxes {
+    axes: Vec<[[f32; 3]; 3]>,
+    index: HashMap<[u32; 9], u32>,
+}
+
+impl DistinctAxes {
+    /// The index of `axes`, added if new.
+    fn index(&mut self, axes: [[f32; 3]; 3]) -> u32 {
+        *self.index.entry(bits_of(&axes)).or_insert_with(|| {
+            self.axes.push(axes);
+            self.axes.len() as u32 - 1
+        })
+    }
+}
+
+/// A set of axes as the bits of its nine components.
+fn bits_of(axes: &[[f32; 3]; 3]) -> [u32; 9] {
+    std::array::from_fn(|i| axes[i / 3][i % 3].to_bits())
 }
 
 /// Element `e` of `particles` moved rigidly: x = q X + t.
