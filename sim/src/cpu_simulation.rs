@@ -173,6 +173,7 @@ impl CpuSimulation {
             chunk_power: Vec::new(),
         };
         simulation.chunk_power = vec![0.0; n.div_ceil(simulation.chunk_size)];
+        simulation.update_positions();
         simulation.compute_forces();
         Ok(simulation)
     }
@@ -270,6 +271,7 @@ impl CpuSimulation {
                 self.dynamics.disp[axis][i] = value;
             }
         }
+        self.update_positions();
         self.compute_forces();
     }
 
@@ -345,36 +347,50 @@ impl CpuSimulation {
         }
     }
 
-    /// One velocity-Verlet kick pass over all particles.
+    /// One velocity-Verlet kick pass over all particles. A pass that drifts also sets the
+    /// current positions (rest plus displacement), which the next force pass reads.
     fn kick_pass(&mut self, kick: Kick) {
         let (dt, size, floor) = (self.model.dt_s as f32, self.chunk_size, self.model.floor);
-        let (inverse_mass, rest_y) = (&self.inverse_mass, &self.rest[1]);
+        let (inverse_mass, [rest_x, rest_y, rest_z]) = (&self.inverse_mass, &self.rest);
         let Dynamics { disp, vel, force, .. } = &mut self.dynamics;
         let ([vx, vy, vz], [ux, uy, uz], [fx, fy, fz]) = (vel, disp, &*force);
+        let [px, py, pz] = &mut self.position_scratch;
         (
-            inverse_mass.par_chunks(size),
-            fx.par_chunks(size),
-            fy.par_chunks(size),
-            fz.par_chunks(size),
-            rest_y.par_chunks(size),
-            vx.par_chunks_mut(size),
-            vy.par_chunks_mut(size),
-            vz.par_chunks_mut(size),
-            ux.par_chunks_mut(size),
-            uy.par_chunks_mut(size),
-            uz.par_chunks_mut(size),
+            (inverse_mass.par_chunks(size), fx.par_chunks(size), fy.par_chunks(size), fz.par_chunks(size)),
+            (rest_x.par_chunks(size), rest_y.par_chunks(size), rest_z.par_chunks(size)),
+            (vx.par_chunks_mut(size), vy.par_chunks_mut(size), vz.par_chunks_mut(size)),
+            (ux.par_chunks_mut(size), uy.par_chunks_mut(size), uz.par_chunks_mut(size)),
+            (px.par_chunks_mut(size), py.par_chunks_mut(size), pz.par_chunks_mut(size)),
         )
             .into_par_iter()
-            .for_each(|(m, fx, fy, fz, rest_y, vx, vy, vz, ux, uy, uz)| {
+            .for_each(|((m, fx, fy, fz), rest, (vx, vy, vz), (ux, uy, uz), (px, py, pz))| {
                 let (force, velocity) = ([fx, fy, fz], [vx, vy, vz]);
                 match kick {
                     Kick::Drift => kernels::kick_drift(dt, m, force, velocity, [ux, uy, uz]),
-                    Kick::Floor => kernels::kick_floor(dt, m, force, (rest_y, uy), floor, velocity),
+                    Kick::Floor => kernels::kick_floor(dt, m, force, (rest.1, uy), floor, velocity),
                     Kick::FloorThenDrift => {
-                        kernels::kick_floor_drift(dt, m, force, rest_y, floor, velocity, [ux, uy, uz])
+                        kernels::kick_floor_drift(dt, m, force, rest.1, floor, velocity, [ux, uy, uz])
                     }
                 }
+                if !matches!(kick, Kick::Floor) {
+                    place([rest.0, rest.1, rest.2], [ux, uy, uz], [px, py, pz]);
+                }
             });
+    }
+
+    /// Sets the current positions (rest plus displacement) of all particles.
+    fn update_positions(&mut self) {
+        let size = self.chunk_size;
+        let [rx, ry, rz] = &self.rest;
+        let [ux, uy, uz] = &self.dynamics.disp;
+        let [px, py, pz] = &mut self.position_scratch;
+        (
+            (rx.par_chunks(size), ry.par_chunks(size), rz.par_chunks(size)),
+            (ux.par_chunks(size), uy.par_chunks(size), uz.par_chunks(size)),
+            (px.par_chunks_mut(size), py.par_chunks_mut(size), pz.par_chunks_mut(size)),
+        )
+            .into_par_iter()
+            .for_each(|((rx, ry, rz), (ux, uy, uz), (px, py, pz))| place([rx, ry, rz], [ux, uy, uz], [px, py, pz]));
     }
 
     /// Forces at the current displacements: springs (breaking bonds), collisions, body forces.
@@ -416,22 +432,7 @@ impl CpuSimulation {
         let body = BodyForces { gravity: model.gravity_m_s2, projectiles: &projectiles, indenters: &indenters };
 
         let Dynamics { disp, vel, force, boost, step, .. } = dynamics;
-        // Current positions, for collisions and body forces.
-        {
-            let [px, py, pz] = position_scratch;
-            (px.par_chunks_mut(size), py.par_chunks_mut(size), pz.par_chunks_mut(size))
-                .into_par_iter()
-                .enumerate()
-                .for_each(|(c, (x, y, z))| {
-                    let chunk = c * size..c * size + x.len();
-                    for (axis, out) in [x, y, z].into_iter().enumerate() {
-                        let (rest, disp) = (&rest[axis][chunk.clone()], &disp[axis][chunk.clone()]);
-                        for ((x, r), u) in out.iter_mut().zip(rest).zip(disp) {
-                            *x = r + u;
-                        }
-                    }
-                });
-        }
+        // Current positions, for collisions and body forces (set by the last drift).
         let position = [&position_scratch[0][..], &position_scratch[1][..], &position_scratch[2][..]];
         if let Some(contacts) = contacts.as_mut() {
             contacts.update(position, &*index);
@@ -609,6 +610,15 @@ fn lattice_forces(lattice: &mut LatticeTable, disp: [&[f32]; 3], boost: &[f32], 
             let mut out = ChunkForces { force: [fx, fy, fz], min_stretch };
             kernels::lattice_spring_forces(chunk, &inputs, particle_of, rule, &mut out);
         });
+}
+
+/// Positions of a chunk of particles: rest plus displacement, axis by axis.
+fn place(rest: [&[f32]; 3], disp: [&[f32]; 3], position: [&mut [f32]; 3]) {
+    for ((rest, disp), position) in rest.into_iter().zip(disp).zip(position) {
+        for ((x, r), u) in position.iter_mut().zip(rest).zip(disp) {
+            *x = r + u;
+        }
+    }
 }
 
 impl Backend for CpuSimulation {
