@@ -184,8 +184,8 @@ impl BodyForces<'_> {
 
     /// Whether some sphere may push a particle of `range` (false only where every sphere's
     /// reach, widened by a tenth of a percent for rounding, misses the particles' bounding box:
-    /// a projectile pushes out to 1.5 radii, an indenter to its radius). Non-finite positions
-    /// are never pushed, and infinite ones widen the box to everything.
+    /// a projectile pushes out to 1.5 radii, an indenter to its radius). The box passes over
+    /// NaN positions, which no sphere pushes; an infinite one stretches it to reach them all.
     fn may_push(&self, position: [&[f32]; 3], range: std::ops::Range<usize>) -> bool {
         if self.projectiles.is_empty() && self.indenters.is_empty() {
             return false;
@@ -243,7 +243,16 @@ pub fn body_forces(
 ) -> f64 {
     let range = first..first + force[0].len();
     if forces.may_push(position, range.clone()) {
-        return pushed_body_forces(first, position, velocity, mass, forces, force);
+        // Particle by particle.
+        let mut power = 0.0f64;
+        for (local, i) in range.enumerate() {
+            let f = forces.on(mass[i], [position[0][i], position[1][i], position[2][i]]);
+            for axis in 0..3 {
+                force[axis][local] += f[axis];
+                power = add_power(power, f[axis], velocity[axis][i]);
+            }
+        }
+        return power;
     }
     // No sphere reaches the chunk: each particle's force is its weight, plus a zero push per
     // sphere (which turns a -0 weight into +0, as the general loop's sum does).
@@ -278,27 +287,6 @@ pub fn body_forces(
 #[inline(always)]
 fn add_power(power: f64, f: f32, v: f32) -> f64 {
     if f != 0.0 { power + f64::from(f) * f64::from(v) } else { power }
-}
-
-/// [`body_forces`] for a chunk that some sphere may reach: particle by particle.
-fn pushed_body_forces(
-    first: usize,
-    position: [&[f32]; 3],
-    velocity: [&[f32]; 3],
-    mass: &[f32],
-    forces: &BodyForces,
-    force: &mut [&mut [f32]; 3],
-) -> f64 {
-    let mut power = 0.0f64;
-    for local in 0..force[0].len() {
-        let i = first + local;
-        let f = forces.on(mass[i], [position[0][i], position[1][i], position[2][i]]);
-        for axis in 0..3 {
-            force[axis][local] += f[axis];
-            power = add_power(power, f[axis], velocity[axis][i]);
-        }
-    }
-    power
 }
 
 /// Half a velocity kick: v + dt/2 F/m.
