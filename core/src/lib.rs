@@ -7,7 +7,8 @@
 //! - [`digest`]: what each stage's outputs were made from, stored in them.
 //! - [`layout`]: every path in a scene's output folder; [`output_lock`]: its one writer.
 //! - [`checkpoint`]: the simulation's checkpoint (full state at a frame boundary).
-//! - [`frames`]: the simulation's per-frame point caches and its bond-break log.
+//! - [`frames`]: the simulation's per-frame point caches and its bond-break log; [`in_flight`]:
+//!   a stage's frame files written while it computes the next.
 //! - [`fragments`]: the per-frame fragments file written by `shatter post`.
 //! - [`particles`]: the particle file written by `shatter preprocess` (rest state, element
 //!   geometry, bonds, element adjacency).
@@ -32,6 +33,7 @@ pub mod digest;
 pub mod disjoint_sets;
 pub mod fragments;
 pub mod frames;
+pub mod in_flight;
 pub mod layout;
 pub mod lead_in;
 pub mod memory;

@@ -9,6 +9,7 @@ use shatter_core::debris_points::{self, DebrisFrame};
 use shatter_core::digest;
 use shatter_core::fragments::{FragmentFrame, FragmentMeta};
 use shatter_core::frames::{BreakEvent, BreakLog, FrameFileError, PointFrame};
+use shatter_core::in_flight::OneInFlight;
 use shatter_core::layout::missing_input;
 use shatter_core::lead_in::LeadIn;
 use shatter_core::memory::{self, MemoryError, SetSize};
@@ -114,13 +115,10 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
     // Each frame's files are written while the next frame is read and tracked (one frame in
     // flight); a frame counts as done once its files are.
     std::thread::scope(|scope| -> Result<(), PostError> {
-        let mut writing: Option<Writing<'_>> = None;
-        let finish = |writing: Option<Writing<'_>>| -> Result<(), PostError> {
-            if let Some(Writing { frame, fragments, handle }) = writing {
-                handle.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))?;
-                progress.advance(1);
-                progress.message(&format!("frame {frame}/{total}: {fragments} fragments"));
-            }
+        let mut writing = OneInFlight::default();
+        let done = |(frame, fragments): (u32, usize)| -> Result<(), PostError> {
+            progress.advance(1);
+            progress.message(&format!("frame {frame}/{total}: {fragments} fragments"));
             Ok(())
         };
         for frame in 1..=total {
@@ -182,12 +180,10 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
             let files = FrameFiles { path: layout.fragments(frame), fragments, caches };
             debris.push(frame_debris);
             history.push((tracked.motion.len(), tracked.motion.clone()));
-            finish(writing.take())?;
-            writing =
-                Some(Writing { frame, fragments: tracked.motion.len(), handle: scope.spawn(move || files.write()) });
+            writing.start(scope, (frame, tracked.motion.len()), move || files.write(), done)?;
             last = Some(tracked);
         }
-        finish(writing.take())
+        writing.wait(done)
     })?;
     progress.finish();
     let last = last.ok_or_else(|| PostError::MissingInput("the simulation has no frames".into()))?;
@@ -250,13 +246,6 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
         folder: out_dir,
         wall_s: started.elapsed().as_secs_f64(),
     })
-}
-
-/// A frame whose files are being written: its number, its fragment count and the thread.
-struct Writing<'scope> {
-    frame: u32,
-    fragments: usize,
-    handle: std::thread::ScopedJoinHandle<'scope, Result<(), PostError>>,
 }
 
 /// One frame's files: its fragments file and, when asked for, its point caches.

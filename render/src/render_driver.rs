@@ -10,6 +10,7 @@ use shatter_core::config::render::{CubeSurface, RenderConfig};
 use shatter_core::config::sim::BackendChoice;
 use shatter_core::digest;
 use shatter_core::fragments::FragmentFrame;
+use shatter_core::in_flight::OneInFlight;
 use shatter_core::layout::missing_input;
 use shatter_core::memory::{self, MemoryError, SetSize};
 use shatter_core::particles::ParticleSet;
@@ -265,9 +266,6 @@ fn read_fragments(
     Ok(Some(fragments))
 }
 
-/// The frame whose files are being written, and the thread writing them.
-type Writing<'scope> = Option<(u32, std::thread::ScopedJoinHandle<'scope, Result<(), ImageError>>)>;
-
 /// One frame's finished image, to be written as its EXR (and PNG preview).
 struct FrameFiles {
     /// Width and height, pixels.
@@ -380,22 +378,15 @@ pub fn run_render(
     // Each frame's files are written while the next frame is traced (one frame in flight); a
     // frame counts as done (`after_frame`, progress) once its files are.
     std::thread::scope(|scope| -> Result<(), RenderError> {
-        let mut writing: Writing<'_> = None;
-        let mut finish = |writing: Writing<'_>| {
-            if let Some((frame, handle)) = writing {
-                handle.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))?;
-                after_frame(frame).map_err(|source| RenderError::AfterFrame { frame, source })?;
-                progress.advance(1);
-                progress.message(&format!("frame {frame}"));
-            }
+        let mut writing = OneInFlight::default();
+        let mut done = |frame: u32| {
+            after_frame(frame).map_err(|source| RenderError::AfterFrame { frame, source })?;
+            progress.advance(1);
+            progress.message(&format!("frame {frame}"));
             Ok::<(), RenderError>(())
         };
-        let traced = trace_frames(&mut |frame, files| {
-            finish(writing.take())?;
-            writing = Some((frame, scope.spawn(move || files.write())));
-            Ok(())
-        });
-        let written = finish(writing.take());
+        let traced = trace_frames(&mut |frame, files| writing.start(scope, frame, move || files.write(), &mut done));
+        let written = writing.wait(&mut done);
         traced.and(written)
     })?;
     progress.finish();

@@ -345,13 +345,7 @@ impl PlacedCubes<'_> {
         let n = particles.len();
         let at_rest = [(Quat::IDENTITY, Vec3::ZERO)];
         let motions = if self.motions.is_empty() { &at_rest[..] } else { self.motions };
-        let turned: Vec<[[f32; 3]; 3]> = motions
-            .iter()
-            .map(|(q, _)| {
-                let axes_rotation = *q * self.orientation;
-                [Vec3::X, Vec3::Y, Vec3::Z].map(|a| (axes_rotation * a).to_array())
-            })
-            .collect();
+        let turned: Vec<[[f32; 3]; 3]> = motions.iter().map(|(q, _)| turned_axes(*q, self.orientation)).collect();
         // Each motion's entry in the distinct axes, in the order the cubes first show them.
         let motion_of = |e: usize| if self.motions.is_empty() { 0 } else { scene.fragment[e] as usize };
         let mut axes_of = vec![u32::MAX; motions.len()];
@@ -376,10 +370,7 @@ impl PlacedCubes<'_> {
                 let f = motion_of(e);
                 let ((q, t), axes, h) = (motions[f], turned[f], self.half_size_m[e]);
                 *site = (q * Vec3::from_array(rest_position[e]) + t).to_array();
-                let reach = [0, 1, 2].map(|k| h * (axes[0][k].abs() + axes[1][k].abs() + axes[2][k].abs()));
-                let exact =
-                    Aabb { min: [0, 1, 2].map(|k| site[k] - reach[k]), max: [0, 1, 2].map(|k| site[k] + reach[k]) };
-                *bounds = widened(exact, slack);
+                *bounds = widened(cube_bounds(*site, h, axes), slack);
                 planes.copy_from_slice(&cube_planes(*site, h, axes));
                 *slabs =
                     CubeSlabs { distances: std::array::from_fn(|k| planes[k][3]), axes: axes_of[f], interior_faces: 0 };
@@ -434,19 +425,27 @@ fn bits_of(axes: &[[f32; 3]; 3]) -> [u32; 9] {
     std::array::from_fn(|i| axes[i / 3][i % 3].to_bits())
 }
 
+/// A cube's axes (rows) at rest orientation `orientation`, turned by `q`.
+fn turned_axes(q: Quat, orientation: Quat) -> [[f32; 3]; 3] {
+    let rotation = q * orientation;
+    [Vec3::X, Vec3::Y, Vec3::Z].map(|a| (rotation * a).to_array())
+}
+
+/// The exact bounds of a cube centred at `site`, of half size `h` and axes `axes`.
+fn cube_bounds(site: [f32; 3], h: f32, axes: [[f32; 3]; 3]) -> Aabb {
+    let reach = [0, 1, 2].map(|k| h * (axes[0][k].abs() + axes[1][k].abs() + axes[2][k].abs()));
+    Aabb { min: [0, 1, 2].map(|k| site[k] - reach[k]), max: [0, 1, 2].map(|k| site[k] + reach[k]) }
+}
+
 /// Element `e` of `particles` moved rigidly: x = q X + t.
 fn rigid_element(particles: &ParticleSet, e: usize, q: Quat, t: Vec3) -> ElementParts {
     let place = |p: [f32; 3]| (q * Vec3::from_array(p) + t).to_array();
     let site = place(particles.rest_position_m[e]);
     match &particles.elements {
         Elements::Cubes { half_size_m, orientation } => {
-            let axes_rotation = q * Quat::from_array(*orientation);
-            let axes = [Vec3::X, Vec3::Y, Vec3::Z].map(|a| (axes_rotation * a).to_array());
+            let axes = turned_axes(q, Quat::from_array(*orientation));
             let h = half_size_m[e];
-            let reach = [0, 1, 2].map(|k| h * (axes[0][k].abs() + axes[1][k].abs() + axes[2][k].abs()));
-            let bounds =
-                Aabb { min: [0, 1, 2].map(|k| site[k] - reach[k]), max: [0, 1, 2].map(|k| site[k] + reach[k]) };
-            (cube_planes(site, h, axes).to_vec(), Vec::new(), site, bounds)
+            (cube_planes(site, h, axes).to_vec(), Vec::new(), site, cube_bounds(site, h, axes))
         }
         Elements::Tets { vertices_m } => {
             let vertices = vertices_m[e].map(place);
