@@ -13,7 +13,7 @@ use std::process::Output;
 
 use support::{shatter, stderr, tree_files};
 
-mod support;
+use crate::support;
 
 /// A small scene that sets every section: a struck plate that breaks, a floor, a weakened path,
 /// shards, post and render settings.

@@ -4,7 +4,7 @@
 //! (exit code 2); and the outputs then equal a fresh run's. A stage run alone refuses frames or
 //! fragments made from other inputs (exit code 2), by the digest they carry.
 
-mod support;
+use crate::support;
 
 use support::{folder_files, shatter, stderr};
 

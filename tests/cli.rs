@@ -5,7 +5,7 @@ use std::process::Command;
 
 use support::{SMALL_PLATE as GOOD, shatter, stderr};
 
-mod support;
+use crate::support;
 
 fn mesh_path(name: &str) -> String {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/meshes").join(name);

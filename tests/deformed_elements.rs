@@ -4,7 +4,7 @@
 //! elastoplastic scene's fragments files carry the elements' affine maps and render, a PMB
 //! scene's do not.
 
-mod support;
+use crate::support;
 
 use std::path::Path;
 
@@ -14,10 +14,14 @@ use shatter_core::fragments::{AFFINE_RIGID, FragmentFrame, FragmentMeta};
 use shatter_core::particles::ParticleSet;
 use shatter_post::FragmentTracker;
 use shatter_post::deformation::ElementDeformation;
+use shatter_render::camera::Camera;
+use shatter_render::hit_search::NONE;
+use shatter_render::image_loop::render;
+use shatter_render::integrator::Pixel;
 use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
+use shatter_render::materials::Look;
 use shatter_render::mattes::SURFACE_FRACTURE;
-use shatter_render::scene::{Camera, SceneGeometry};
-use shatter_render::trace::{Look, NONE, Pixel, render};
+use shatter_render::scene_geometry::SceneGeometry;
 use support::{shatter, stderr};
 
 /// Particles of a box `size_m` centred at the origin, sampled by `sampler` at 1 mm spacing.

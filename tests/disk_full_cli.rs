@@ -8,7 +8,7 @@ use std::process::Command;
 
 use support::{SMALL_PLATE, shatter, stderr, tree_files};
 
-mod support;
+use crate::support;
 
 /// The small plate, run briefly and rendered small.
 fn scene() -> String {

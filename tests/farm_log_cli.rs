@@ -7,7 +7,7 @@ use std::process::{Command, Stdio};
 
 use support::SMALL_PLATE;
 
-mod support;
+use crate::support;
 
 #[test]
 fn a_run_logged_to_a_file_writes_a_line_per_frame_and_at_least_every_interval() {

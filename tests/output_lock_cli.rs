@@ -2,7 +2,7 @@
 //! folder and the holder's process id, readers are never blocked, a killed holder leaves no
 //! stale lock, and two runs started together end with the outputs of one uninterrupted run.
 
-mod support;
+use crate::support;
 
 use std::path::Path;
 use std::process::{Child, Command, Stdio};

@@ -11,7 +11,7 @@ use shatter_core::particles::{Elements, ParticleSet};
 use shatter_core::rigid_checkpoint::RigidCheckpoint;
 use support::{shatter, stderr, tree_files};
 
-mod support;
+use crate::support;
 
 const SCENE: &str = r#"
 [scene]

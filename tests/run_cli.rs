@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use support::{shatter, tree_files};
 
-mod support;
+use crate::support;
 
 const SCENE: &str = r#"
 [scene]

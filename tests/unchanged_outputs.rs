@@ -7,7 +7,7 @@ use std::path::Path;
 
 use support::{shatter, stderr, tree_files};
 
-mod support;
+use crate::support;
 
 #[test]
 fn a_scene_without_the_shot_tables_writes_what_it_always_wrote() {

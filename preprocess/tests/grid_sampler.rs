@@ -9,7 +9,7 @@ use shatter_preprocess::repair::repair;
 use shatter_preprocess::{PreprocessError, preprocess};
 use support::assets;
 
-mod support;
+use crate::support;
 
 fn config(geometry: &str) -> PipelineConfig {
     let text = format!(

@@ -24,7 +24,7 @@ use shatter_preprocess::samplers::tet_shell::{CORE, ShellParams, shell_points};
 use shatter_preprocess::{Preprocessed, preprocess};
 use support::load;
 
-mod support;
+use crate::support;
 
 /// A tet_shell scene of `mesh` with extra `[geometry]` lines and `[geometry.tet_shell]` lines.
 fn config(mesh: &str, spacing: f64, horizon: f64, geometry: &str, shell: &str) -> PipelineConfig {

@@ -18,7 +18,7 @@ use shatter_geometry::mesh::TriangleMesh;
 use shatter_preprocess::{PreprocessError, preprocess};
 use support::{load, polytope_vertices};
 
-mod support;
+use crate::support;
 
 /// A voronoi scene of `mesh` with extra `[geometry]` lines (a transform) and `[geometry.voronoi]`
 /// lines.

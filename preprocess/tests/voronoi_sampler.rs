@@ -15,7 +15,7 @@ use shatter_preprocess::mesh_query::MeshQuery;
 use shatter_preprocess::samplers::blue_noise::poisson_disk_with_count;
 use support::polytope_vertices;
 
-mod support;
+use crate::support;
 
 fn load(name: &str) -> TriangleMesh {
     support::load(name, 1.0)

@@ -4,18 +4,21 @@
 //! sums to alpha, the fragment matte's never exceeds it, each fragment's matte is 1 inside its
 //! pixels and, at edges, matches the pixel area it covers (a dense grid of primary rays).
 
-mod support;
+use crate::support;
 
 use std::collections::HashMap;
 
 use exr::prelude::{AttributeValue, FlatSamples, read_all_flat_layers_from_file};
 use glam::DVec3;
 use shatter_core::particles::Elements;
+use shatter_render::camera::Camera;
 use shatter_render::cryptomatte::{fragment_matte, material_matte};
+use shatter_render::hit_search::{NONE, closest_hit};
+use shatter_render::image_loop::render;
 use shatter_render::image_out::{FrameHeader, FrameLayers, write_exr};
 use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
-use shatter_render::scene::{Camera, SceneGeometry};
-use shatter_render::trace::{FloorLook, FloorTexels, Look, NONE, closest_hit, render};
+use shatter_render::materials::{FloorLook, FloorTexels, Look};
+use shatter_render::scene_geometry::SceneGeometry;
 
 const FLOOR_Y: f32 = -0.5;
 

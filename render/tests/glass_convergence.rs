@@ -4,14 +4,17 @@
 //! floor or the environment) and the first glass event split at Fresnel's weights; picking each
 //! branch at random (the default, cheaper) is further from it but within 0.025.
 
-mod support;
+use crate::support;
 
 use glam::DVec3;
 use shatter_core::particles::Elements;
+use shatter_render::camera::Camera;
+use shatter_render::image_loop::render;
 use shatter_render::image_out::write_png;
+use shatter_render::integrator::Pixel;
 use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
-use shatter_render::scene::{Camera, SceneGeometry};
-use shatter_render::trace::{FloorLook, FloorTexels, Look, Pixel, render};
+use shatter_render::materials::{FloorLook, FloorTexels, Look};
+use shatter_render::scene_geometry::SceneGeometry;
 
 fn slab() -> SceneGeometry {
     let spacing = 0.01f32;

@@ -2,18 +2,21 @@
 //! element seen first in every pixel, depth within 1e-5 relative, the same normals, fragments,
 //! surface kinds (outer or fracture face) and matte counts.
 
-mod support;
+use crate::support;
 
 use glam::{DQuat, DVec3};
 use shatter_core::fragments::{FragmentFrame, FragmentMeta};
 use shatter_core::particles::{Elements, ParticleSet};
 use shatter_core::random::SplitMix64;
 use shatter_gpu::GpuContext;
+use shatter_render::camera::Camera;
 use shatter_render::gpu_trace::GpuTracer;
+use shatter_render::hit_search::NONE;
+use shatter_render::image_loop::render;
 use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
+use shatter_render::materials::{FloorLook, FloorTexels, Look};
 use shatter_render::mattes::SURFACE_FRACTURE;
-use shatter_render::scene::{Camera, SceneGeometry};
-use shatter_render::trace::{FloorLook, FloorTexels, Look, NONE, render};
+use shatter_render::scene_geometry::SceneGeometry;
 
 fn set(positions: Vec<[f32; 3]>, elements: Elements) -> ParticleSet {
     let adjacency =

@@ -7,7 +7,7 @@ use shatter_core::config::PipelineConfig;
 use shatter_core::particles::ParticleSet;
 use shatter_sim::{Backend, CpuSimulation, LayoutChoice};
 
-mod elastoplastic_scenes;
+use crate::elastoplastic_scenes;
 
 use elastoplastic_scenes::{E, LAMBDA, RHO, block, block_text, centre, load, middle};
 

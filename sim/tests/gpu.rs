@@ -3,7 +3,7 @@
 
 // The shared physics scenarios; this file uses only their scene builders.
 #[allow(dead_code)]
-mod scenarios;
+use crate::scenarios;
 
 use std::collections::BTreeSet;
 

@@ -3,7 +3,7 @@
 //! on a struck plate (contact, plasticity and fracture), and a resume that matches an
 //! uninterrupted run bit for bit. Sizes are the CPU tests' or smaller: CI runs them on lavapipe.
 
-mod elastoplastic_scenes;
+use crate::elastoplastic_scenes;
 
 use elastoplastic_scenes::{E, LAMBDA, block, centre, middle};
 use shatter_core::config::PipelineConfig;

@@ -1,7 +1,7 @@
 //! The physics tests against theory (`scenarios`) on the GPU backend: rigid motions, conservation
 //! laws, energy density, wave speed, the breaking stretch.
 
-mod scenarios;
+use crate::scenarios;
 
 use shatter_core::config::PipelineConfig;
 use shatter_core::particles::ParticleSet;

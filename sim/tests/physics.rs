@@ -2,7 +2,7 @@
 //! the grid blocks get, and again on the row layout), and what only the CPU promises: results
 //! independent of the thread count; the two layouts agreeing; contact between broken neighbours.
 
-mod scenarios;
+use crate::scenarios;
 
 use scenarios::{block, max_force};
 use shatter_core::config::PipelineConfig;

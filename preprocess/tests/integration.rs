@@ -1,0 +1,10 @@
+//! The shatter-preprocess integration tests as one binary: one link of wgpu and rapier instead of one per
+//! file. Each `tests/*.rs` file is a module here (a test in the root crate checks that none is
+//! left out); the shared helpers are the folder modules.
+
+mod support;
+
+mod grid_sampler;
+mod tet_shell_sampler;
+mod voronoi_preprocess;
+mod voronoi_sampler;

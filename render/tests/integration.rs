@@ -1,0 +1,9 @@
+//! The shatter-render integration tests as one binary: one link of wgpu and rapier instead of one per
+//! file. Each `tests/*.rs` file is a module here (a test in the root crate checks that none is
+//! left out); the shared helpers are the folder modules.
+
+mod support;
+
+mod cryptomatte;
+mod glass_convergence;
+mod gpu_trace;
