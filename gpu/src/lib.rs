@@ -79,6 +79,7 @@ mod context;
 mod error;
 mod kernel;
 mod split;
+mod wgsl_parts;
 
 pub use buffers::READBACK_CHUNK_BYTES;
 pub use context::{
@@ -88,3 +89,4 @@ pub use context::{
 pub use error::GpuError;
 pub use kernel::{ComputeKernel, DispatchGrid, compile_wgsl};
 pub use split::{BindingChunk, split_for_binding, split_slice_for_binding};
+pub use wgsl_parts::join_wgsl;

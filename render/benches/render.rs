@@ -17,10 +17,13 @@ use glam::{DQuat, DVec3};
 use rayon::prelude::*;
 use shatter_core::particles::{Bonds, Elements, ParticleMeta, ParticleSet};
 use shatter_gpu::{AdapterChoice, GpuContext};
+use shatter_render::camera::Camera;
 use shatter_render::gpu_trace::GpuTracer;
+use shatter_render::hit_search::closest_hit;
+use shatter_render::image_loop::{pixel_hits, render};
 use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
-use shatter_render::scene::{Camera, SceneGeometry};
-use shatter_render::trace::{Look, closest_hit, pixel_hits, render};
+use shatter_render::materials::Look;
+use shatter_render::scene_geometry::SceneGeometry;
 
 /// Passes of the nearest-hit query, each timed: a pass at the default size takes tens of
 /// milliseconds, too short for one timing on a shared machine; the median is reported (as

@@ -38,7 +38,7 @@ pub struct RestTree {
     bounds: Vec<Aabb>,
     /// How far the boxes are widened beyond the elements, metres.
     margin_m: f32,
-    /// The tracers' widening of the elements ([`crate::scene::SceneGeometry::slack`]), metres.
+    /// The tracers' widening of the elements ([`crate::scene_geometry::SceneGeometry::slack`]), metres.
     slack_m: f32,
     /// The largest coordinate of any rest box, metres.
     reach_m: f32,

@@ -82,7 +82,7 @@ impl KdTree {
     /// [`t_start`, `t_end`], calling `hit(primitive, t_min, t_max)` for the primitives of each leaf
     /// the ray passes, with the leaf's interval; `hit` returns the distance of the nearest hit it
     /// found so far (or infinity). Traversal stops once a hit lies within the current leaf.
-    /// Returns the number of leaves visited. Mirrors `shaders/kdtree.wgsl` step for step.
+    /// Returns the number of leaves visited. Mirrors the traversal in `shaders/hit_search.wgsl` (`closest_hit`) step for step.
     pub fn traverse(
         &self,
         origin: [f32; 3],
@@ -171,7 +171,7 @@ impl KdTree {
     }
 }
 
-/// Rays in a packet: a tile of camera rays (`trace::TILE_ROWS` rows).
+/// Rays in a packet: a tile of camera rays ([`crate::image_loop::TILE_ROWS`] rows).
 pub const PACKET: usize = 16;
 
 /// Interval bounds of a packet's rays.

@@ -1,22 +1,40 @@
-//! The GPU ray tracer: uploads a frame's scene and look, runs `shaders/trace.wgsl` (one pixel per
+//! The GPU ray tracer: uploads a frame's scene and look, runs the WGSL twins in `shaders/` (one pixel per
 //! invocation, in batches of pixels so no single dispatch runs long), reads the pixels back.
-//! The twin of [`crate::trace::render`].
+//! The twin of [`crate::image_loop::render`].
 
 use bytemuck::{Pod, Zeroable};
 use shatter_core::particles::ElementType;
-use shatter_gpu::{ComputeKernel, GpuContext, GpuError, wgpu};
+use shatter_gpu::{ComputeKernel, GpuContext, GpuError, join_wgsl, wgpu};
 
+use crate::camera::Camera;
 use crate::element_kdtree::KdTree;
+use crate::image_loop::Rendered;
+use crate::integrator::Pixel;
+use crate::materials::Look;
 use crate::mattes::MatteCounts;
 use crate::primitives::TRIANGLE_GROUP;
-use crate::scene::{Camera, SceneGeometry};
-use crate::trace::{Look, Pixel, Rendered};
+use crate::scene_geometry::SceneGeometry;
 
-const SHADER: &str = include_str!("../shaders/trace.wgsl");
+/// The tracer's WGSL parts (`render/shaders/`): the bindings, then each the twin of the CPU module
+/// of its name, joined into one program whose entry point is the image loop's.
+const PARTS: [&str; 12] = [
+    include_str!("../shaders/bindings.wgsl"),
+    include_str!("../shaders/primitives.wgsl"),
+    include_str!("../shaders/scene_geometry.wgsl"),
+    include_str!("../shaders/element_kdtree.wgsl"),
+    include_str!("../shaders/hit_search.wgsl"),
+    include_str!("../shaders/sampling.wgsl"),
+    include_str!("../shaders/camera.wgsl"),
+    include_str!("../shaders/lighting.wgsl"),
+    include_str!("../shaders/shading.wgsl"),
+    include_str!("../shaders/mattes.wgsl"),
+    include_str!("../shaders/integrator.wgsl"),
+    include_str!("../shaders/image_loop.wgsl"),
+];
 /// Pixels per dispatch: a multiple of 16 so every batch's output starts at a bindable offset.
 const BATCH_PIXELS: u32 = 1 << 16;
 
-/// The shader's `Params` (see trace.wgsl for the meaning of each lane).
+/// The shader's `Params` (see shaders/bindings.wgsl for the meaning of each lane).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 struct Params {
@@ -60,12 +78,13 @@ pub struct GpuTracer {
 impl GpuTracer {
     /// Compiles the tracer for `ctx`.
     pub fn new(ctx: &GpuContext) -> Result<GpuTracer, GpuError> {
-        let source = format!("const TRIANGLE_GROUP: u32 = {TRIANGLE_GROUP}u;\n{SHADER}");
-        Ok(GpuTracer { kernel: ComputeKernel::new(ctx, "trace.wgsl", &source)? })
+        let triangle_group = format!("const TRIANGLE_GROUP: u32 = {TRIANGLE_GROUP}u;");
+        let source = join_wgsl(&[&[triangle_group.as_str()], &PARTS[..]].concat());
+        Ok(GpuTracer { kernel: ComputeKernel::new(ctx, "render/shaders (the tracer)", &source)? })
     }
 
     /// Traces every pixel of `camera`'s image with `samples` samples each, like
-    /// [`crate::trace::render`].
+    /// [`crate::image_loop::render`].
     pub fn render(
         &self,
         ctx: &GpuContext,

@@ -10,7 +10,7 @@ use exr::prelude::{
 };
 
 use crate::cryptomatte::{Matte, matte_key};
-use crate::trace::Pixel;
+use crate::integrator::Pixel;
 
 /// Why an image could not be written or read.
 #[derive(Debug, thiserror::Error)]
@@ -52,7 +52,7 @@ pub const EXR_CHANNELS: [&str; 13] = [
 ];
 
 /// What an EXR's header says of its frame besides the pixels: the camera (OpenEXR's standard
-/// `worldToCamera` and `worldToNDC`, see [`crate::scene::Camera::world_to_ndc`]), the playback rate
+/// `worldToCamera` and `worldToNDC`, see [`crate::camera::Camera::world_to_ndc`]), the playback rate
 /// (`framesPerSecond`), and the frame's simulated time (`shatterSimulationTime`, seconds).
 #[derive(Debug, Clone, PartialEq)]
 pub struct FrameHeader {
@@ -272,7 +272,7 @@ pub fn write_png(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Camera;
+    use crate::camera::Camera;
     use glam::DVec3;
 
     fn test_header() -> FrameHeader {

@@ -1,29 +1,55 @@
 //! The render stage of shatter, `shatter render`: the fragments of each frame ray traced to
-//! multi-layer EXR (and PNG previews).
+//! multi-layer EXR (and PNG previews). The tracer is split by concept, as a physically based
+//! renderer is; each CPU module that the GPU tracer mirrors has a WGSL twin of the same name in
+//! `shaders/`.
 //!
+//! The scene:
+//! - [`scene_geometry`]: a frame's elements as planes, triangles and sites, flattened for tracing.
+//! - [`placing`]: the elements placed by their fragments' rigid motions or their affine maps.
+//! - [`face_seams`]: which faces rest against a neighbour (union walks, fracture faces).
 //! - [`element_kdtree`]: the SAH k-d tree over element bounds, with short-stack traversal.
 //! - [`element_index`]: the CPU tracer's two-level index: one rest-frame tree for a render, and
 //!   per frame a tree over the fragments' boxes.
 //! - [`primitives`]: ray hits of cubes, tetrahedra and trimtopes, and their CSG unions.
-//! - [`scene`]: the elements of a frame placed by their fragments' motions; the camera.
-//! - [`lighting`]: SH environment light, Blinn-Phong, the environment map.
-//! - [`trace`]: the CPU tracer (glass, floor, shading); the CPU twin of `shaders/trace.wgsl`.
-//! - [`gpu_trace`]: the GPU tracer running `shaders/trace.wgsl`.
+//!
+//! The tracer:
+//! - [`camera`]: the pinhole camera and its OpenEXR matrices.
+//! - [`sampling`]: random numbers and pixel samples.
+//! - [`hit_search`]: the nearest hit over unions of elements, and walks out of a union.
+//! - [`materials`]: the look: glass, opaque and floor materials, the floor texture.
+//! - [`lighting`]: SH environment light, the key light, the environment map.
+//! - [`shading`]: reflection, refraction, Fresnel, opaque surfaces and the floor.
+//! - [`integrator`]: radiance along one camera ray, and its first-surface layers.
+//! - [`image_loop`]: every pixel of an image, in bands and packets; the CPU tracer's entry.
+//! - [`gpu_trace`]: the GPU tracer running the WGSL twins (`shaders/`).
+//!
+//! The passes and files:
 //! - [`mattes`]: per-pixel counts of the fragments and surface kinds seen first.
 //! - [`cryptomatte`]: those counts as Cryptomatte ranks with their manifests.
 //! - [`motion`]: the motion pass from the fragments' rigid motions.
 //! - [`image_out`]: EXR and PNG writing.
 //! - [`render_driver`]: the stage's driver (frame ranges, progress).
 
+pub mod camera;
 pub mod cryptomatte;
 pub mod element_index;
 pub mod element_kdtree;
+pub mod face_seams;
 pub mod gpu_trace;
+pub mod hit_search;
+pub mod image_loop;
 pub mod image_out;
+pub mod integrator;
 pub mod lighting;
+pub mod materials;
 pub mod mattes;
 pub mod motion;
+pub mod placing;
 pub mod primitives;
 pub mod render_driver;
-pub mod scene;
-pub mod trace;
+pub mod sampling;
+pub mod scene_geometry;
+pub mod shading;
+
+#[cfg(test)]
+mod trace_tests;

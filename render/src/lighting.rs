@@ -3,7 +3,7 @@
 //! a key light (the map's brightest region) for normalized Blinn-Phong highlights.
 //!
 //! Directions map to the map as u = 1/2 + atan2(x, -z) / 2 pi, v = acos(y) / pi: +Y is up (the top
-//! row), -Z is the centre of the map.
+//! row), -Z is the centre of the map. The twin of `shaders/lighting.wgsl`.
 
 // Indexed loops mirror the shader this is the twin of.
 #![allow(clippy::needless_range_loop)]

@@ -1,5 +1,5 @@
 //! Matte samples: per pixel, how many of its samples saw each fragment and each kind of surface
-//! first. The CPU twin of the shader's `add_matte_sample`; [`crate::cryptomatte`] turns the counts
+//! first. The CPU twin of `shaders/mattes.wgsl`; [`crate::cryptomatte`] turns the counts
 //! into Cryptomatte ranks.
 
 use bytemuck::{Pod, Zeroable};

@@ -11,8 +11,9 @@ use glam::{DQuat, DVec3};
 use rayon::prelude::*;
 use shatter_core::fragments::FragmentFrame;
 
-use crate::scene::Camera;
-use crate::trace::{NONE, Pixel};
+use crate::camera::Camera;
+use crate::hit_search::NONE;
+use crate::integrator::Pixel;
 
 /// A frame's rigid motions: None is the rest state.
 pub type Motions<'a> = Option<&'a FragmentFrame>;
@@ -73,7 +74,7 @@ pub fn motion_vectors(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::trace::Pixel;
+    use crate::integrator::Pixel;
     use shatter_core::fragments::FragmentMeta;
 
     fn frame(translation: [f64; 3]) -> FragmentFrame {

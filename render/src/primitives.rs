@@ -1,7 +1,7 @@
 //! Ray tests against the elements, all convex polytopes given by planes (a cube has 6, a
 //! tetrahedron 4, a Voronoi cell as many as its faces), and the trimtope rules of Levine et al.'s
 //! Fig. 4 for cells with embedded surface triangles. Written as plain functions of plain data to
-//! read like their twins in `shaders/trace.wgsl`.
+//! read like their twins in `shaders/primitives.wgsl`.
 
 use crate::element_kdtree::Aabb;
 

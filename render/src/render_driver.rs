@@ -19,15 +19,19 @@ use shatter_core::stage_file::StageFileError;
 use shatter_core::{OutputLayout, PipelineConfig, Progress};
 use shatter_gpu::{AdapterChoice, GpuContext, GpuError};
 
+use crate::camera::Camera;
 use crate::cryptomatte::{Matte, fragment_matte, material_matte};
 use crate::element_index::REST_TREE_MIN_ELEMENTS;
 use crate::element_kdtree::Aabb;
 use crate::gpu_trace::GpuTracer;
+use crate::image_loop::{Rendered, render};
 use crate::image_out::{FrameHeader, FrameLayers, ImageError, write_exr, write_png};
+use crate::integrator::Pixel;
 use crate::lighting::{EnvironmentMap, LightingError, key_light, sh_project};
+use crate::materials::{FloorLook, FloorTexels, Look};
 use crate::motion::motion_vectors;
-use crate::scene::{Camera, SceneBasis, SceneGeometry};
-use crate::trace::{FloorLook, FloorTexels, Look, Pixel, Rendered, render};
+use crate::placing::SceneBasis;
+use crate::scene_geometry::SceneGeometry;
 
 /// Why rendering failed.
 #[derive(Debug, thiserror::Error)]

@@ -1,6 +1,6 @@
 //! The WGSL sources of the simulation kernels (`sim/shaders/`) and their compilation.
 
-use shatter_gpu::{ComputeKernel, GpuContext, GpuError};
+use shatter_gpu::{ComputeKernel, GpuContext, GpuError, join_wgsl};
 
 /// Declarations shared by every kernel (no entry point), prepended to each kernel file.
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
@@ -36,7 +36,7 @@ pub const KERNELS: [(&str, &str); 16] = [
 /// code where it is one).
 pub fn source(name: &str) -> Option<String> {
     let includes = if FORCE_KERNELS.contains(&name) { FORCE_COMMON } else { "" };
-    KERNELS.iter().find(|(file, _)| *file == name).map(|(_, text)| format!("{COMMON}\n{includes}\n{text}"))
+    KERNELS.iter().find(|(file, _)| *file == name).map(|(_, text)| join_wgsl(&[COMMON, includes, text]))
 }
 
 /// Compiles kernel `name`.

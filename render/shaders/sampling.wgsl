@@ -1,0 +1,35 @@
+// sampling.rs: the tracers' random numbers and pixel samples.
+
+// sampling.rs hash32 and random
+fn hash32(x: u32) -> u32 {
+    let state = x * 747796405u + 2891336453u;
+    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+fn random(pixel: u32, sample: u32, event: u32) -> f32 {
+    let bits = hash32(pixel ^ hash32((sample * 0x9e3779b9u) ^ hash32(event)));
+    return f32(bits >> 8u) / 16777216.0;
+}
+
+// sampling.rs sample_offset
+fn sample_offset(pixel: u32, sample: u32, samples: u32) -> vec2<f32> {
+    if (sample == 0u) {
+        return vec2<f32>(0.5, 0.5);
+    }
+    let jx = random(pixel, sample, 1000u);
+    let jy = random(pixel, sample, 1001u);
+    let others = samples - 1u;
+    var n = u32(sqrt(f32(others)));
+    while ((n + 1u) * (n + 1u) <= others) {
+        n += 1u;
+    }
+    while (n * n > others) {
+        n -= 1u;
+    }
+    let k = sample - 1u;
+    if (k >= n * n) {
+        return vec2<f32>(jx, jy);
+    }
+    return vec2<f32>((f32(k % n) + jx) / f32(n), (f32(k / n) + jy) / f32(n));
+}

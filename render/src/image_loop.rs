@@ -1,0 +1,165 @@
+//! The image loop: every pixel of a camera's image traced with its samples, in bands of rows in
+//! parallel and tiles whose camera rays find their first surfaces as one packet; and the pixels'
+//! nearest hits without shading. The twin of `shaders/image_loop.wgsl` (one pixel per
+//! invocation there).
+
+use rayon::prelude::*;
+
+use crate::camera::Camera;
+use crate::element_kdtree::PACKET;
+use crate::hit_search::{Hit, closest_hits};
+use crate::integrator::{CameraRay, FirstSurface, Pixel, trace_ray};
+use crate::materials::Look;
+use crate::mattes::MatteCounts;
+use crate::primitives::along;
+use crate::sampling::sample_offset;
+use crate::scene_geometry::SceneGeometry;
+use crate::shading::{floor_albedo, floor_t};
+
+/// A rendered image: its pixels (row-major, top row first) and their matte counts.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rendered {
+    /// The pixels.
+    pub pixels: Vec<Pixel>,
+    /// Each pixel's matte counts over its samples.
+    pub mattes: Vec<MatteCounts>,
+}
+
+/// The floor's albedo where each camera ray of a packet meets it, for those that meet it before
+/// their nearest hit (`hits`); the others' are left as they are. Looked up in one pass, the
+/// texel loads of a packet overlap, where each ray's trace would otherwise wait on its own.
+fn first_floor_albedos(look: &Look, origin: [f32; 3], directions: &[[f32; 3]], hits: &[Hit], out: &mut [[f32; 3]]) {
+    for ((d, hit), albedo) in directions.iter().zip(hits).zip(out) {
+        let t_floor = floor_t(look, origin, *d);
+        if t_floor < hit.t {
+            *albedo = floor_albedo(look, along(origin, *d, t_floor));
+        }
+    }
+}
+
+/// Traces every pixel of `camera`'s image with `samples` samples each (the first through the
+/// pixel centre gives the depth, normal and fragment layers), counting each sample's first
+/// surface in the pixel's mattes. Bands of [`TILE_ROWS`] rows in parallel; each sample's camera
+/// rays of a tile find their first surfaces as one packet. Deterministic: each
+/// pixel's samples are summed in order, whatever the bands and threads.
+pub fn render(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32) -> Rendered {
+    let (width, height) = (camera.width as usize, camera.height as usize);
+    let mut pixels = vec![Pixel::EMPTY; width * height];
+    let mut mattes = vec![MatteCounts::default(); width * height];
+    let band = width * TILE_ROWS;
+    pixels.par_chunks_mut(band).zip(mattes.par_chunks_mut(band)).enumerate().for_each(|(b, (rows, matte_rows))| {
+        let top = b * TILE_ROWS;
+        let mut sums = [[0.0f32; 3]; PACKET];
+        let mut alphas = [0.0f32; PACKET];
+        let mut directions = [[0.0f32; 3]; PACKET];
+        let mut hits = [Hit::MISS; PACKET];
+        let mut floor_albedos = [[0.0f32; 3]; PACKET];
+        for tile in Tile::across(width, top, rows.len() / width) {
+            let count = tile.len();
+            sums[..count].fill([0.0; 3]);
+            alphas[..count].fill(0.0);
+            for sample in 0..samples {
+                tile.first_hits(scene, camera, (sample, samples), &mut directions, &mut hits);
+                first_floor_albedos(look, camera.origin, &directions[..count], &hits[..count], &mut floor_albedos);
+                for k in 0..count {
+                    let (x, y) = tile.pixel(k);
+                    let pixel = (y * width + x) as u32;
+                    let (direction, hit, floor) = (directions[k], hits[k], floor_albedos[k]);
+                    let ray = CameraRay { origin: camera.origin, direction, pixel, sample };
+                    let traced = trace_ray(scene, look, ray, FirstSurface { hit, floor_albedo: floor });
+                    let local = (y - top) * width + x;
+                    if sample == 0 {
+                        rows[local] = traced;
+                    }
+                    matte_rows[local].add(traced.fragment, traced.surface);
+                    for c in 0..3 {
+                        sums[k][c] += traced.color[c];
+                    }
+                    alphas[k] += traced.alpha;
+                }
+            }
+            for k in 0..count {
+                let (x, y) = tile.pixel(k);
+                let out = &mut rows[(y - top) * width + x];
+                out.color = sums[k].map(|v| v / samples as f32);
+                out.alpha = alphas[k] / samples as f32;
+            }
+        }
+    });
+    Rendered { pixels, mattes }
+}
+
+/// A tile of image pixels: `width` columns from `left`, `height` rows from `top`; its rays are
+/// numbered row by row.
+#[derive(Clone, Copy)]
+struct Tile {
+    left: usize,
+    top: usize,
+    width: usize,
+    height: usize,
+}
+
+impl Tile {
+    /// The tiles of the band of `height` rows from `top` across an image `image_width` wide.
+    fn across(image_width: usize, top: usize, height: usize) -> impl Iterator<Item = Tile> {
+        (0..image_width).step_by(PACKET / TILE_ROWS).map(move |left| Tile {
+            left,
+            top,
+            width: (PACKET / TILE_ROWS).min(image_width - left),
+            height,
+        })
+    }
+
+    /// Number of rays.
+    fn len(&self) -> usize {
+        self.width * self.height
+    }
+
+    /// Image column and row of ray `k`.
+    fn pixel(&self, k: usize) -> (usize, usize) {
+        (self.left + k % self.width, self.top + k / self.width)
+    }
+
+    /// Sample `sample` (of `samples`) of the tile's camera rays, into `directions`, and each
+    /// one's nearest hit, into `hits`, as one packet.
+    fn first_hits(
+        &self,
+        scene: &SceneGeometry,
+        camera: &Camera,
+        (sample, samples): (u32, u32),
+        directions: &mut [[f32; 3]; PACKET],
+        hits: &mut [Hit; PACKET],
+    ) {
+        let count = self.len();
+        for (k, direction) in directions[..count].iter_mut().enumerate() {
+            let (x, y) = self.pixel(k);
+            let (jx, jy) = sample_offset((y * camera.width as usize + x) as u32, sample, samples);
+            *direction = camera.direction(x as f32 + jx, y as f32 + jy);
+        }
+        closest_hits(scene, camera.origin, &directions[..count], &mut hits[..count]);
+    }
+}
+
+/// Rows of the tiles whose camera rays [`render`] and [`pixel_hits`] trace as one packet
+/// ([`PACKET`] / `TILE_ROWS` columns each).
+pub const TILE_ROWS: usize = 2;
+
+/// The nearest element surface along each pixel's centre ray (row-major, top row first), each
+/// exactly what [`closest_hit`] gives it, traced in packets as [`render`] traces first surfaces:
+/// what a ray-casting query answers, without shading.
+pub fn pixel_hits(scene: &SceneGeometry, camera: &Camera) -> Vec<Hit> {
+    let width = camera.width as usize;
+    let mut hits = vec![Hit::MISS; width * camera.height as usize];
+    hits.par_chunks_mut(width * TILE_ROWS).enumerate().for_each(|(b, rows)| {
+        let (top, mut directions, mut tile_hits) = (b * TILE_ROWS, [[0.0f32; 3]; PACKET], [Hit::MISS; PACKET]);
+        for tile in Tile::across(width, top, rows.len() / width) {
+            // sample 0 of 1 goes through the pixel's centre
+            tile.first_hits(scene, camera, (0, 1), &mut directions, &mut tile_hits);
+            for (k, hit) in tile_hits[..tile.len()].iter().enumerate() {
+                let (x, y) = tile.pixel(k);
+                rows[(y - top) * width + x] = *hit;
+            }
+        }
+    });
+    hits
+}
