@@ -1,0 +1,76 @@
+#!/usr/bin/env bash
+# Shows that a change leaves every output byte-identical: builds BASE (a commit) and the working
+# tree as release binaries, runs each scene end to end with both on the CPU backend, and compares
+# every file the two runs write. A refactor's proof.
+#
+#   scripts/check-unchanged.sh BASE [SCENE.toml ...]
+#
+# The scenes default to pipeline.toml and every assets/scenes/*_small.toml. Each side runs its own
+# tree's scenes and assets, copied to target/unchanged/<side>/ so that the runs write there and
+# never into out/. The output folder's lock is left out of the comparison (it names the process
+# that held it). Exits 0 when every scene's outputs match, 1 when any differs (naming the files).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+repo=$PWD
+
+if [ $# -lt 1 ]; then
+  echo "usage: scripts/check-unchanged.sh BASE [SCENE.toml ...]" >&2
+  exit 2
+fi
+base=$(git rev-parse --verify "$1^{commit}") || { echo "error: $1 is not a commit" >&2; exit 2; }
+shift
+if [ $# -gt 0 ]; then
+  scenes=("$@")
+else
+  scenes=(pipeline.toml assets/scenes/*_small.toml)
+fi
+
+work=$repo/target/unchanged
+mkdir -p "$work"
+export CARGO_TARGET_DIR=$repo/target
+
+# Builds the tree at $1 and copies its binary to $2.
+build() {
+  cargo build --release --locked --quiet --manifest-path "$1/Cargo.toml"
+  cp "$CARGO_TARGET_DIR/release/shatter" "$2"
+}
+
+# Lays out side $1 from tree $2: its scenes and assets, outputs empty.
+lay_out() {
+  rm -rf "${work:?}/$1"
+  mkdir -p "$work/$1"
+  cp -r "$2/assets" "$2/pipeline.toml" "$work/$1/"
+}
+
+if [ ! -d "$work/base-src/.git" ] && [ ! -f "$work/base-src/.git" ]; then
+  git worktree add --detach --force "$work/base-src" "$base" >/dev/null
+else
+  git -C "$work/base-src" checkout --detach --quiet "$base"
+fi
+echo "building $base and the working tree (release)"
+build "$work/base-src" "$work/shatter-base"
+build "$repo" "$work/shatter-head"
+lay_out base "$work/base-src"
+lay_out head "$repo"
+
+status=0
+for scene in "${scenes[@]}"; do
+  for side in base head; do
+    (cd "$work/$side" && "$work/shatter-$side" run --config "$scene" --backend cpu >"$work/$side.log" 2>&1) || {
+      echo "$scene: the $side binary failed (log: $work/$side.log)" >&2
+      status=1
+      rm -rf "$work/base/out" "$work/head/out"
+      continue 2
+    }
+  done
+  differing=$(diff -r -q -x shatter.lock "$work/base/out" "$work/head/out" || true)
+  if [ -n "$differing" ]; then
+    echo "$scene: outputs differ:"
+    echo "$differing"
+    status=1
+  else
+    echo "$scene: $(find "$work/head/out" -type f | wc -l) files byte-identical"
+  fi
+  rm -rf "$work/base/out" "$work/head/out"
+done
+exit $status
