@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Everything only a real GPU can show, in one command, printed as a table for docs/PERFORMANCE.md:
+# Everything only a real GPU can show, in one command, printed as a table for docs/PERFORMANCE.md#gpu:
 # - the GPU simulation's steps per second and ms per step on the paper's scenes (the glass plate,
 #   the vase and the dragon, each on its own particle file and model) and on grid blocks standing
 #   in for them (vase and dragon scale, and an elastoplastic block), beside the bandwidth floor of
@@ -145,7 +145,7 @@ table() {
   ' "$2"
 }
 
-# The paper-scale shots end to end, each bounded; the figures for docs/PERFORMANCE.md.
+# The paper-scale shots end to end, each bounded; the figures for docs/PERFORMANCE.md#paper-scale-shots.
 shots() {
   vulkan
   [ -f "$bench_dir/shatter.gz" ] || { echo "gpu-bench: .gpu-bench/shatter.gz is missing: run '$0 build' first" >&2; exit 1; }

@@ -11,7 +11,7 @@
 //! oriented surfaces (outer faces plus fracture faces) whose enclosed volumes add up to the
 //! particle file's volume within 0.1%.
 //!
-//! `SHATTER_BLESS=1 cargo test --test regression` rewrites the goldens. A failing comparison
+//! `SHATTER_BLESS=1 cargo test --test integration regression` rewrites the goldens. A failing comparison
 //! writes the rendered image and a FLIP difference image (magma: black is no difference) to
 //! `target/regression/` and names them.
 

@@ -8,8 +8,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::stage_file::{StageFileError, StageKind, StageReader, StageWriter};
 
-/// How a frame's mass is shared: the shots' shatter criterion (docs/DECISIONS.md, "vase_drop's
-/// material") is at least ten fragments over 1% of the mass and single elements under 10%.
+/// How a frame's mass is shared: the shots' shatter criterion (docs/DECISIONS.md#vase-drop-material)
+/// is at least ten fragments over 1% of the mass and single elements under 10%.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MassShares {
     /// The largest fragment's share of the mass.

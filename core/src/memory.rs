@@ -3,8 +3,8 @@
 //! is refused with the estimate and the keys that drive it, instead of aborting part way with
 //! "memory allocation failed".
 //!
-//! The estimates are linear models fitted to measured peaks (docs/DECISIONS.md) and err on the
-//! high side. A particle count is known from the config alone only for the grid sampler on a
+//! The estimates are linear models fitted to measured peaks (docs/DECISIONS.md#memory-estimates)
+//! and err on the high side. A particle count is known from the config alone only for the grid sampler on a
 //! box ([`config_needs`]); preprocessing estimates every sampler's count once the mesh is loaded,
 //! and the later stages check their need once the particle file's header and sizes are read
 //! ([`load_need`], then [`SetSize::of`]).

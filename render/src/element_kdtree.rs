@@ -17,7 +17,7 @@ const BINS: usize = 32;
 const TRAVERSAL_COST: f32 = 1.0;
 /// Relative cost of testing one primitive: a polytope test (six to a few dozen planes, two
 /// divisions each) against one traversal step. At 3 rather than 1.5 the trees are deeper and
-/// rays test half as many elements (docs/DECISIONS.md, "k-d tree").
+/// rays test half as many elements (docs/DECISIONS.md#k-d-tree).
 const INTERSECTION_COST: f32 = 3.0;
 /// Leaves this small are not split.
 const LEAF_SIZE: usize = 2;

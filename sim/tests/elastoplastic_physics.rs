@@ -230,7 +230,7 @@ fn plastic_flow_starts_at_the_yield_stress_and_leaves_a_permanent_set() {
     let mut sim = simulation(&config, &particles);
     let yield_strain = YIELD_STRESS_PA / E;
     // below the yield point nothing flows in the interior; at the faces, whose cut families
-    // see a slightly other deviatoric strain, nothing below 0.9 of it (docs/DECISIONS.md)
+    // see a slightly other deviatoric strain, nothing below 0.9 of it (docs/DECISIONS.md#plasticity)
     load_uniaxially(&mut sim, &particles, nu, 0.9 * yield_strain, 20, |_, _| {});
     assert_eq!(largest_plastic_ratio(&sim, &particles), 0.0, "plastic flow below 0.9 x the yield point");
     let mut sim = simulation(&config, &particles);
@@ -438,7 +438,7 @@ fn bar_period_s(config: &PipelineConfig, particles: &ParticleSet, length: usize,
 /// The two normalisations at free surfaces: under a uniform dilation a face particle stores the
 /// continuum energy density 9 K e^2 / 2 with the weighted volume, and far less with the paper's
 /// analytic constants, which count its family as whole; a 10 x 10 bar rings near the bar speed
-/// sqrt(E / rho) with either (its surface layers a little stiff). docs/DECISIONS.md quotes the
+/// sqrt(E / rho) with either (its surface layers a little stiff). docs/DECISIONS.md#normalisation quotes the
 /// figures this prints.
 #[test]
 fn the_weighted_volume_keeps_free_surfaces_exact_where_the_analytic_constants_do_not() {

@@ -128,8 +128,7 @@ pub enum BreakRule {
     Min,
 }
 
-/// A rule set: the four rules on which peridynamic codes differ (docs/DECISIONS.md, "LAMMPS
-/// rules").
+/// A rule set: the four rules on which peridynamic codes differ (docs/DECISIONS.md#lammps-rules).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum RuleSet {

@@ -5,7 +5,7 @@
 //! there from the portable code: it keeps sixteen-lane arrays on the stack.
 //!
 //! Its `unsafe` is the call into this module's `#[target_feature]` function, made right after the
-//! CPU has been checked for AVX-512F (see `docs/DECISIONS.md`).
+//! CPU has been checked for AVX-512F (see `docs/DECISIONS.md#where-unsafe-is-allowed`).
 
 use std::arch::x86_64::{
     __m128, __m256, __m512, __m512i, _CMP_GT_OQ, _mm256_add_ps, _mm256_castpd_ps, _mm256_castps_pd, _mm256_min_ps,

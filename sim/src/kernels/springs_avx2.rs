@@ -5,7 +5,7 @@
 //! bonds are transposed back and scattered as one 16-byte update per partner.
 //!
 //! Its `unsafe` is the call into this module's `#[target_feature]` function, made right after
-//! the CPU has been checked for AVX2 (see `docs/DECISIONS.md`).
+//! the CPU has been checked for AVX2 (see `docs/DECISIONS.md#where-unsafe-is-allowed`).
 
 use std::arch::x86_64::{
     __m128, __m256, _CMP_GT_OQ, _mm_blend_ps, _mm_min_ps, _mm_sub_ps, _mm256_add_ps, _mm256_and_ps, _mm256_castpd_ps,

@@ -12,7 +12,7 @@ use shatter_core::particles::ParticleSet;
 pub const RHO: f64 = 2200.0;
 pub const LAMBDA: f64 = 0.001;
 /// The horizon factor: on the cubic grid N = 2.5 makes the family's fourth moment isotropic to
-/// 0.6% (N = 3: 13% off; docs/DECISIONS.md).
+/// 0.6% (N = 3: 13% off; docs/DECISIONS.md#elastoplastic-horizon).
 pub const HORIZON_FACTOR: f64 = 2.5;
 /// Glass's Young's modulus, Pa.
 pub const E: f64 = 72e9;
