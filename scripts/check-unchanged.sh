@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Shows that a change leaves every output byte-identical: builds BASE (a commit) and the working
-# tree as release binaries, runs each scene end to end with both on the CPU backend, and compares
-# every file the two runs write. A refactor's proof.
+# tree (or, with --head REV, the commit REV) as release binaries, runs each scene end to end with
+# both on the CPU backend, and compares every file the two runs write. A refactor's proof.
 #
-#   scripts/check-unchanged.sh BASE [SCENE.toml ...]
+#   scripts/check-unchanged.sh BASE [--head REV] [SCENE.toml ...]
 #
 # The scenes default to pipeline.toml and every assets/scenes/*_small.toml. Each side runs its own
 # tree's scenes and assets, copied to target/unchanged/<side>/ so that the runs write there and
@@ -13,12 +13,22 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 repo=$PWD
 
-if [ $# -lt 1 ]; then
-  echo "usage: scripts/check-unchanged.sh BASE [SCENE.toml ...]" >&2
+usage() {
+  echo "usage: scripts/check-unchanged.sh BASE [--head REV] [SCENE.toml ...]" >&2
   exit 2
-fi
-base=$(git rev-parse --verify "$1^{commit}") || { echo "error: $1 is not a commit" >&2; exit 2; }
+}
+commit() {
+  git rev-parse --quiet --verify "$1^{commit}" || { echo "error: $1 is not a commit" >&2; exit 2; }
+}
+[ $# -ge 1 ] || usage
+base=$(commit "$1")
 shift
+head=""
+if [ "${1:-}" = "--head" ]; then
+  [ $# -ge 2 ] || usage
+  head=$(commit "$2")
+  shift 2
+fi
 if [ $# -gt 0 ]; then
   scenes=("$@")
 else
@@ -42,16 +52,26 @@ lay_out() {
   cp -r "$2/assets" "$2/pipeline.toml" "$work/$1/"
 }
 
-if [ ! -d "$work/base-src/.git" ] && [ ! -f "$work/base-src/.git" ]; then
-  git worktree add --detach --force "$work/base-src" "$base" >/dev/null
-else
-  git -C "$work/base-src" checkout --detach --quiet "$base"
+# Checks out commit $2 in worktree $1.
+check_out() {
+  if [ -e "$1/.git" ]; then
+    git -C "$1" checkout --detach --quiet "$2"
+  else
+    git worktree add --detach --force "$1" "$2" >/dev/null
+  fi
+}
+
+check_out "$work/base-src" "$base"
+head_tree=$repo
+if [ -n "$head" ]; then
+  check_out "$work/head-src" "$head"
+  head_tree=$work/head-src
 fi
-echo "building $base and the working tree (release)"
+echo "building $base and ${head:-the working tree} (release)"
 build "$work/base-src" "$work/shatter-base"
-build "$repo" "$work/shatter-head"
+build "$head_tree" "$work/shatter-head"
 lay_out base "$work/base-src"
-lay_out head "$repo"
+lay_out head "$head_tree"
 
 status=0
 for scene in "${scenes[@]}"; do
