@@ -12,7 +12,7 @@ use crate::sim::BackendArg;
 #[derive(Debug, Clone, clap::Args)]
 pub struct RenderArgs {
     /// Frames to render, e.g. `1-240`, `12` or `1-10,20` (default: all of the shot's: the
-    /// simulation's frames, and the follow-through's with [rigid]).
+    /// simulation's frames, and the follow-through's with `[rigid]`).
     #[arg(long, value_name = "LIST")]
     pub frames: Option<String>,
     /// Where to trace: a hardware GPU when found, else the CPU (auto); or force one. Default:

@@ -7,6 +7,7 @@ mod support;
 mod bad_input_corpus;
 mod changed_scene_cli;
 mod cli;
+mod code_size;
 mod deformed_elements;
 mod disk_full_cli;
 mod farm_log_cli;

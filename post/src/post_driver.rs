@@ -8,7 +8,7 @@ use std::time::Instant;
 use shatter_core::debris_points::{self, DebrisFrame};
 use shatter_core::digest;
 use shatter_core::fragments::{FragmentFrame, FragmentMeta};
-use shatter_core::frames::{BreakEvent, BreakLog, FrameFileError, PointFrame};
+use shatter_core::frames::{BreakBlock, BreakEvent, BreakLog, FrameFileError, PointFrame};
 use shatter_core::in_flight::OneInFlight;
 use shatter_core::layout::missing_input;
 use shatter_core::lead_in::LeadIn;
@@ -25,7 +25,7 @@ use crate::components::size_histogram;
 use crate::debris::debris_frame;
 use crate::deformation::ElementDeformation;
 use crate::kabsch::RigidMotion;
-use crate::tracker::FragmentTracker;
+use crate::tracker::{FragmentTracker, TrackedFrame};
 
 /// Why post failed.
 #[derive(Debug, thiserror::Error)]
@@ -81,119 +81,225 @@ pub struct PostReport {
 pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<PostReport, PostError> {
     let started = Instant::now();
     let layout = OutputLayout::of(config);
-    if let Some(message) = missing_input(&layout.particles(), "preprocess") {
-        return Err(PostError::MissingInput(message));
-    }
-    memory::check(&memory::load_need(&layout.particles()))?;
-    let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
-    memory::check(&memory::post_need(&SetSize::of(&particles)))?;
-    let sim_inputs = digest::sim_inputs(particles_checksum, config);
-    let sim_frames = SimFrames::read(config, &layout).map_err(PostError::MissingInput)?;
-    let total = sim_frames.count();
-    for frame in 1..=total {
-        if !layout.frame_points(frame).is_file() {
-            return Err(PostError::MissingInput(format!(
-                "{}: missing (the simulation writes {total} frames); run `shatter sim` first",
-                layout.frame_points(frame).display()
-            )));
-        }
-    }
-    let blocks = BreakLog::read_through(&layout.break_log(), total)?;
+    let input = PostInput::read(config, &layout)?;
     let out_dir = layout.fragments_dir();
     std::fs::create_dir_all(&out_dir).map_err(|source| PostError::Usd { path: out_dir.clone(), source })?;
-    let mass: Vec<f64> = particles.volume_m3.iter().map(|v| f64::from(*v) * config.material.density_kg_m3).collect();
-    let mut tracker = FragmentTracker::new(&particles, mass);
-    // with deformed elements, the bonds' state and each element's affine map per frame
-    let mut deformation =
-        config.post.deformed_elements(config.material.model).then(|| ElementDeformation::new(&particles));
-    let smoothing = config.post.smoothing_frames;
-    let mut history: Vec<(usize, Vec<RigidMotion>)> = Vec::new();
-    let mut sim_times = Vec::with_capacity(total as usize);
-    let mut debris: Vec<DebrisFrame> = Vec::new();
-    let mut last = None;
-    progress.start("post", u64::from(total));
-    // Each frame's files are written while the next frame is read and tracked (one frame in
-    // flight); a frame counts as done once its files are.
-    std::thread::scope(|scope| -> Result<(), PostError> {
-        let mut writing = OneInFlight::default();
-        let done = |(frame, fragments): (u32, usize)| -> Result<(), PostError> {
-            progress.advance(1);
-            progress.message(&format!("frame {frame}/{total}: {fragments} fragments"));
-            Ok(())
-        };
+    let mut tracking = FrameTracking::new(config, &layout, &input);
+    tracking.track_all(progress)?;
+    let last = tracking.last.take().ok_or_else(|| PostError::MissingInput("the simulation has no frames".into()))?;
+    if config.post.usd {
+        tracking.write_shot_usd(&last)?;
+    }
+    Ok(PostReport {
+        frames: input.total,
+        fragments: last.motion.len(),
+        size_histogram: size_histogram(&last.elements),
+        folder: out_dir,
+        wall_s: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// What post reads before its first frame: the particles, which frames the simulation wrote, and
+/// its break log.
+struct PostInput {
+    particles: ParticleSet,
+    /// The digest of the simulation's inputs, which each of its frames carries.
+    sim_inputs: u32,
+    sim_frames: SimFrames,
+    /// The simulation's frame count.
+    total: u32,
+    /// The break log through the last frame.
+    blocks: Vec<BreakBlock>,
+}
+
+impl PostInput {
+    /// Reads the particle file and the break log, and checks that every frame is there and that
+    /// the stage fits in memory.
+    fn read(config: &PipelineConfig, layout: &OutputLayout) -> Result<PostInput, PostError> {
+        if let Some(message) = missing_input(&layout.particles(), "preprocess") {
+            return Err(PostError::MissingInput(message));
+        }
+        memory::check(&memory::load_need(&layout.particles()))?;
+        let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
+        memory::check(&memory::post_need(&SetSize::of(&particles)))?;
+        let sim_inputs = digest::sim_inputs(particles_checksum, config);
+        let sim_frames = SimFrames::read(config, layout).map_err(PostError::MissingInput)?;
+        let total = sim_frames.count();
         for frame in 1..=total {
-            let events: Vec<BreakEvent> =
-                blocks.iter().filter(|b| b.frame == frame).flat_map(|b| b.events.iter().copied()).collect();
-            for event in &events {
-                tracker.break_bond(event.bond);
-                if let Some(deformation) = &mut deformation {
-                    deformation.break_bond(&particles, event.bond);
-                }
-            }
-            let points = PointFrame::read(&layout.frame_points(frame))?;
-            if points.inputs != Some(sim_inputs) {
+            if !layout.frame_points(frame).is_file() {
                 return Err(PostError::MissingInput(format!(
-                    "{}: made from another particle file or other [sim] or [material] settings; run `shatter sim` again",
+                    "{}: missing (the simulation writes {total} frames); run `shatter sim` first",
                     layout.frame_points(frame).display()
                 )));
             }
-            if points.frame != frame {
-                let what = format!("holds frame {}, not {frame} (renamed from another frame's name?)", points.frame);
-                return Err(FrameFileError::Invalid { path: layout.frame_points(frame), what }.into());
-            }
-            if points.damage.len() != particles.len() {
-                return Err(PostError::MissingInput(format!(
-                    "{}: {} points, but the particle file has {}; run `shatter sim` again",
-                    layout.frame_points(frame).display(),
-                    points.damage.len(),
-                    particles.len()
-                )));
-            }
-            let position = [&points.position[0][..], &points.position[1][..], &points.position[2][..]];
-            let tracked = tracker.track(position, smoothing);
-            let fragments = FragmentFrame {
-                meta: FragmentMeta {
-                    frame,
-                    step: points.step,
-                    time_s: points.time_s,
-                    smoothed: smoothing > 0.0,
-                    inputs: Some(digest::post_inputs(sim_inputs, config)),
-                },
-                fragment_of: tracked.fragment_of.clone(),
-                rotation: tracked.motion.iter().map(|m| m.rotation.as_quat().to_array()).collect(),
-                translation_m: tracked.motion.iter().map(|m| m.translation.to_array()).collect(),
-                elements: tracked.elements.clone(),
-                mass_kg: tracked.mass_kg.clone(),
-                element_affine: deformation
-                    .as_ref()
-                    .map(|d| d.element_affine(&particles, position, &tracked.fragment_of, &tracked.motion)),
-            };
-            let frame_debris =
-                debris_frame(frame, &events, &particles.bonds, &points, &tracked.fragment_of, config.sim.dt_s);
-            sim_times.push(points.time_s);
-            let caches = config.post.point_caches.then(|| PointCaches {
-                points_path: layout.fragment_points(frame),
-                debris_path: layout.debris_points(frame),
-                debris: frame_debris.clone(),
-                points,
-            });
-            let files = FrameFiles { path: layout.fragments(frame), fragments, caches };
-            debris.push(frame_debris);
-            history.push((tracked.motion.len(), tracked.motion.clone()));
-            writing.start(scope, (frame, tracked.motion.len()), move || files.write(), done)?;
-            last = Some(tracked);
         }
-        writing.wait(done)
-    })?;
-    progress.finish();
-    let last = last.ok_or_else(|| PostError::MissingInput("the simulation has no frames".into()))?;
-    if config.post.usd {
+        let blocks = BreakLog::read_through(&layout.break_log(), total)?;
+        Ok(PostInput { particles, sim_inputs, sim_frames, total, blocks })
+    }
+}
+
+/// The pass over the simulation's frames: each frame's breaks, its fragments tracked, its files
+/// handed on, and what the USD shot keeps of it.
+struct FrameTracking<'a> {
+    config: &'a PipelineConfig,
+    layout: &'a OutputLayout,
+    input: &'a PostInput,
+    tracker: FragmentTracker,
+    /// With deformed elements, the bonds' state and each element's affine map per frame.
+    deformation: Option<ElementDeformation>,
+    /// Each frame's fragment count and motions.
+    history: Vec<(usize, Vec<RigidMotion>)>,
+    /// Each frame's simulation time, seconds.
+    sim_times: Vec<f64>,
+    /// Each frame's debris emitter points.
+    debris: Vec<DebrisFrame>,
+    /// The last frame's fragments.
+    last: Option<TrackedFrame>,
+}
+
+impl<'a> FrameTracking<'a> {
+    /// The pass before its first frame.
+    fn new(config: &'a PipelineConfig, layout: &'a OutputLayout, input: &'a PostInput) -> FrameTracking<'a> {
+        let particles = &input.particles;
+        let mass: Vec<f64> =
+            particles.volume_m3.iter().map(|v| f64::from(*v) * config.material.density_kg_m3).collect();
+        let tracker = FragmentTracker::new(particles, mass);
+        let deformation =
+            config.post.deformed_elements(config.material.model).then(|| ElementDeformation::new(particles));
+        let total = input.total as usize;
+        FrameTracking {
+            config,
+            layout,
+            input,
+            tracker,
+            deformation,
+            history: Vec::new(),
+            sim_times: Vec::with_capacity(total),
+            debris: Vec::new(),
+            last: None,
+        }
+    }
+
+    /// Tracks every frame and writes its files. Each frame's files are written while the next
+    /// frame is read and tracked (one frame in flight); a frame counts as done once its files are.
+    fn track_all(&mut self, progress: &dyn Progress) -> Result<(), PostError> {
+        let total = self.input.total;
+        progress.start("post", u64::from(total));
+        std::thread::scope(|scope| -> Result<(), PostError> {
+            let mut writing = OneInFlight::default();
+            let done = |(frame, fragments): (u32, usize)| -> Result<(), PostError> {
+                progress.advance(1);
+                progress.message(&format!("frame {frame}/{total}: {fragments} fragments"));
+                Ok(())
+            };
+            for frame in 1..=total {
+                let (files, fragments) = self.track_frame(frame)?;
+                writing.start(scope, (frame, fragments), move || files.write(), done)?;
+            }
+            writing.wait(done)
+        })?;
+        progress.finish();
+        Ok(())
+    }
+
+    /// Breaks frame `frame`'s bonds and tracks its fragments: its files, and its fragment count.
+    fn track_frame(&mut self, frame: u32) -> Result<(FrameFiles, usize), PostError> {
+        let (config, layout, particles) = (self.config, self.layout, &self.input.particles);
+        let events: Vec<BreakEvent> =
+            self.input.blocks.iter().filter(|b| b.frame == frame).flat_map(|b| b.events.iter().copied()).collect();
+        for event in &events {
+            self.tracker.break_bond(event.bond);
+            if let Some(deformation) = &mut self.deformation {
+                deformation.break_bond(particles, event.bond);
+            }
+        }
+        let points = self.read_points(frame)?;
+        let position = [&points.position[0][..], &points.position[1][..], &points.position[2][..]];
+        let tracked = self.tracker.track(position, config.post.smoothing_frames);
+        let fragments = self.fragment_frame(frame, &points, position, &tracked);
+        let frame_debris =
+            debris_frame(frame, &events, &particles.bonds, &points, &tracked.fragment_of, config.sim.dt_s);
+        self.sim_times.push(points.time_s);
+        let caches = config.post.point_caches.then(|| PointCaches {
+            points_path: layout.fragment_points(frame),
+            debris_path: layout.debris_points(frame),
+            debris: frame_debris.clone(),
+            points,
+        });
+        let files = FrameFiles { path: layout.fragments(frame), fragments, caches };
+        self.debris.push(frame_debris);
+        self.history.push((tracked.motion.len(), tracked.motion.clone()));
+        let count = tracked.motion.len();
+        self.last = Some(tracked);
+        Ok((files, count))
+    }
+
+    /// The simulation's frame `frame`, checked to belong to the particle file and the settings.
+    fn read_points(&self, frame: u32) -> Result<PointFrame, PostError> {
+        let (layout, particles) = (self.layout, &self.input.particles);
+        let points = PointFrame::read(&layout.frame_points(frame))?;
+        if points.inputs != Some(self.input.sim_inputs) {
+            return Err(PostError::MissingInput(format!(
+                "{}: made from another particle file or other [sim] or [material] settings; run `shatter sim` again",
+                layout.frame_points(frame).display()
+            )));
+        }
+        if points.frame != frame {
+            let what = format!("holds frame {}, not {frame} (renamed from another frame's name?)", points.frame);
+            return Err(FrameFileError::Invalid { path: layout.frame_points(frame), what }.into());
+        }
+        if points.damage.len() != particles.len() {
+            return Err(PostError::MissingInput(format!(
+                "{}: {} points, but the particle file has {}; run `shatter sim` again",
+                layout.frame_points(frame).display(),
+                points.damage.len(),
+                particles.len()
+            )));
+        }
+        Ok(points)
+    }
+
+    /// The fragments file of frame `frame`, tracked as `tracked` from its `points` (at `position`).
+    fn fragment_frame(
+        &self,
+        frame: u32,
+        points: &PointFrame,
+        position: [&[f32]; 3],
+        tracked: &TrackedFrame,
+    ) -> FragmentFrame {
+        let config = self.config;
+        FragmentFrame {
+            meta: FragmentMeta {
+                frame,
+                step: points.step,
+                time_s: points.time_s,
+                smoothed: config.post.smoothing_frames > 0.0,
+                inputs: Some(digest::post_inputs(self.input.sim_inputs, config)),
+            },
+            fragment_of: tracked.fragment_of.clone(),
+            rotation: tracked.motion.iter().map(|m| m.rotation.as_quat().to_array()).collect(),
+            translation_m: tracked.motion.iter().map(|m| m.translation.to_array()).collect(),
+            elements: tracked.elements.clone(),
+            mass_kg: tracked.mass_kg.clone(),
+            element_affine: self
+                .deformation
+                .as_ref()
+                .map(|d| d.element_affine(&self.input.particles, position, &tracked.fragment_of, &tracked.motion)),
+        }
+    }
+
+    /// Writes the USD shot: one mesh per final piece (the fragments of the `last` frame), moved
+    /// with the intact body through the lead-in's frames, then with the fragment that holds it at
+    /// each simulation frame.
+    fn write_shot_usd(self, last: &TrackedFrame) -> Result<(), PostError> {
+        let (config, layout, input) = (self.config, self.layout, self.input);
+        let (particles, sim_frames) = (&input.particles, &input.sim_frames);
         let pieces = last.motion.len();
-        let meshes = surfaces::piece_surfaces(&particles, &last.fragment_of, pieces);
+        let meshes = surfaces::piece_surfaces(particles, &last.fragment_of, pieces);
         // the lead-in's frames first (one fragment: every piece moves with the intact body)
         let lead_in_frames = sim_frames.first_shot_frame - 1;
         let elements = element_of_pieces(&last.fragment_of, pieces);
-        let mut transforms = Vec::with_capacity((lead_in_frames + total) as usize);
+        let mut transforms = Vec::with_capacity((lead_in_frames + input.total) as usize);
         let mut lead_in_times = Vec::with_capacity(lead_in_frames as usize);
         for frame in 1..=lead_in_frames {
             let path = layout.lead_in_fragments(frame);
@@ -206,12 +312,12 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
         }
         let sim_start_s = match config.lead_in {
             None => 0.0,
-            Some(_) => LeadIn::read_for(&layout).map_err(PostError::MissingInput)?.handoff_time_s,
+            Some(_) => LeadIn::read_for(layout).map_err(PostError::MissingInput)?.handoff_time_s,
         };
-        transforms.extend(history.iter().map(|(count, motions)| {
+        transforms.extend(self.history.iter().map(|(count, motions)| {
             (0..pieces as u32)
                 .map(|piece| {
-                    let m = motions[tracker.ancestor(piece, *count) as usize];
+                    let m = motions[self.tracker.ancestor(piece, *count) as usize];
                     PieceTransform { rotation: m.rotation, translation: m.translation }
                 })
                 .collect()
@@ -222,11 +328,11 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
         // the shot's frame numbers, and physical m/s to metres per playback second (the lead-in
         // emits no debris)
         let quiet = (1..=lead_in_frames).map(|frame| DebrisFrame { frame, ..DebrisFrame::default() });
-        let debris: Vec<DebrisFrame> = quiet.chain(debris).collect();
+        let debris: Vec<DebrisFrame> = quiet.chain(self.debris).collect();
         let speed: Vec<f64> = (1..=lead_in_frames).map(|_| 1.0).chain(sim_frames.speed.iter().copied()).collect();
         // with a lead-in or a timeline the frames have a clock of their own: their physical times
         let clocked = config.lead_in.is_some() || config.timeline.is_some();
-        let times: Vec<f64> = lead_in_times.into_iter().chain(sim_times.iter().map(|t| sim_start_s + t)).collect();
+        let times: Vec<f64> = lead_in_times.into_iter().chain(self.sim_times.iter().map(|t| sim_start_s + t)).collect();
         let shot = UsdShot {
             meshes: &meshes,
             transforms: &transforms,
@@ -237,15 +343,8 @@ pub fn run_post(config: &PipelineConfig, progress: &dyn Progress) -> Result<Post
             velocity_scale: &speed,
             physical_time_s: clocked.then_some(times.as_slice()),
         };
-        write_usda(&path, &shot).map_err(|source| PostError::Usd { path, source })?;
+        write_usda(&path, &shot).map_err(|source| PostError::Usd { path, source })
     }
-    Ok(PostReport {
-        frames: total,
-        fragments: last.motion.len(),
-        size_histogram: size_histogram(&last.elements),
-        folder: out_dir,
-        wall_s: started.elapsed().as_secs_f64(),
-    })
 }
 
 /// One frame's files: its fragments file and, when asked for, its point caches.

@@ -70,6 +70,11 @@ fn vec4(v: [f32; 3], w: f32) -> [f32; 4] {
     [v[0], v[1], v[2], w]
 }
 
+/// `v`, or one zero where it is empty (a binding cannot be empty).
+fn non_empty_u32(v: &[u32]) -> &[u32] {
+    if v.is_empty() { &[0] } else { v }
+}
+
 /// A compiled tracer on one GPU.
 pub struct GpuTracer {
     kernel: ComputeKernel,
@@ -93,7 +98,6 @@ impl GpuTracer {
         camera: &Camera,
         samples: u32,
     ) -> Result<Rendered, GpuError> {
-        let non_empty = |v: Vec<[f32; 4]>| if v.is_empty() { vec![[0.0; 4]] } else { v };
         // The shaders walk one world tree (the CPU's index of a frame's fragments is not theirs).
         let built;
         let tree = match scene.index.world_tree() {
@@ -103,50 +107,34 @@ impl GpuTracer {
                 &built
             }
         };
-        let nodes = ctx.create_storage_buffer("kd nodes", &tree.nodes)?;
-        let items =
-            ctx.create_storage_buffer("kd items", if tree.items.is_empty() { &[0u32][..] } else { &tree.items })?;
-        let plane_offsets = ctx.create_storage_buffer("plane offsets", &scene.plane_offsets)?;
-        let planes = ctx.create_storage_buffer("planes", &non_empty(scene.planes.clone()))?;
-        let triangle_offsets = ctx.create_storage_buffer("triangle offsets", &scene.triangle_offsets)?;
-        let triangles: Vec<[f32; 4]> = scene.triangles.iter().flat_map(|t| t.map(|v| vec4(v, 0.0))).collect();
-        let triangles = ctx.create_storage_buffer("triangles", &non_empty(triangles))?;
-        let triangle_group_offsets =
-            ctx.create_storage_buffer("triangle group offsets", &scene.triangle_group_offsets)?;
-        let triangle_groups: Vec<[f32; 4]> =
-            scene.triangle_groups.iter().flat_map(|b| [vec4(b.min, 0.0), vec4(b.max, 0.0)]).collect();
-        let triangle_groups = ctx.create_storage_buffer("triangle groups", &non_empty(triangle_groups))?;
-        let sites: Vec<[f32; 4]> = scene.sites.iter().map(|s| vec4(*s, 0.0)).collect();
-        let sites = ctx.create_storage_buffer("sites", &non_empty(sites))?;
-        let interior_faces = ctx.create_storage_buffer(
-            "interior faces",
-            if scene.interior_faces.is_empty() { &[0u32][..] } else { &scene.interior_faces },
-        )?;
-        let face_neighbours = ctx.create_storage_buffer(
-            "face neighbours",
-            if scene.face_neighbours.is_empty() { &[0u32][..] } else { &scene.face_neighbours },
-        )?;
-        let fragments = ctx.create_storage_buffer(
-            "fragments",
-            if scene.fragment.is_empty() { &[0u32][..] } else { &scene.fragment },
-        )?;
-        let environment: Vec<[f32; 4]> = look.environment.texels.iter().map(|t| vec4(*t, 0.0)).collect();
-        let environment = ctx.create_storage_buffer("environment", &environment)?;
-        let (floor_size, floor_texels) = match &look.floor {
-            Some(floor) => {
-                (floor.size, (0..floor.texels.len()).map(|i| vec4(floor.texels.linear_at(i), 0.0)).collect())
-            }
-            None => ([1, 1], vec![[0.0; 4]]),
-        };
-        let floor_texels = ctx.create_storage_buffer("floor texture", &floor_texels)?;
-
         let total = camera.width * camera.height;
+        let mut params = Params::new(scene, look, camera, samples, tree);
+        let buffers = TraceBuffers::upload(ctx, scene, look, tree, &params, total)?;
+        let mut first = 0u32;
+        while first < total {
+            let count = BATCH_PIXELS.min(total - first);
+            params.floor[2] = f32::from_bits(first);
+            params.floor[3] = f32::from_bits(count);
+            ctx.write_buffer(&buffers.params, 0, std::slice::from_ref(&params))?;
+            let group = self.kernel.bind_group(ctx, 0, &buffers.batch_bindings(first, count))?;
+            self.kernel.dispatch_invocations(ctx, &[&group], u64::from(count))?;
+            first += count;
+        }
+        buffers.read_pixels(ctx, total)
+    }
+}
+
+impl Params {
+    /// The parameters of a render of `scene` (walking `tree`) in `look` through `camera`, with
+    /// `samples` samples a pixel; the batch's pixels (`floor`'s last two lanes) still unset.
+    fn new(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32, tree: &KdTree) -> Params {
+        let floor_size = look.floor.as_ref().map_or([1, 1], |floor| floor.size);
         let element_type = match scene.element_type {
             ElementType::Cube => 0,
             ElementType::Tet => 1,
             ElementType::Trimtope => 2,
         };
-        let mut params = Params {
+        Params {
             camera_origin: vec4(camera.origin, 0.0),
             camera_forward: vec4(camera.forward, 0.0),
             camera_right: vec4(camera.right, 0.0),
@@ -174,56 +162,134 @@ impl GpuTracer {
             sh: look.sh.map(|c| vec4(c, 0.0)),
             fracture_albedo: vec4(look.fracture_albedo, 0.0),
             look_flags: [look.glass_split_events, u32::from(look.opaque_cubes), 0, 0],
-        };
-        let uniform = ctx.create_uniform_buffer("trace params", &params)?;
-        let pixel_bytes = std::mem::size_of::<PixelOut>() as u64;
-        let output = ctx.create_zeroed_storage_buffer("pixels", u64::from(total.max(1)) * pixel_bytes)?;
-        let matte_bytes = std::mem::size_of::<MatteCounts>() as u64;
-        let matte_output = ctx.create_zeroed_storage_buffer("mattes", u64::from(total.max(1)) * matte_bytes)?;
-        let mut first = 0u32;
-        while first < total {
-            let count = BATCH_PIXELS.min(total - first);
-            params.floor[2] = f32::from_bits(first);
-            params.floor[3] = f32::from_bits(count);
-            ctx.write_buffer(&uniform, 0, std::slice::from_ref(&params))?;
-            let output_slice = wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                buffer: &output,
-                offset: u64::from(first) * pixel_bytes,
-                size: wgpu::BufferSize::new(u64::from(count) * pixel_bytes),
-            });
-            let matte_slice = wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                buffer: &matte_output,
-                offset: u64::from(first) * matte_bytes,
-                size: wgpu::BufferSize::new(u64::from(count) * matte_bytes),
-            });
-            let group = self.kernel.bind_group(
-                ctx,
-                0,
-                &[
-                    uniform.as_entire_binding(),
-                    nodes.as_entire_binding(),
-                    items.as_entire_binding(),
-                    plane_offsets.as_entire_binding(),
-                    planes.as_entire_binding(),
-                    triangle_offsets.as_entire_binding(),
-                    triangles.as_entire_binding(),
-                    sites.as_entire_binding(),
-                    fragments.as_entire_binding(),
-                    environment.as_entire_binding(),
-                    floor_texels.as_entire_binding(),
-                    output_slice,
-                    triangle_group_offsets.as_entire_binding(),
-                    triangle_groups.as_entire_binding(),
-                    interior_faces.as_entire_binding(),
-                    matte_slice,
-                    face_neighbours.as_entire_binding(),
-                ],
-            )?;
-            self.kernel.dispatch_invocations(ctx, &[&group], u64::from(count))?;
-            first += count;
         }
-        let out: Vec<PixelOut> = ctx.read_buffer(&output, total as usize)?;
-        let mattes: Vec<MatteCounts> = ctx.read_buffer(&matte_output, total as usize)?;
+    }
+}
+
+/// A render's buffers on the GPU: the parameters, the scene and look uploaded, and the pixels'
+/// outputs.
+struct TraceBuffers {
+    params: wgpu::Buffer,
+    nodes: wgpu::Buffer,
+    items: wgpu::Buffer,
+    plane_offsets: wgpu::Buffer,
+    planes: wgpu::Buffer,
+    triangle_offsets: wgpu::Buffer,
+    triangles: wgpu::Buffer,
+    triangle_group_offsets: wgpu::Buffer,
+    triangle_groups: wgpu::Buffer,
+    sites: wgpu::Buffer,
+    interior_faces: wgpu::Buffer,
+    face_neighbours: wgpu::Buffer,
+    fragments: wgpu::Buffer,
+    environment: wgpu::Buffer,
+    floor_texels: wgpu::Buffer,
+    /// `PixelOut` per pixel.
+    pixels: wgpu::Buffer,
+    /// `MatteCounts` per pixel.
+    mattes: wgpu::Buffer,
+}
+
+/// Bytes of one pixel's output.
+const PIXEL_BYTES: u64 = std::mem::size_of::<PixelOut>() as u64;
+/// Bytes of one pixel's matte counts.
+const MATTE_BYTES: u64 = std::mem::size_of::<MatteCounts>() as u64;
+
+impl TraceBuffers {
+    /// Uploads `scene` (walking `tree`), `look` and `params`, and makes room for `total` pixels.
+    fn upload(
+        ctx: &GpuContext,
+        scene: &SceneGeometry,
+        look: &Look,
+        tree: &KdTree,
+        params: &Params,
+        total: u32,
+    ) -> Result<TraceBuffers, GpuError> {
+        // an empty array as one zero element (a binding cannot be empty)
+        let non_empty = |v: Vec<[f32; 4]>| if v.is_empty() { vec![[0.0; 4]] } else { v };
+        let nodes = ctx.create_storage_buffer("kd nodes", &tree.nodes)?;
+        let items = ctx.create_storage_buffer("kd items", non_empty_u32(&tree.items))?;
+        let plane_offsets = ctx.create_storage_buffer("plane offsets", &scene.plane_offsets)?;
+        let planes = ctx.create_storage_buffer("planes", &non_empty(scene.planes.clone()))?;
+        let triangle_offsets = ctx.create_storage_buffer("triangle offsets", &scene.triangle_offsets)?;
+        let triangles: Vec<[f32; 4]> = scene.triangles.iter().flat_map(|t| t.map(|v| vec4(v, 0.0))).collect();
+        let triangles = ctx.create_storage_buffer("triangles", &non_empty(triangles))?;
+        let triangle_group_offsets =
+            ctx.create_storage_buffer("triangle group offsets", &scene.triangle_group_offsets)?;
+        let triangle_groups: Vec<[f32; 4]> =
+            scene.triangle_groups.iter().flat_map(|b| [vec4(b.min, 0.0), vec4(b.max, 0.0)]).collect();
+        let triangle_groups = ctx.create_storage_buffer("triangle groups", &non_empty(triangle_groups))?;
+        let sites: Vec<[f32; 4]> = scene.sites.iter().map(|s| vec4(*s, 0.0)).collect();
+        let sites = ctx.create_storage_buffer("sites", &non_empty(sites))?;
+        let interior_faces = ctx.create_storage_buffer("interior faces", non_empty_u32(&scene.interior_faces))?;
+        let face_neighbours = ctx.create_storage_buffer("face neighbours", non_empty_u32(&scene.face_neighbours))?;
+        let fragments = ctx.create_storage_buffer("fragments", non_empty_u32(&scene.fragment))?;
+        let environment: Vec<[f32; 4]> = look.environment.texels.iter().map(|t| vec4(*t, 0.0)).collect();
+        let environment = ctx.create_storage_buffer("environment", &environment)?;
+        let floor_texels = match &look.floor {
+            Some(floor) => (0..floor.texels.len()).map(|i| vec4(floor.texels.linear_at(i), 0.0)).collect(),
+            None => vec![[0.0; 4]],
+        };
+        let floor_texels = ctx.create_storage_buffer("floor texture", &floor_texels)?;
+        let params = ctx.create_uniform_buffer("trace params", params)?;
+        let pixels = ctx.create_zeroed_storage_buffer("pixels", u64::from(total.max(1)) * PIXEL_BYTES)?;
+        let mattes = ctx.create_zeroed_storage_buffer("mattes", u64::from(total.max(1)) * MATTE_BYTES)?;
+        Ok(TraceBuffers {
+            params,
+            nodes,
+            items,
+            plane_offsets,
+            planes,
+            triangle_offsets,
+            triangles,
+            triangle_group_offsets,
+            triangle_groups,
+            sites,
+            interior_faces,
+            face_neighbours,
+            fragments,
+            environment,
+            floor_texels,
+            pixels,
+            mattes,
+        })
+    }
+
+    /// The bindings of the batch of `count` pixels from pixel `first`, in the order of
+    /// shaders/bindings.wgsl: the outputs are the batch's slices.
+    fn batch_bindings(&self, first: u32, count: u32) -> [wgpu::BindingResource<'_>; 17] {
+        let slice = |buffer, bytes: u64| {
+            wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                buffer,
+                offset: u64::from(first) * bytes,
+                size: wgpu::BufferSize::new(u64::from(count) * bytes),
+            })
+        };
+        [
+            self.params.as_entire_binding(),
+            self.nodes.as_entire_binding(),
+            self.items.as_entire_binding(),
+            self.plane_offsets.as_entire_binding(),
+            self.planes.as_entire_binding(),
+            self.triangle_offsets.as_entire_binding(),
+            self.triangles.as_entire_binding(),
+            self.sites.as_entire_binding(),
+            self.fragments.as_entire_binding(),
+            self.environment.as_entire_binding(),
+            self.floor_texels.as_entire_binding(),
+            slice(&self.pixels, PIXEL_BYTES),
+            self.triangle_group_offsets.as_entire_binding(),
+            self.triangle_groups.as_entire_binding(),
+            self.interior_faces.as_entire_binding(),
+            slice(&self.mattes, MATTE_BYTES),
+            self.face_neighbours.as_entire_binding(),
+        ]
+    }
+
+    /// Reads back the `total` pixels and their matte counts.
+    fn read_pixels(&self, ctx: &GpuContext, total: u32) -> Result<Rendered, GpuError> {
+        let out: Vec<PixelOut> = ctx.read_buffer(&self.pixels, total as usize)?;
+        let mattes: Vec<MatteCounts> = ctx.read_buffer(&self.mattes, total as usize)?;
         let pixels = out
             .iter()
             .map(|p| Pixel {

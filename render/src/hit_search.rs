@@ -11,7 +11,7 @@
 use shatter_core::particles::ElementType;
 
 use crate::element_kdtree::{PACKET, each_ray};
-use crate::primitives::{CubeFromOrigin, TrimtopeHit, along, dot, polytope_span, trimtope_hit};
+use crate::primitives::{CubeFromOrigin, Trimtope, TrimtopeHit, along, dot, polytope_span, trimtope_hit};
 use crate::scene_geometry::SceneGeometry;
 
 /// No element.
@@ -41,8 +41,14 @@ impl Hit {
 /// and a fracture-face lookup for one element, not for every one).
 fn element_entry(scene: &SceneGeometry, e: usize, origin: [f32; 3], direction: [f32; 3], t_min: f32) -> TrimtopeHit {
     if scene.element_type == ElementType::Trimtope {
-        let (planes, triangles, groups) = (scene.planes_of(e), scene.triangles_of(e), scene.triangle_groups_of(e));
-        return trimtope_hit(planes, triangles, groups, scene.sites[e], scene.slack, origin, direction, t_min);
+        let cell = Trimtope {
+            planes: scene.planes_of(e),
+            triangles: scene.triangles_of(e),
+            groups: scene.triangle_groups_of(e),
+            site: scene.sites[e],
+            slack: scene.slack,
+        };
+        return trimtope_hit(&cell, origin, direction, t_min);
     }
     let entry = match scene.cube(e) {
         Some((axes, distances)) => CubeFromOrigin::new(axes, distances, origin).entry(scene.slack, direction, t_min),

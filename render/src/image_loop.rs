@@ -72,8 +72,8 @@ pub fn render(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32)
                         rows[local] = traced;
                     }
                     matte_rows[local].add(traced.fragment, traced.surface);
-                    for c in 0..3 {
-                        sums[k][c] += traced.color[c];
+                    for (sum, colour) in sums[k].iter_mut().zip(traced.color) {
+                        *sum += colour;
                     }
                     alphas[k] += traced.alpha;
                 }
@@ -145,7 +145,7 @@ impl Tile {
 pub const TILE_ROWS: usize = 2;
 
 /// The nearest element surface along each pixel's centre ray (row-major, top row first), each
-/// exactly what [`closest_hit`] gives it, traced in packets as [`render`] traces first surfaces:
+/// exactly what [`crate::hit_search::closest_hit`] gives it, traced in packets as [`render`] traces first surfaces:
 /// what a ray-casting query answers, without shading.
 pub fn pixel_hits(scene: &SceneGeometry, camera: &Camera) -> Vec<Hit> {
     let width = camera.width as usize;

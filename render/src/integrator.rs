@@ -156,8 +156,8 @@ impl PathTracer<'_> {
         let (o, d) = (path.origin, path.direction);
         let (t, m, last) = union_exit(self.scene, path.inside, o, d);
         let exit = along(o, d, t);
-        for c in 0..3 {
-            path.throughput[c] *= (-self.look.absorption[c] * t).exp();
+        for (weight, absorption) in path.throughput.iter_mut().zip(self.look.absorption) {
+            *weight *= (-absorption * t).exp();
         }
         let reflected = Branch { origin: along(exit, m, -self.eps), direction: reflect(d, m), inside: last, ..*path };
         match refract(d, m.map(|v| -v), self.look.ior) {
@@ -266,8 +266,8 @@ impl PathTracer<'_> {
 
     /// Adds `radiance` weighted by `throughput` to the pixel's colour.
     fn add(&mut self, throughput: [f32; 3], radiance: [f32; 3]) {
-        for c in 0..3 {
-            self.result.color[c] += throughput[c] * radiance[c];
+        for ((colour, weight), light) in self.result.color.iter_mut().zip(throughput).zip(radiance) {
+            *colour += weight * light;
         }
     }
 

@@ -260,24 +260,29 @@ pub enum TrimtopeHit {
     },
 }
 
-/// The rules of Levine et al.'s Fig. 4 for a ray meeting a Voronoi cell (`planes`, site `site`)
-/// with embedded triangles (and their [`triangle_groups`]), starting no earlier than `t_min`.
-/// Within the cell, the first triangle the ray meets decides: front side first (it enters the
-/// surface there) is a surface hit (C); back side first (it was inside already) is a hit on the
-/// entry face (D). Meeting no triangle, a secondary ray from the entry point to the site decides:
-/// a front side on the way means the entry point is outside the surface, a miss (A); otherwise a
-/// hit on the entry face (B).
-#[allow(clippy::too_many_arguments)]
-pub fn trimtope_hit(
-    planes: &[Plane],
-    triangles: &[[[f32; 3]; 3]],
-    groups: &[Aabb],
-    site: [f32; 3],
-    slack: f32,
-    origin: [f32; 3],
-    direction: [f32; 3],
-    t_min: f32,
-) -> TrimtopeHit {
+/// A trimtope as a ray meets it: a Voronoi cell with the surface triangles embedded in it.
+#[derive(Debug, Clone, Copy)]
+pub struct Trimtope<'a> {
+    /// The cell's planes.
+    pub planes: &'a [Plane],
+    /// The embedded surface triangles, in groups of [`TRIANGLE_GROUP`].
+    pub triangles: &'a [[[f32; 3]; 3]],
+    /// The bounds of each group of triangles ([`triangle_groups`]).
+    pub groups: &'a [Aabb],
+    /// The cell's site.
+    pub site: [f32; 3],
+    /// The widening of the hit-or-miss test ([`polytope_span`]).
+    pub slack: f32,
+}
+
+/// The rules of Levine et al.'s Fig. 4 for a ray meeting the trimtope `cell`, starting no earlier
+/// than `t_min`. Within the cell, the first triangle the ray meets decides: front side first (it
+/// enters the surface there) is a surface hit (C); back side first (it was inside already) is a
+/// hit on the entry face (D). Meeting no triangle, a secondary ray from the entry point to the
+/// site decides: a front side on the way means the entry point is outside the surface, a miss
+/// (A); otherwise a hit on the entry face (B).
+pub fn trimtope_hit(cell: &Trimtope, origin: [f32; 3], direction: [f32; 3], t_min: f32) -> TrimtopeHit {
+    let Trimtope { planes, triangles, groups, site, slack } = *cell;
     let Some(span) = polytope_span(planes, slack, origin, direction) else {
         return TrimtopeHit::Miss;
     };
@@ -511,9 +516,9 @@ mod tests {
     #[test]
     fn the_four_cases_of_fig_4() {
         let (planes, triangles, site) = cell();
-        let hit = |origin: [f32; 3], direction: [f32; 3]| {
-            trimtope_hit(&planes, &triangles, &triangle_groups(&triangles), site, 0.0, origin, direction, 0.0)
-        };
+        let groups = triangle_groups(&triangles);
+        let cell = Trimtope { planes: &planes, triangles: &triangles, groups: &groups, site, slack: 0.0 };
+        let hit = |origin: [f32; 3], direction: [f32; 3]| trimtope_hit(&cell, origin, direction, 0.0);
         // A: enters and leaves above the surface (outside the solid), no triangle on the way:
         // the secondary ray to the site crosses the surface's front: a miss
         assert_eq!(hit([-2.0, 0.0, 0.4], [1.0, 0.0, 0.0]), TrimtopeHit::Miss);
@@ -553,8 +558,9 @@ mod tests {
             let target = [r(), r(), r()];
             let direction = [0, 1, 2].map(|a| target[a] - origin[a]);
             let site = [0.02 * r(), 0.02 * r(), 0.02 * r()];
-            let grouped = trimtope_hit(&planes, &triangles, &groups, site, 0.0, origin, direction, 0.0);
-            let brute = trimtope_hit(&planes, &triangles, &everywhere, site, 0.0, origin, direction, 0.0);
+            let cell = Trimtope { planes: &planes, triangles: &triangles, groups: &groups, site, slack: 0.0 };
+            let grouped = trimtope_hit(&cell, origin, direction, 0.0);
+            let brute = trimtope_hit(&Trimtope { groups: &everywhere, ..cell }, origin, direction, 0.0);
             assert_eq!(grouped, brute);
             kinds[match grouped {
                 TrimtopeHit::Miss => 0,

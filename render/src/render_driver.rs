@@ -29,7 +29,7 @@ use crate::image_out::{FrameHeader, FrameLayers, ImageError, write_exr, write_pn
 use crate::integrator::Pixel;
 use crate::lighting::{EnvironmentMap, LightingError, key_light, sh_project};
 use crate::materials::{FloorLook, FloorTexels, Look};
-use crate::motion::motion_vectors;
+use crate::motion::{Motions, motion_vectors};
 use crate::placing::SceneBasis;
 use crate::scene_geometry::SceneGeometry;
 
@@ -308,77 +308,15 @@ pub fn run_render(
 ) -> Result<RenderReport, RenderError> {
     let started = Instant::now();
     let render_config = &config.render;
-    let layout = OutputLayout::of(config);
-    let shot = Shot::of(config, &layout).map_err(RenderError::Input)?;
-    let frames: Vec<u32> = match frames {
-        Some(frames) => frames.to_vec(),
-        None => (1..=shot.last).collect(),
-    };
-    if let Some(message) = missing_input(&layout.particles(), "preprocess") {
-        return Err(RenderError::Input(message));
-    }
-    memory::check(&memory::load_need(&layout.particles()))?;
-    let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
-    memory::check(&memory::render_need(&SetSize::of(&particles), render_config.resolution))?;
-    let post_inputs = digest::post_inputs(digest::sim_inputs(particles_checksum, config), config);
-    let sim_inputs = digest::sim_inputs(particles_checksum, config);
-    let inputs = [sim_inputs, post_inputs, digest::rigid_inputs(post_inputs, config)];
-    let look = look(render_config)?;
-    let camera = camera(render_config, &particles);
-    let tracer = Tracer::new(backend.unwrap_or(render_config.backend))?;
-    let folder = layout.render_dir();
-    std::fs::create_dir_all(&folder).map_err(|source| ImageError::Io { path: folder.clone(), source })?;
+    let job = RenderJob::open(config, frames, backend)?;
     let [width, height] = render_config.resolution;
     let samples = render_config.samples_per_pixel;
-    progress.start("render", frames.len() as u64);
-    // Each frame needs its neighbours' motions too; frames already read are kept while needed.
-    let mut loaded: BTreeMap<u32, Option<FragmentFrame>> = BTreeMap::new();
+    progress.start("render", job.frames.len() as u64);
     // What every frame shares, with one k-d tree of the elements at rest for the CPU tracer
     // (see element_index).
-    let basis = SceneBasis::new(&particles, matches!(tracer, Tracer::Cpu) && particles.len() >= REST_TREE_MIN_ELEMENTS);
-    let mut trace_frames = |write: &mut dyn FnMut(u32, FrameFiles) -> Result<(), RenderError>| {
-        for &frame in &frames {
-            let neighbours = frame.saturating_sub(1).max(1)..=(frame + 1).min(shot.last);
-            loaded.retain(|f, _| neighbours.contains(f));
-            for f in neighbours {
-                if let std::collections::btree_map::Entry::Vacant(slot) = loaded.entry(f) {
-                    slot.insert(read_fragments(&layout, &shot, f, particles.len(), inputs)?);
-                }
-            }
-            let fragments = loaded[&frame].as_ref();
-            let previous = (frame > 1).then(|| loaded[&(frame - 1)].as_ref());
-            let next = (frame < shot.last).then(|| loaded[&(frame + 1)].as_ref());
-            let scene = SceneGeometry::build_with(&particles, fragments, &basis);
-            let rendered = tracer.render(&scene, &look, &camera, samples)?;
-            let motion = motion_vectors(&camera, &rendered.pixels, fragments, previous, next);
-            let ids: Vec<u32> = (0..fragments.map_or(1, |f| f.fragment_count() as u32)).collect();
-            let mattes = [fragment_matte(&rendered.mattes, &ids), material_matte(&rendered.mattes)];
-            let header = FrameHeader {
-                comment: format!("shatter render: scene {}, frame {frame}", config.scene.name),
-                world_to_camera: camera.world_to_camera(),
-                world_to_ndc: camera.world_to_ndc(),
-                frames_per_second: config.scene.frames_per_second,
-                simulation_time_s: shot.time_s(frame, fragments.map_or(0.0, |f| f.meta.time_s)),
-            };
-            let preview = render_config
-                .previews
-                .then(|| (layout.render_frame(frame, "png"), render_config.preview_exposure_stops as f32));
-            let exr = layout.render_frame(frame, "exr");
-            write(
-                frame,
-                FrameFiles {
-                    size: [width as usize, height as usize],
-                    pixels: rendered.pixels,
-                    motion,
-                    mattes,
-                    header,
-                    exr,
-                    preview,
-                },
-            )?;
-        }
-        Ok(())
-    };
+    let particles = &job.particles;
+    let basis =
+        SceneBasis::new(particles, matches!(job.tracer, Tracer::Cpu) && particles.len() >= REST_TREE_MIN_ELEMENTS);
     // Each frame's files are written while the next frame is traced (one frame in flight); a
     // frame counts as done (`after_frame`, progress) once its files are.
     std::thread::scope(|scope| -> Result<(), RenderError> {
@@ -389,22 +327,138 @@ pub fn run_render(
             progress.message(&format!("frame {frame}"));
             Ok::<(), RenderError>(())
         };
-        let traced = trace_frames(&mut |frame, files| writing.start(scope, frame, move || files.write(), &mut done));
+        let traced =
+            job.trace_frames(&basis, &mut |frame, files| writing.start(scope, frame, move || files.write(), &mut done));
         let written = writing.wait(&mut done);
         traced.and(written)
     })?;
     progress.finish();
     let wall_s = started.elapsed().as_secs_f64();
-    let rays = f64::from(width) * f64::from(height) * f64::from(samples) * frames.len() as f64;
+    let rays = f64::from(width) * f64::from(height) * f64::from(samples) * job.frames.len() as f64;
+    let device = job.tracer.describe();
     Ok(RenderReport {
-        frames,
+        frames: job.frames,
         resolution: render_config.resolution,
         samples,
         rays_per_second: rays / wall_s.max(1e-9),
-        folder,
+        folder: job.folder,
         wall_s,
-        device: tracer.describe(),
+        device,
     })
+}
+
+/// A render run's inputs: the frames to render, the particles, the look, the camera and the
+/// tracer.
+struct RenderJob<'a> {
+    config: &'a PipelineConfig,
+    layout: OutputLayout,
+    shot: Shot,
+    frames: Vec<u32>,
+    particles: ParticleSet,
+    /// The inputs each stage's fragments must have been made from (see [`read_fragments`]).
+    inputs: [u32; 3],
+    look: Look,
+    camera: Camera,
+    tracer: Tracer,
+    /// Where the frames go (made here).
+    folder: PathBuf,
+}
+
+impl<'a> RenderJob<'a> {
+    /// Reads the particle file and sets up the render of `frames` (all of the shot's when None)
+    /// on `backend` (the config's when None).
+    fn open(
+        config: &'a PipelineConfig,
+        frames: Option<&[u32]>,
+        backend: Option<BackendChoice>,
+    ) -> Result<RenderJob<'a>, RenderError> {
+        let render_config = &config.render;
+        let layout = OutputLayout::of(config);
+        let shot = Shot::of(config, &layout).map_err(RenderError::Input)?;
+        let frames: Vec<u32> = match frames {
+            Some(frames) => frames.to_vec(),
+            None => (1..=shot.last).collect(),
+        };
+        if let Some(message) = missing_input(&layout.particles(), "preprocess") {
+            return Err(RenderError::Input(message));
+        }
+        memory::check(&memory::load_need(&layout.particles()))?;
+        let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
+        memory::check(&memory::render_need(&SetSize::of(&particles), render_config.resolution))?;
+        let post_inputs = digest::post_inputs(digest::sim_inputs(particles_checksum, config), config);
+        let sim_inputs = digest::sim_inputs(particles_checksum, config);
+        let inputs = [sim_inputs, post_inputs, digest::rigid_inputs(post_inputs, config)];
+        let look = look(render_config)?;
+        let camera = camera(render_config, &particles);
+        let tracer = Tracer::new(backend.unwrap_or(render_config.backend))?;
+        let folder = layout.render_dir();
+        std::fs::create_dir_all(&folder).map_err(|source| ImageError::Io { path: folder.clone(), source })?;
+        Ok(RenderJob { config, layout, shot, frames, particles, inputs, look, camera, tracer, folder })
+    }
+
+    /// Traces each frame on `basis`, handing its files to `write`. Each frame needs its
+    /// neighbours' motions too; frames already read are kept while needed.
+    fn trace_frames(
+        &self,
+        basis: &SceneBasis,
+        write: &mut dyn FnMut(u32, FrameFiles) -> Result<(), RenderError>,
+    ) -> Result<(), RenderError> {
+        let last = self.shot.last;
+        let mut loaded: BTreeMap<u32, Option<FragmentFrame>> = BTreeMap::new();
+        for &frame in &self.frames {
+            let neighbours = frame.saturating_sub(1).max(1)..=(frame + 1).min(last);
+            loaded.retain(|f, _| neighbours.contains(f));
+            for f in neighbours {
+                if let std::collections::btree_map::Entry::Vacant(slot) = loaded.entry(f) {
+                    slot.insert(read_fragments(&self.layout, &self.shot, f, self.particles.len(), self.inputs)?);
+                }
+            }
+            let fragments = loaded[&frame].as_ref();
+            let previous = (frame > 1).then(|| loaded[&(frame - 1)].as_ref());
+            let next = (frame < last).then(|| loaded[&(frame + 1)].as_ref());
+            write(frame, self.trace_frame(basis, frame, fragments, previous, next)?)?;
+        }
+        Ok(())
+    }
+
+    /// Traces frame `frame` (its fragments, and its neighbours' for the motion vectors): its
+    /// files.
+    fn trace_frame(
+        &self,
+        basis: &SceneBasis,
+        frame: u32,
+        fragments: Motions,
+        previous: Option<Motions>,
+        next: Option<Motions>,
+    ) -> Result<FrameFiles, RenderError> {
+        let (config, render_config, camera) = (self.config, &self.config.render, &self.camera);
+        let scene = SceneGeometry::build_with(&self.particles, fragments, basis);
+        let rendered = self.tracer.render(&scene, &self.look, camera, render_config.samples_per_pixel)?;
+        let motion = motion_vectors(camera, &rendered.pixels, fragments, previous, next);
+        let ids: Vec<u32> = (0..fragments.map_or(1, |f| f.fragment_count() as u32)).collect();
+        let mattes = [fragment_matte(&rendered.mattes, &ids), material_matte(&rendered.mattes)];
+        let header = FrameHeader {
+            comment: format!("shatter render: scene {}, frame {frame}", config.scene.name),
+            world_to_camera: camera.world_to_camera(),
+            world_to_ndc: camera.world_to_ndc(),
+            frames_per_second: config.scene.frames_per_second,
+            simulation_time_s: self.shot.time_s(frame, fragments.map_or(0.0, |f| f.meta.time_s)),
+        };
+        let preview = render_config
+            .previews
+            .then(|| (self.layout.render_frame(frame, "png"), render_config.preview_exposure_stops as f32));
+        let exr = self.layout.render_frame(frame, "exr");
+        let [width, height] = render_config.resolution;
+        Ok(FrameFiles {
+            size: [width as usize, height as usize],
+            pixels: rendered.pixels,
+            motion,
+            mattes,
+            header,
+            exr,
+            preview,
+        })
+    }
 }
 
 #[cfg(test)]

@@ -47,7 +47,7 @@ pub struct SceneGeometry {
     pub index: ElementIndex,
     /// How far elements are widened in ray tests (so touching elements leave no cracks), metres.
     pub slack: f32,
-    /// When every element has six planes [`in_opposite_pairs`] (cubes placed rigidly), each
+    /// When every element has six planes [`crate::primitives::in_opposite_pairs`] (cubes placed rigidly), each
     /// one's plane distances and axes, as [`CubeFromOrigin`] reads them; else empty.
     pub cube_slabs: Vec<CubeSlabs>,
     /// The distinct axes of the cubes in `cube_slabs` (one set for each fragment's turn).
@@ -56,12 +56,12 @@ pub struct SceneGeometry {
 
 /// A cube's six plane distances and the index of its axes (the normals of planes 0, 2 and 4) in
 /// [`SceneGeometry::cube_axes`]: what [`CubeFromOrigin`] reads of a cube whose planes are
-/// [`in_opposite_pairs`], in a third of the bytes of the planes themselves (two to a cache
+/// [`crate::primitives::in_opposite_pairs`], in a third of the bytes of the planes themselves (two to a cache
 /// line: the nearest-hit search waits on memory).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[repr(C, align(32))]
 pub struct CubeSlabs {
-    /// The planes' distances (each plane's [3]).
+    /// The planes' distances (each plane's `[3]`).
     pub distances: [f32; 6],
     /// Index into [`SceneGeometry::cube_axes`].
     pub axes: u32,

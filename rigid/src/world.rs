@@ -124,6 +124,107 @@ struct RestWatch {
     retired: bool,
 }
 
+/// The hook every collider runs: [`ContactRules`] modifies its solver contacts.
+const CONTACT_HOOKS: ActiveHooks = ActiveHooks::MODIFY_SOLVER_CONTACTS;
+
+/// An empty physics world with the solver settings of `settings`.
+fn physics_world(settings: &WorldSettings) -> PhysicsWorld {
+    let mut world = PhysicsWorld::new();
+    world.gravity = Vector::from_array(settings.gravity_m_s2);
+    world.integration_parameters.length_unit = settings.length_unit_m;
+    world.integration_parameters.num_solver_iterations = settings.solver_iterations;
+    // rapier merges the manifolds of a compound's parts that share a normal into one of at
+    // most four points; as a piece lying on a compound of hundreds of hulls rocks, the four
+    // points chosen jump from part to part, and a curved shard rocked on for seconds, fed by
+    // the jumps (measured: a 24-hull shard still at 1.3 rad/s after 3 s with clustering, at
+    // rest at once without; the vase shot's last pieces sleep 12 frames earlier)
+    world.integration_parameters.contact_clustering = false;
+    world.narrow_phase.set_query_dispatcher(plane_contacts::dispatcher());
+    world
+}
+
+/// Inserts the floor slab, its top at `height_m`, and returns its collider. With `any_dust`,
+/// dust passes through it: dust rests on the plane of [`insert_dust_floor`].
+fn insert_floor(world: &mut PhysicsWorld, height_m: f64, any_dust: bool) -> ColliderHandle {
+    // a slab, not a half-space: on a half-space the plate shot's largest shard (9,330
+    // cubes, a compound of hulls) sank 29 mm through the floor and stayed there; dust
+    // meets the plane at its top instead (below)
+    let top = Vector::new(0.0, height_m - FLOOR_HALF_THICKNESS_M, 0.0);
+    let body = world.insert_body(RigidBodyBuilder::fixed().translation(top));
+    let slab = SharedShape::cuboid(FLOOR_HALF_WIDTH_M, FLOOR_HALF_THICKNESS_M, FLOOR_HALF_WIDTH_M);
+    let filter = if any_dust { Group::ALL.difference(DUST) } else { Group::ALL };
+    let collider = ColliderBuilder::new(slab).active_hooks(CONTACT_HOOKS).collision_groups(groups(ENVIRONMENT, filter));
+    world.insert_collider(collider, Some(body))
+}
+
+/// Inserts a projectile or indenter.
+fn insert_sphere(world: &mut PhysicsWorld, sphere: &KinematicSphere) {
+    let body = RigidBodyBuilder::kinematic_velocity_based()
+        .translation(Vector::from_array(sphere.centre_m))
+        .linvel(Vector::from_array(sphere.velocity_m_s));
+    let body = world.insert_body(body);
+    let collider = ColliderBuilder::ball(sphere.radius_m)
+        .active_hooks(CONTACT_HOOKS)
+        .collision_groups(groups(ENVIRONMENT, Group::ALL));
+    world.insert_collider(collider, Some(body));
+}
+
+/// Inserts a piece's body (and its collider, when it has a shape).
+fn insert_piece(world: &mut PhysicsWorld, settings: &WorldSettings, piece: &PieceBody) -> RigidBodyHandle {
+    let inertia = piece.mass.inertia();
+    let mass = MassProperties::with_inertia_matrix(piece.mass.centre_m, piece.mass.mass_kg, inertia);
+    let body = RigidBodyBuilder::dynamic()
+        .pose(Pose::from_parts(piece.translation_m, piece.rotation))
+        .additional_mass_properties(mass)
+        .linvel(piece.linear_m_s)
+        .angvel(piece.angular_rad_s)
+        // dust meets only the floor, a slab a metre thick, and the spheres: 46 m/s crosses
+        // 5 cm in a step, so CCD buys nothing (it cost 6% of the paper-scale vase's steps)
+        .ccd_enabled(!piece.dust)
+        .gyroscopic_forces_enabled(true)
+        .build();
+    let handle = world.insert_body(body);
+    let activation = world.bodies[handle].activation_mut();
+    activation.normalized_linear_threshold = settings.sleep_speed_m_s / settings.length_unit_m;
+    activation.time_until_sleep = settings.sleep_after_s;
+    if let Some(shape) = &piece.shape {
+        let group = if piece.dust { groups(DUST, ENVIRONMENT) } else { groups(PIECES, PIECES | ENVIRONMENT) };
+        let collider = ColliderBuilder::new(shape.clone())
+            .density(0.0)
+            .active_hooks(CONTACT_HOOKS | ActiveHooks::FILTER_CONTACT_PAIRS)
+            .collision_groups(group);
+        world.insert_collider(collider, Some(handle));
+    }
+    handle
+}
+
+/// Inserts the plane dust rests on, at `height_m` (the floor slab's top).
+fn insert_dust_floor(world: &mut PhysicsWorld, height_m: f64) -> ColliderHandle {
+    let body = world.insert_body(RigidBodyBuilder::fixed().translation(Vector::new(0.0, height_m, 0.0)));
+    let collider = ColliderBuilder::new(SharedShape::halfspace(Vector::Y))
+        .active_hooks(CONTACT_HOOKS)
+        .collision_groups(groups(ENVIRONMENT, DUST));
+    world.insert_collider(collider, Some(body))
+}
+
+impl RestWatch {
+    /// The watch of `piece`, just inserted as `body`: still for no time yet.
+    fn new(body: &RigidBody, piece: &PieceBody) -> RestWatch {
+        let reach_m = piece.shape.as_ref().map_or(0.0, |shape| {
+            let sphere = shape.compute_local_bounding_sphere();
+            (sphere.center() - piece.mass.centre_m).length() + sphere.radius()
+        });
+        let rotation = *body.rotation();
+        RestWatch {
+            centre_m: body.center_of_mass().to_array(),
+            rotation: [rotation.x, rotation.y, rotation.z, rotation.w],
+            reach_m,
+            still_s: 0.0,
+            retired: false,
+        }
+    }
+}
+
 impl RigidWorld {
     /// A world of `pieces` above a floor at `floor_height_m` (if any), with `spheres`, at the
     /// handoff. Overlaps between shapes at this moment become allowances in the first step
@@ -134,102 +235,25 @@ impl RigidWorld {
         spheres: &[KinematicSphere],
         pieces: &[PieceBody],
     ) -> RigidWorld {
-        let mut world = PhysicsWorld::new();
-        world.gravity = Vector::from_array(settings.gravity_m_s2);
-        world.integration_parameters.length_unit = settings.length_unit_m;
-        world.integration_parameters.num_solver_iterations = settings.solver_iterations;
-        // rapier merges the manifolds of a compound's parts that share a normal into one of at
-        // most four points; as a piece lying on a compound of hundreds of hulls rocks, the four
-        // points chosen jump from part to part, and a curved shard rocked on for seconds, fed by
-        // the jumps (measured: a 24-hull shard still at 1.3 rad/s after 3 s with clustering, at
-        // rest at once without; the vase shot's last pieces sleep 12 frames earlier)
-        world.integration_parameters.contact_clustering = false;
-        world.narrow_phase.set_query_dispatcher(plane_contacts::dispatcher());
-        let hooks = ActiveHooks::MODIFY_SOLVER_CONTACTS;
+        let mut world = physics_world(settings);
         let any_dust = pieces.iter().any(|piece| piece.dust && piece.shape.is_some());
-        let floor = floor_height_m.map(|height| {
-            // a slab, not a half-space: on a half-space the plate shot's largest shard (9,330
-            // cubes, a compound of hulls) sank 29 mm through the floor and stayed there; dust
-            // meets the plane at its top instead (below)
-            let top = Vector::new(0.0, height - FLOOR_HALF_THICKNESS_M, 0.0);
-            let body = world.insert_body(RigidBodyBuilder::fixed().translation(top));
-            let slab = SharedShape::cuboid(FLOOR_HALF_WIDTH_M, FLOOR_HALF_THICKNESS_M, FLOOR_HALF_WIDTH_M);
-            let filter = if any_dust { Group::ALL.difference(DUST) } else { Group::ALL };
-            let collider = ColliderBuilder::new(slab).active_hooks(hooks).collision_groups(groups(ENVIRONMENT, filter));
-            world.insert_collider(collider, Some(body))
-        });
+        let floor = floor_height_m.map(|height| insert_floor(&mut world, height, any_dust));
         for sphere in spheres {
-            let body = RigidBodyBuilder::kinematic_velocity_based()
-                .translation(Vector::from_array(sphere.centre_m))
-                .linvel(Vector::from_array(sphere.velocity_m_s));
-            let body = world.insert_body(body);
-            let collider = ColliderBuilder::ball(sphere.radius_m)
-                .active_hooks(hooks)
-                .collision_groups(groups(ENVIRONMENT, Group::ALL));
-            world.insert_collider(collider, Some(body));
+            insert_sphere(&mut world, sphere);
         }
-        let mut handles = Vec::with_capacity(pieces.len());
-        for piece in pieces {
-            let inertia = piece.mass.inertia();
-            let mass = MassProperties::with_inertia_matrix(piece.mass.centre_m, piece.mass.mass_kg, inertia);
-            let body = RigidBodyBuilder::dynamic()
-                .pose(Pose::from_parts(piece.translation_m, piece.rotation))
-                .additional_mass_properties(mass)
-                .linvel(piece.linear_m_s)
-                .angvel(piece.angular_rad_s)
-                // dust meets only the floor, a slab a metre thick, and the spheres: 46 m/s crosses
-                // 5 cm in a step, so CCD buys nothing (it cost 6% of the paper-scale vase's steps)
-                .ccd_enabled(!piece.dust)
-                .gyroscopic_forces_enabled(true)
-                .build();
-            let handle = world.insert_body(body);
-            let activation = world.bodies[handle].activation_mut();
-            activation.normalized_linear_threshold = settings.sleep_speed_m_s / settings.length_unit_m;
-            activation.time_until_sleep = settings.sleep_after_s;
-            if let Some(shape) = &piece.shape {
-                let group = if piece.dust { groups(DUST, ENVIRONMENT) } else { groups(PIECES, PIECES | ENVIRONMENT) };
-                let collider = ColliderBuilder::new(shape.clone())
-                    .density(0.0)
-                    .active_hooks(hooks | ActiveHooks::FILTER_CONTACT_PAIRS)
-                    .collision_groups(group);
-                world.insert_collider(collider, Some(handle));
-            }
-            handles.push(handle);
-        }
+        let handles: Vec<RigidBodyHandle> =
+            pieces.iter().map(|piece| insert_piece(&mut world, settings, piece)).collect();
         // Dust rests on a plane at the slab's top, met in closed form (see `plane_contacts`),
         // not on the slab, which parry meets with GJK and EPA: tens of thousands of grains
         // rest on the floor of the paper-scale vase. Inserted after the pieces, so that rapier
         // files each grain's pair under the grain (it walks the lower collider's list of pairs
         // to find one) and the floor's and pieces' colliders keep their handles.
-        let dust_floor = floor_height_m.filter(|_| any_dust).map(|height| {
-            let body = world.insert_body(RigidBodyBuilder::fixed().translation(Vector::new(0.0, height, 0.0)));
-            let collider = ColliderBuilder::new(SharedShape::halfspace(Vector::Y))
-                .active_hooks(hooks)
-                .collision_groups(groups(ENVIRONMENT, DUST));
-            world.insert_collider(collider, Some(body))
-        });
+        let dust_floor = floor_height_m.filter(|_| any_dust).map(|height| insert_dust_floor(&mut world, height));
         let coefficients =
             [settings.floor_friction, settings.floor_restitution, settings.piece_friction, settings.piece_restitution];
         let rules = ContactRules::new([floor, dust_floor], coefficients, settings.max_mass_ratio);
-        let watch = handles
-            .iter()
-            .zip(pieces)
-            .map(|(&handle, piece)| {
-                let body = &world.bodies[handle];
-                let reach_m = piece.shape.as_ref().map_or(0.0, |shape| {
-                    let sphere = shape.compute_local_bounding_sphere();
-                    (sphere.center() - piece.mass.centre_m).length() + sphere.radius()
-                });
-                let rotation = *body.rotation();
-                RestWatch {
-                    centre_m: body.center_of_mass().to_array(),
-                    rotation: [rotation.x, rotation.y, rotation.z, rotation.w],
-                    reach_m,
-                    still_s: 0.0,
-                    retired: false,
-                }
-            })
-            .collect();
+        let watch =
+            handles.iter().zip(pieces).map(|(&handle, piece)| RestWatch::new(&world.bodies[handle], piece)).collect();
         RigidWorld {
             world,
             rules,

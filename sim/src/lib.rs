@@ -13,11 +13,13 @@
 //! - [`contact`]: contact between unbonded particles (Verlet lists over a spatial hash).
 //! - [`cpu_simulation`]: the CPU backend, the state and the step.
 //! - [`gpu`]: the GPU backend (wgpu, WGSL kernels in `shaders/`).
-//! - [`twins`]: the CPU twin of each WGSL kernel, which the GPU's parity tests compare it with.
+//! - `twins` (built for tests only): the CPU twin of each WGSL kernel, which the GPU's parity
+//!   tests compare it with.
 //! - [`backend`]: what the frame loop needs of either backend; [`backend_choice`]: which one runs.
 //! - [`art`]: art direction of the cracks (weakened paths, seams, shards).
 //! - [`sim_driver`]: the `shatter sim` driver: frames, checkpoints, resume, stability checks;
-//!   [`previous_run`]: a fresh run keeps its predecessor's outputs until it has a checkpoint.
+//!   `lead_in_start`: a run from the lead-in's handoff; [`previous_run`]: a fresh run keeps its
+//!   predecessor's outputs until it has a checkpoint.
 
 pub mod art;
 pub mod backend;
@@ -28,13 +30,15 @@ pub mod cpu_simulation;
 pub mod elastoplastic;
 pub mod gpu;
 pub mod kernels;
+mod lead_in_start;
 pub mod material_bonds;
 pub mod model;
 pub mod previous_run;
 pub mod sim_driver;
 pub mod sim_error;
 pub mod state;
-pub mod twins;
+#[cfg(test)]
+mod twins;
 
 pub use backend::{Backend, DeviceError};
 pub use backend_choice::{BackendError, create_backend};

@@ -1,7 +1,8 @@
 //! `shatter sim`: runs a scene's simulation frame by frame, writing point caches, the break log
 //! and checkpoints; resumes from the last checkpoint; stops on instability with the last good
 //! checkpoint intact. The same loop drives either backend (see [`crate::backend`]); which one is
-//! [`crate::backend_choice`]'s call.
+//! [`crate::backend_choice`]'s call. A run after the lead-in starts from its handoff
+//! (`lead_in_start.rs`).
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -22,8 +23,9 @@ use shatter_gpu::GpuError;
 use crate::SimError;
 use crate::backend::{Backend, DeviceError};
 use crate::backend_choice::{BackendError, create_backend};
+use crate::lead_in_start::{RigidMotion, paths_from_handoff, read_lead_in};
 use crate::previous_run::PreviousRun;
-use crate::state::Dynamics;
+use crate::state::{Dynamics, Energy};
 
 /// How a run starts.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -193,87 +195,6 @@ fn restoring<T>(previous: &mut Option<PreviousRun>, outcome: Result<T, RunError>
     outcome
 }
 
-/// The lead-in's handoff, when the scene has `[lead_in]`: checked to belong to this particle
-/// file and these settings.
-fn read_lead_in(config: &PipelineConfig, layout: &OutputLayout, inputs: u32) -> Result<Option<LeadIn>, RunError> {
-    if config.lead_in.is_none() {
-        return Ok(None);
-    }
-    let path = layout.lead_in();
-    if let Some(message) = missing_input(&path, "lead-in") {
-        return Err(RunError::MissingInput(message));
-    }
-    let lead_in = LeadIn::read(&path)?;
-    if lead_in.inputs != inputs {
-        return Err(RunError::MissingInput(format!(
-            "{}: made from another particle file or other [lead_in], [sim] or [material] settings; run `shatter \
-             lead-in` again",
-            path.display()
-        )));
-    }
-    Ok(Some(lead_in))
-}
-
-/// The config the simulation runs with after a lead-in: projectiles and indenters, whose paths
-/// are given in the shot's time, where they are at the handoff (the simulation's time 0).
-fn paths_from_handoff(config: &PipelineConfig, handoff_time_s: f64) -> PipelineConfig {
-    let mut physics = config.clone();
-    for p in &mut physics.sim.projectile {
-        p.center_m = [0, 1, 2].map(|a| p.center_m[a] + p.velocity_m_s[a] * handoff_time_s);
-    }
-    for i in &mut physics.sim.indenter {
-        i.center_m = [0, 1, 2].map(|a| i.center_m[a] + i.velocity_m_s[a] * handoff_time_s);
-    }
-    physics
-}
-
-/// The body's rigid motion at the lead-in's handoff, applied to particles by rest position.
-struct RigidMotion {
-    rotation: [[f64; 3]; 3],
-    translation: [f64; 3],
-    centre: [f64; 3],
-    velocity: [f64; 3],
-    angular: [f64; 3],
-}
-
-impl RigidMotion {
-    fn of(lead_in: &LeadIn) -> RigidMotion {
-        let [x, y, z, w] = lead_in.rotation;
-        let rotation = [
-            [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
-            [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
-            [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)],
-        ];
-        RigidMotion {
-            rotation,
-            translation: lead_in.translation_m,
-            centre: lead_in.centre_m,
-            velocity: lead_in.velocity_m_s,
-            angular: lead_in.angular_velocity_rad_s,
-        }
-    }
-
-    /// Where a particle at rest position `rest` is: R X + t.
-    fn position(&self, rest: [f32; 3]) -> [f64; 3] {
-        let x = rest.map(f64::from);
-        [0, 1, 2].map(|a| (0..3).map(|b| self.rotation[a][b] * x[b]).sum::<f64>() + self.translation[a])
-    }
-
-    fn displacement(&self, rest: [f32; 3]) -> [f32; 3] {
-        let x = self.position(rest);
-        [0, 1, 2].map(|a| (x[a] - f64::from(rest[a])) as f32)
-    }
-
-    /// v + w x (x - c), plus `sim.initial_velocity_m_s` as without a lead-in.
-    fn velocity(&self, rest: [f32; 3], extra: [f32; 3]) -> [f32; 3] {
-        let x = self.position(rest);
-        let r = [0, 1, 2].map(|a| x[a] - self.centre[a]);
-        let w = self.angular;
-        let spin = [w[1] * r[2] - w[2] * r[1], w[2] * r[0] - w[0] * r[2], w[0] * r[1] - w[1] * r[0]];
-        [0, 1, 2].map(|a| (self.velocity[a] + spin[a]) as f32 + extra[a])
-    }
-}
-
 /// Runs the simulation of `config` on the particle file in its output folder, on the backend
 /// `options.backend` (or the config's `sim.backend`) chooses.
 pub fn run_sim(config: &PipelineConfig, options: RunOptions, progress: &dyn Progress) -> Result<RunReport, RunError> {
@@ -290,18 +211,107 @@ pub fn run_with(
     make: BackendFactory,
 ) -> Result<RunReport, RunError> {
     let started = Instant::now();
-    let layout = OutputLayout::of(config);
-    if let Some(message) = missing_input(&layout.particles(), "preprocess") {
-        return Err(RunError::MissingInput(message));
-    }
-    memory::check(&memory::load_need(&layout.particles()))?;
-    let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
-    memory::check(&memory::sim_need(&SetSize::of(&particles)))?;
-    let lead_in = read_lead_in(config, &layout, digest::sim_inputs(particles_checksum, config))?;
-    let physics = lead_in.as_ref().map(|lead_in| paths_from_handoff(config, lead_in.handoff_time_s));
-    let (mut simulation, fallback) = make(physics.as_ref().unwrap_or(config), &particles)?;
+    let inputs = RunInputs::read(config)?;
+    let physics = inputs.lead_in.as_ref().map(|lead_in| paths_from_handoff(config, lead_in.handoff_time_s));
+    let (mut simulation, fallback) = make(physics.as_ref().unwrap_or(config), &inputs.particles)?;
 
     let mut warnings: Vec<String> = fallback.into_iter().collect();
+    let stable_dt_s = check_time_step(config, options, simulation.as_ref(), &inputs.particles, &mut warnings)?;
+    let frames_dir = inputs.layout.frames_dir();
+    let sim_frames = SimFrames::of(config, inputs.lead_in.as_ref()).map_err(RunError::MissingInput)?;
+    let total_frames = sim_frames.count();
+
+    let resumable = options.resume && inputs.layout.checkpoint().exists();
+    if options.resume && !resumable {
+        warnings.push("no checkpoint to resume from: starting from the beginning".to_string());
+    }
+    // A fresh run's predecessor, set aside until the fresh run has a checkpoint of its own.
+    let mut previous = None;
+    let start = if resumable {
+        resume(&inputs, simulation.as_mut(), total_frames, &mut warnings)?
+    } else {
+        previous = PreviousRun::set_aside(&inputs.layout)?;
+        let fresh = start_fresh(config, &inputs, simulation.as_mut());
+        restoring(&mut previous, fresh)?
+    };
+
+    let remaining_steps = sim_frames.steps[total_frames as usize - 1] - sim_frames.steps[start.frame as usize - 1];
+    progress.start("sim", remaining_steps);
+    let mut frames = FrameLoop {
+        config,
+        inputs: &inputs,
+        sim_frames: &sim_frames,
+        progress,
+        simulation: simulation.as_mut(),
+        log: start.log,
+        broken_bonds: start.broken_bonds,
+        initial_energy_j: start.initial_energy_j,
+        steps: 0,
+        checkpointed: resumable,
+        previous,
+    };
+    let outcome = (start.frame + 1..=total_frames).try_for_each(|frame| frames.frame(frame, total_frames));
+    progress.finish();
+    restoring(&mut frames.previous, outcome)?;
+    let (steps, broken_bonds) = (frames.steps, frames.broken_bonds);
+    Ok(RunReport {
+        backend: simulation.describe(),
+        particles: simulation.len(),
+        started_at_frame: start.frame,
+        frames: total_frames,
+        steps,
+        broken_bonds,
+        stable_dt_s,
+        wall_s: started.elapsed().as_secs_f64(),
+        warnings,
+        frames_dir,
+    })
+}
+
+/// What a run reads before it makes its backend.
+struct RunInputs {
+    /// The scene's output folder.
+    layout: OutputLayout,
+    /// The particle file.
+    particles: ParticleSet,
+    /// The particle file's checksum.
+    particles_checksum: u32,
+    /// The digest of the `[sim]` and `[material]` settings ([`digest::sim_settings`]).
+    settings_hash: u32,
+    /// The digest of the particle file and the settings ([`digest::sim_inputs`]).
+    inputs: u32,
+    /// The lead-in's handoff, with `[lead_in]`.
+    lead_in: Option<LeadIn>,
+}
+
+impl RunInputs {
+    /// Reads the particle file of `config`'s output folder (checking first that it is there and
+    /// that it and the stage fit in memory) and the lead-in's handoff.
+    fn read(config: &PipelineConfig) -> Result<RunInputs, RunError> {
+        let layout = OutputLayout::of(config);
+        if let Some(message) = missing_input(&layout.particles(), "preprocess") {
+            return Err(RunError::MissingInput(message));
+        }
+        memory::check(&memory::load_need(&layout.particles()))?;
+        let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
+        memory::check(&memory::sim_need(&SetSize::of(&particles)))?;
+        let inputs = digest::sim_inputs(particles_checksum, config);
+        let lead_in = read_lead_in(config, &layout, inputs)?;
+        let settings_hash = digest::sim_settings(config);
+        Ok(RunInputs { layout, particles, particles_checksum, settings_hash, inputs, lead_in })
+    }
+}
+
+/// Checks `sim.dt_s` against the backend's stable time step and the time steps at which the
+/// pushing bodies hold the lightest particle: an error, or with `--allow-unstable-dt` a warning.
+/// Returns the stable time step, seconds.
+fn check_time_step(
+    config: &PipelineConfig,
+    options: RunOptions,
+    simulation: &dyn Backend,
+    particles: &ParticleSet,
+    warnings: &mut Vec<String>,
+) -> Result<f64, RunError> {
     let stable_dt_s = simulation.stable_dt_s();
     if config.sim.dt_s > stable_dt_s {
         if !options.allow_unstable_dt {
@@ -322,168 +332,192 @@ pub fn run_with(
             return Err(RunError::UnstablePush { key, stiffness, dt_s, mass_kg, max_dt_s });
         }
     }
+    Ok(stable_dt_s)
+}
 
-    let frames_dir = layout.frames_dir();
-    let checkpoint_path = layout.checkpoint();
-    let log_path = layout.break_log();
-    let hash = digest::sim_settings(config);
-    let inputs = digest::sim_inputs(particles_checksum, config);
-    let sim_frames = SimFrames::of(config, lead_in.as_ref()).map_err(RunError::MissingInput)?;
-    let total_frames = sim_frames.count();
+/// Where the frame loop starts.
+struct Start {
+    /// The break log, open for appending.
+    log: BreakLog,
+    /// The last frame written (1 for a fresh run).
+    frame: u32,
+    /// Bonds broken up to that frame.
+    broken_bonds: u64,
+    /// Kinetic plus bond energy at frame 1, joules.
+    initial_energy_j: f64,
+}
 
-    let resumable = options.resume && checkpoint_path.exists();
-    if options.resume && !resumable {
-        warnings.push("no checkpoint to resume from: starting from the beginning".to_string());
+/// Resumes from the checkpoint: checks that it belongs to this particle file, these settings and
+/// this break log, and restores the backend's state from it.
+fn resume(
+    inputs: &RunInputs,
+    simulation: &mut dyn Backend,
+    total_frames: u32,
+    warnings: &mut Vec<String>,
+) -> Result<Start, RunError> {
+    let (checkpoint_path, log_path) = (inputs.layout.checkpoint(), inputs.layout.break_log());
+    let (meta, state) = checkpoint::read(&checkpoint_path)?;
+    let mismatch = |what: &str| RunError::CheckpointMismatch { path: checkpoint_path.clone(), what: what.into() };
+    // Inputs first: a checkpoint of another particle file or other settings is stale, not corrupt.
+    if meta.particles_checksum != inputs.particles_checksum {
+        return Err(mismatch("the particle file changed since this checkpoint"));
     }
-    // A fresh run's predecessor, set aside until the fresh run has a checkpoint of its own.
-    let mut previous = None;
-    let (mut log, start_frame, mut broken_bonds, initial_energy_j) = if resumable {
-        let (meta, state) = checkpoint::read(&checkpoint_path)?;
-        let mismatch = |what: &str| RunError::CheckpointMismatch { path: checkpoint_path.clone(), what: what.into() };
-        // Inputs first: a checkpoint of another particle file or other settings is stale, not corrupt.
-        if meta.particles_checksum != particles_checksum {
-            return Err(mismatch("the particle file changed since this checkpoint"));
-        }
-        if meta.settings_hash != hash {
-            return Err(mismatch("the [sim] or [material] settings changed since this checkpoint"));
-        }
-        if meta.frame > total_frames {
-            return Err(mismatch("the checkpoint is past the simulation's last frame"));
-        }
-        if state.particles() != simulation.len() {
-            let what = format!("the checkpoint holds {} particles, not {}", state.particles(), simulation.len());
-            return Err(StageFileError::Malformed { path: checkpoint_path, what }.into());
-        }
-        let kind = |name: &str| name.split([':', ' ']).next().unwrap_or_default().to_string();
-        if !meta.backend.is_empty() && kind(&meta.backend) != kind(&simulation.describe()) {
-            warnings.push(format!(
-                "the checkpoint was written by {}, this run uses {}: the frames will differ from an uninterrupted \
-                 run by rounding",
-                meta.backend,
-                simulation.describe()
-            ));
-        }
-        let (log, blocks) = BreakLog::open_at(&log_path, meta.break_log_bytes)?;
-        if blocks.last().map_or(1, |block| block.frame) != meta.frame {
-            let ends = blocks.last().map_or(1, |block| block.frame);
-            let what = format!("the log ends at frame {ends}, but the checkpoint is at frame {}", meta.frame);
-            return Err(RunError::FrameFile(FrameFileError::Invalid { path: log_path, what }));
-        }
-        let mut broken: Vec<u64> = blocks.iter().flat_map(|block| block.events.iter().map(|e| e.bond)).collect();
-        broken.sort_unstable();
-        let CheckpointState { disp, vel, force, boost, bond_state } = state;
-        let dynamics = Dynamics { step: meta.step, disp, vel, force, boost, external_work_j: meta.external_work_j };
-        simulation.restore(dynamics, &broken)?;
-        simulation
-            .set_bond_state(&bond_state)
-            .map_err(|what| StageFileError::Malformed { path: checkpoint_path.clone(), what })?;
-        (log, meta.frame, meta.broken_bonds, meta.initial_energy_j)
-    } else {
-        previous = PreviousRun::set_aside(&layout)?;
-        let mut start = || -> Result<BreakLog, RunError> {
-            let log = BreakLog::create(&log_path)?;
-            let initial_velocity = config.sim.initial_velocity_m_s.map(|v| v as f32);
-            if let Some(lead_in) = &lead_in {
-                let motion = RigidMotion::of(lead_in);
-                simulation.set_displacement(&|_, rest| motion.displacement(rest))?;
-                simulation.set_velocity(&|_, rest| motion.velocity(rest, initial_velocity))?;
-            } else if initial_velocity != [0.0; 3] {
-                simulation.set_velocity(&|_, _| initial_velocity)?;
-            }
-            write_frame(simulation.as_ref(), &layout, 1, inputs)?;
-            Ok(log)
-        };
-        let log = restoring(&mut previous, start())?;
-        (log, 1, 0, simulation.energy().total_j())
-    };
+    if meta.settings_hash != inputs.settings_hash {
+        return Err(mismatch("the [sim] or [material] settings changed since this checkpoint"));
+    }
+    if meta.frame > total_frames {
+        return Err(mismatch("the checkpoint is past the simulation's last frame"));
+    }
+    if state.particles() != simulation.len() {
+        let what = format!("the checkpoint holds {} particles, not {}", state.particles(), simulation.len());
+        return Err(StageFileError::Malformed { path: checkpoint_path, what }.into());
+    }
+    let kind = |name: &str| name.split([':', ' ']).next().unwrap_or_default().to_string();
+    if !meta.backend.is_empty() && kind(&meta.backend) != kind(&simulation.describe()) {
+        warnings.push(format!(
+            "the checkpoint was written by {}, this run uses {}: the frames will differ from an uninterrupted run \
+             by rounding",
+            meta.backend,
+            simulation.describe()
+        ));
+    }
+    let (log, blocks) = BreakLog::open_at(&log_path, meta.break_log_bytes)?;
+    if blocks.last().map_or(1, |block| block.frame) != meta.frame {
+        let ends = blocks.last().map_or(1, |block| block.frame);
+        let what = format!("the log ends at frame {ends}, but the checkpoint is at frame {}", meta.frame);
+        return Err(RunError::FrameFile(FrameFileError::Invalid { path: log_path, what }));
+    }
+    let mut broken: Vec<u64> = blocks.iter().flat_map(|block| block.events.iter().map(|e| e.bond)).collect();
+    broken.sort_unstable();
+    let CheckpointState { disp, vel, force, boost, bond_state } = state;
+    let dynamics = Dynamics { step: meta.step, disp, vel, force, boost, external_work_j: meta.external_work_j };
+    simulation.restore(dynamics, &broken)?;
+    simulation
+        .set_bond_state(&bond_state)
+        .map_err(|what| StageFileError::Malformed { path: checkpoint_path.clone(), what })?;
+    Ok(Start { log, frame: meta.frame, broken_bonds: meta.broken_bonds, initial_energy_j: meta.initial_energy_j })
+}
 
-    let remaining_steps = sim_frames.steps[total_frames as usize - 1] - sim_frames.steps[start_frame as usize - 1];
-    progress.start("sim", remaining_steps);
-    let mut steps = 0u64;
-    let mut checkpointed = resumable;
-    let mut frames = || -> Result<(), RunError> {
-        for frame in start_frame + 1..=total_frames {
-            let steps_per_frame = sim_frames.steps_before(frame);
-            for batch in 0..steps_per_frame.div_ceil(50) {
-                let count = (steps_per_frame - batch * 50).min(50);
-                simulation.advance(count)?;
-                steps += count;
-                progress.advance(count);
-            }
-            let events = simulation.finish_frame()?;
-            broken_bonds += events.len() as u64;
-            let energy = simulation.energy();
-            let dynamics = simulation.dynamics();
-            let budget =
-                config.sim.runaway_energy_factor * (initial_energy_j + dynamics.external_work_j).max(0.0) + 1e-9;
-            let trouble = non_finite(dynamics).or_else(|| {
-                (!energy.total_j().is_finite() || energy.total_j() > budget).then(|| {
+/// Starts afresh: a new break log, the initial displacements and velocities (the lead-in's
+/// rigid motion, or `sim.initial_velocity_m_s`), and frame 1.
+fn start_fresh(config: &PipelineConfig, inputs: &RunInputs, simulation: &mut dyn Backend) -> Result<Start, RunError> {
+    let log = BreakLog::create(&inputs.layout.break_log())?;
+    let initial_velocity = config.sim.initial_velocity_m_s.map(|v| v as f32);
+    if let Some(lead_in) = &inputs.lead_in {
+        let motion = RigidMotion::of(lead_in);
+        simulation.set_displacement(&|_, rest| motion.displacement(rest))?;
+        simulation.set_velocity(&|_, rest| motion.velocity(rest, initial_velocity))?;
+    } else if initial_velocity != [0.0; 3] {
+        simulation.set_velocity(&|_, _| initial_velocity)?;
+    }
+    write_frame(simulation, &inputs.layout, 1, inputs.inputs)?;
+    Ok(Start { log, frame: 1, broken_bonds: 0, initial_energy_j: simulation.energy().total_j() })
+}
+
+/// The frame loop: what each frame reads, writes and counts.
+struct FrameLoop<'a> {
+    config: &'a PipelineConfig,
+    inputs: &'a RunInputs,
+    /// The steps to each frame.
+    sim_frames: &'a SimFrames,
+    progress: &'a dyn Progress,
+    simulation: &'a mut dyn Backend,
+    /// The break log, open for appending.
+    log: BreakLog,
+    /// Bonds broken in all.
+    broken_bonds: u64,
+    /// Kinetic plus bond energy at frame 1, joules.
+    initial_energy_j: f64,
+    /// Steps simulated in this invocation.
+    steps: u64,
+    /// Whether there is a checkpoint of this run (or the one resumed).
+    checkpointed: bool,
+    /// A fresh run's predecessor, until the first checkpoint.
+    previous: Option<PreviousRun>,
+}
+
+impl FrameLoop<'_> {
+    /// Simulates frame `frame` of `total_frames`, checks it is stable, writes it and its breaks,
+    /// and the checkpoint when one is due.
+    fn frame(&mut self, frame: u32, total_frames: u32) -> Result<(), RunError> {
+        let steps_per_frame = self.sim_frames.steps_before(frame);
+        for batch in 0..steps_per_frame.div_ceil(50) {
+            let count = (steps_per_frame - batch * 50).min(50);
+            self.simulation.advance(count)?;
+            self.steps += count;
+            self.progress.advance(count);
+        }
+        let events = self.simulation.finish_frame()?;
+        self.broken_bonds += events.len() as u64;
+        let energy = self.simulation.energy();
+        if let Some(what) = self.trouble(&energy) {
+            self.progress.finish();
+            let kept = match (&self.previous, self.checkpointed) {
+                (Some(_), _) => "the previous run's frames and checkpoint are back in place".to_string(),
+                (None, true) => format!("frames up to {} and the last checkpoint are intact", frame - 1),
+                (None, false) => format!("frames up to {} are written; no checkpoint was reached", frame - 1),
+            };
+            let (config, step) = (self.config.path.clone(), self.simulation.dynamics().step);
+            return Err(RunError::Unstable { config, frame, step, what, kept });
+        }
+        write_frame(&*self.simulation, &self.inputs.layout, frame, self.inputs.inputs)?;
+        self.log.append(frame, &events)?;
+        if frame.is_multiple_of(self.config.sim.checkpoint_every_frames) || frame == total_frames {
+            self.checkpoint(frame)?;
+        }
+        self.progress.message(&format!(
+            "frame {frame}/{total_frames}, {} broken bonds, kinetic energy {:.3e} J",
+            self.broken_bonds, energy.kinetic_j
+        ));
+        Ok(())
+    }
+
+    /// What is wrong with the state at the frame's end, if anything: a non-finite value, or an
+    /// energy beyond `sim.runaway_energy_factor` times the initial energy plus the external work.
+    fn trouble(&self, energy: &Energy) -> Option<String> {
+        let dynamics = self.simulation.dynamics();
+        let factor = self.config.sim.runaway_energy_factor;
+        let budget = factor * (self.initial_energy_j + dynamics.external_work_j).max(0.0) + 1e-9;
+        non_finite(dynamics).or_else(|| {
+            (!energy.total_j().is_finite() || energy.total_j() > budget).then(|| {
                 format!(
-                    "kinetic plus bond energy {:.4e} J exceeds {} x (initial energy + external work) = {budget:.4e} J",
-                    energy.total_j(),
-                    config.sim.runaway_energy_factor
+                    "kinetic plus bond energy {:.4e} J exceeds {factor} x (initial energy + external work) = \
+                     {budget:.4e} J",
+                    energy.total_j()
                 )
             })
-            });
-            if let Some(what) = trouble {
-                progress.finish();
-                let kept = match (&previous, checkpointed) {
-                    (Some(_), _) => "the previous run's frames and checkpoint are back in place".to_string(),
-                    (None, true) => format!("frames up to {} and the last checkpoint are intact", frame - 1),
-                    (None, false) => format!("frames up to {} are written; no checkpoint was reached", frame - 1),
-                };
-                return Err(RunError::Unstable { config: config.path.clone(), frame, step: dynamics.step, what, kept });
-            }
-            write_frame(simulation.as_ref(), &layout, frame, inputs)?;
-            log.append(frame, &events)?;
-            if frame % config.sim.checkpoint_every_frames == 0 || frame == total_frames {
-                let meta = CheckpointMeta {
-                    frame,
-                    step: dynamics.step,
-                    break_log_bytes: log.len(),
-                    broken_bonds,
-                    settings_hash: hash,
-                    particles_checksum,
-                    external_work_j: dynamics.external_work_j,
-                    initial_energy_j,
-                    backend: simulation.describe(),
-                };
-                let bond_state = simulation.bond_state();
-                let state = StateRef {
-                    disp: &dynamics.disp,
-                    vel: &dynamics.vel,
-                    force: &dynamics.force,
-                    boost: &dynamics.boost,
-                    bond_state: &bond_state,
-                };
-                checkpoint::write(&checkpoint_path, &meta, state)?;
-                checkpointed = true;
-                if let Some(previous) = previous.take() {
-                    previous.discard()?;
-                }
-            }
-            progress.message(&format!(
-                "frame {frame}/{total_frames}, {broken_bonds} broken bonds, kinetic energy {:.3e} J",
-                energy.kinetic_j
-            ));
+        })
+    }
+
+    /// Writes the checkpoint at frame `frame`; the first one discards the previous run's outputs.
+    fn checkpoint(&mut self, frame: u32) -> Result<(), RunError> {
+        let dynamics = self.simulation.dynamics();
+        let meta = CheckpointMeta {
+            frame,
+            step: dynamics.step,
+            break_log_bytes: self.log.len(),
+            broken_bonds: self.broken_bonds,
+            settings_hash: self.inputs.settings_hash,
+            particles_checksum: self.inputs.particles_checksum,
+            external_work_j: dynamics.external_work_j,
+            initial_energy_j: self.initial_energy_j,
+            backend: self.simulation.describe(),
+        };
+        let bond_state = self.simulation.bond_state();
+        let state = StateRef {
+            disp: &dynamics.disp,
+            vel: &dynamics.vel,
+            force: &dynamics.force,
+            boost: &dynamics.boost,
+            bond_state: &bond_state,
+        };
+        checkpoint::write(&self.inputs.layout.checkpoint(), &meta, state)?;
+        self.checkpointed = true;
+        if let Some(previous) = self.previous.take() {
+            previous.discard()?;
         }
         Ok(())
-    };
-    let outcome = frames();
-    progress.finish();
-    restoring(&mut previous, outcome)?;
-    Ok(RunReport {
-        backend: simulation.describe(),
-        particles: simulation.len(),
-        started_at_frame: start_frame,
-        frames: total_frames,
-        steps,
-        broken_bonds,
-        stable_dt_s,
-        wall_s: started.elapsed().as_secs_f64(),
-        warnings,
-        frames_dir,
-    })
+    }
 }
 
 fn write_frame(simulation: &dyn Backend, layout: &OutputLayout, frame: u32, inputs: u32) -> Result<(), FrameFileError> {

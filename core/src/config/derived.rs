@@ -4,7 +4,8 @@
 //! can make a particle file that no later stage can use. Such settings are refused here, naming
 //! the key, before preprocessing replaces a good particle file.
 
-use super::{Checker, ConfigError, PipelineConfig};
+use super::checker::Checker;
+use super::{ConfigError, PipelineConfig};
 
 /// The smallest mean critical stretch: the simulation computes stretches in single precision, to
 /// about 1e-7.

@@ -7,7 +7,8 @@
 //! [`UNSET`], a NaN with its own payload, which no TOML value parses to (a written `nan` has the
 //! standard payload and is refused by the usual checks).
 
-use super::{Checker, ConfigError, PipelineConfig};
+use super::checker::Checker;
+use super::{ConfigError, PipelineConfig};
 
 /// What a key the file left out to its LAMMPS alternative holds until [`resolve`] fills it.
 const UNSET: f64 = f64::from_bits(0x7ff8_5ba7_7e20_0001);

@@ -3,10 +3,13 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Checker, ConfigError, lammps_terms};
+use super::checker::Checker;
+use super::{ConfigError, lammps_terms};
 
 /// The fracture energy used when a scene gives neither it nor a critical stretch: soda-lime glass.
 pub const DEFAULT_FRACTURE_ENERGY_J_M2: f64 = 8.0;
+/// The largest per-bond threshold jitter accepted, as a fraction of the mean threshold.
+pub const MAX_THRESHOLD_JITTER: f64 = 0.2;
 
 /// The material model (`material.model`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -251,8 +254,40 @@ impl MaterialConfig {
         })
     }
 
+    /// Checks density, stiffness and strength, then the model's keys.
+    pub(super) fn validate(&self, check: &Checker) -> Result<(), ConfigError> {
+        check.positive("material.density_kg_m3", self.density_kg_m3, "kg/m^3")?;
+        check.positive("material.bulk_modulus_pa", self.bulk_modulus_pa, "Pa")?;
+        match (self.fracture_energy_j_m2, self.critical_stretch) {
+            (Some(_), Some(_)) => {
+                return Err(check.invalid(
+                    "material.critical_stretch",
+                    &format!("{}", self.critical_stretch.unwrap_or_default()),
+                    "give either fracture_energy_j_m2 or critical_stretch, not both",
+                ));
+            }
+            (Some(energy), None) => check.positive("material.fracture_energy_j_m2", energy, "J/m^2")?,
+            (None, Some(stretch)) => check.that(
+                stretch.is_finite() && stretch > 0.0 && stretch < 1.0,
+                "material.critical_stretch",
+                &stretch.to_string(),
+                || "must be greater than 0 and below 1 (the paper uses 0.0002 to 0.01)".to_string(),
+            )?,
+            (None, None) => {}
+        }
+        let jitter = self.threshold_jitter;
+        check.that(
+            jitter.is_finite() && (0.0..=MAX_THRESHOLD_JITTER).contains(&jitter),
+            "material.threshold_jitter",
+            &jitter.to_string(),
+            || format!("must be between 0 and {MAX_THRESHOLD_JITTER} (a fraction of the mean threshold)"),
+        )?;
+        check.non_negative("material.compression_alpha", self.compression_alpha, "dimensionless")?;
+        self.validate_model(check)
+    }
+
     /// Checks the model's keys: the elastoplastic keys only with that model, each in range.
-    pub(super) fn validate_model(&self, check: &Checker) -> Result<(), ConfigError> {
+    fn validate_model(&self, check: &Checker) -> Result<(), ConfigError> {
         if self.model == MaterialModel::Pmb {
             if let Some((key, _)) = elastoplastic_keys(self).into_iter().find(|(_, given)| *given) {
                 return Err(check.invalid(

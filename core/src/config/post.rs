@@ -2,8 +2,9 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::ConfigError;
+use super::checker::Checker;
 use super::material::MaterialModel;
-use super::{Checker, ConfigError};
 
 /// How elements are drawn (`post.element_shapes`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]

@@ -4,8 +4,9 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use super::ConfigError;
+use super::checker::Checker;
 use super::sim::BackendChoice;
-use super::{Checker, ConfigError};
 
 /// The largest `environment_intensity`: a million times a map's radiance is far past any real
 /// light, and far enough from single precision's limit that radiance times it stays finite.
@@ -165,7 +166,7 @@ impl Default for RenderFloorConfig {
 
 impl RenderConfig {
     pub(super) fn resolve_paths(&mut self, base: &Path) {
-        let resolve = |path: &mut PathBuf| super::resolve_path(base, path);
+        let resolve = |path: &mut PathBuf| super::relative_paths::resolve_path(base, path);
         if let Some(path) = &mut self.environment {
             resolve(path);
         }

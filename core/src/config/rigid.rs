@@ -3,7 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Checker, ConfigError};
+use super::ConfigError;
+use super::checker::Checker;
 
 /// `[rigid]`. Present, `shatter rigid` hands the fragments over to rigid bodies at the first
 /// frame that the handoff rule picks and simulates `follow_through_s` more seconds.

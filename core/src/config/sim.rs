@@ -4,7 +4,8 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use super::{Checker, ConfigError};
+use super::ConfigError;
+use super::checker::Checker;
 
 /// The most frames a simulation may write.
 pub const MAX_FRAMES: u32 = 1_000_000;
@@ -414,7 +415,7 @@ impl SimConfig {
     pub(super) fn resolve_paths(&mut self, base: &std::path::Path) {
         for seam in &mut self.seam {
             if let Some(mesh) = &mut seam.mesh {
-                super::resolve_path(base, mesh);
+                super::relative_paths::resolve_path(base, mesh);
             }
         }
     }
@@ -451,7 +452,15 @@ impl SimConfig {
         }
     }
 
+    /// Checks `[sim]`.
     pub(super) fn validate(&self, check: &Checker) -> Result<(), ConfigError> {
+        self.validate_stepping(check)?;
+        self.validate_bodies(check)?;
+        self.validate_art_direction(check)
+    }
+
+    /// Checks the time step, the frames, the runaway guard, the body forces, contact and the floor.
+    fn validate_stepping(&self, check: &Checker) -> Result<(), ConfigError> {
         check.positive("sim.dt_s", self.dt_s, "seconds")?;
         check.that(self.steps_per_frame > 0, "sim.steps_per_frame", "0", || "must be at least 1".into())?;
         check.that(self.frames > 0, "sim.frames", "0", || "must be at least 1 (frame 1 is the rest state)".into())?;
@@ -481,6 +490,11 @@ impl SimConfig {
                 || "must be between 0 and 1".into(),
             )?;
         }
+        Ok(())
+    }
+
+    /// Checks the projectiles, grips and indenters.
+    fn validate_bodies(&self, check: &Checker) -> Result<(), ConfigError> {
         for (index, projectile) in self.projectile.iter().enumerate() {
             let key = |name: &str| format!("sim.projectile[{index}].{name}");
             check.finite_array(&key("center_m"), &projectile.center_m)?;
@@ -510,6 +524,11 @@ impl SimConfig {
             check.positive(&key("radius_m"), indenter.radius_m, "metres")?;
             check.positive(&key("stiffness_n_m2"), indenter.stiffness_n_m2, "N/m^2")?;
         }
+        Ok(())
+    }
+
+    /// Checks the art direction: weakened paths, seams and shards.
+    fn validate_art_direction(&self, check: &Checker) -> Result<(), ConfigError> {
         for (index, path) in self.weakened_path.iter().enumerate() {
             let key = |name: &str| format!("sim.weakened_path[{index}].{name}");
             check.finite_array(&key("start_m"), &path.start_m)?;

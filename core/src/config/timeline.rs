@@ -5,7 +5,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Checker, ConfigError};
+use super::ConfigError;
+use super::checker::Checker;
 
 /// `[timeline]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -5,7 +5,8 @@ use std::fs::{File, OpenOptions};
 use std::io::{Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
-use super::{FrameFileError, invalid, io_error};
+use super::FrameFileError;
+use super::frame_file_error::{invalid, io_error};
 use crate::atomic_file::write_atomically;
 
 /// A bond that broke: the step it broke in and its id.

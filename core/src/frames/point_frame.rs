@@ -3,7 +3,8 @@
 
 use std::path::Path;
 
-use super::{FrameFileError, invalid};
+use super::FrameFileError;
+use super::frame_file_error::invalid;
 use crate::ply::{Column, PointCache};
 
 /// One frame of the point cache.

@@ -4,13 +4,17 @@
 
 use glam::DVec3;
 
+use super::cell_box::{BOX_PLANES, Frame};
 use super::cell_volume::{cone_volume, curve_ends, fan, green, place_crossings, polygon_area, stretch_levels};
-use super::clipping::{Corner, clip_triangle, plane_parts};
+use super::clipping::{Corner, MESH_EDGE, clip_triangle, plane_parts};
+use super::diagram::{ClippedCell, bisector};
 use super::face_inside::region_triangles;
-use super::polytope::Polytope;
-use super::{BOX_PLANES, ClippedCell, Frame, MESH_EDGE, NONE, SHARED_AREA, bisector};
+use super::polytope::{NONE, Polytope};
 use crate::mesh_query::MeshQuery;
 use shatter_geometry::mesh::TriangleMesh;
+
+/// A face shares a non-zero area inside the mesh when the inside part exceeds this fraction of it.
+const SHARED_AREA: f64 = 1e-10;
 
 /// What one cell needs to know.
 pub(super) struct CellInput<'a> {

@@ -4,7 +4,8 @@
 
 use glam::DVec3;
 
-use super::MESH_EDGE;
+/// The label of a piece edge that lies on an edge of the original triangle, not on a cell face.
+pub(super) const MESH_EDGE: u32 = u32::MAX;
 
 /// A polygon corner: its vertex, and the label of the edge from it to the next corner (a cell
 /// plane, or [`MESH_EDGE`]).

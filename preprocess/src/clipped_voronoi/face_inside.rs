@@ -27,17 +27,7 @@ use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
 /// between the segment and a path of edges joining its ends is closed by a fan of thin
 /// triangles along it.
 pub(super) fn region_triangles(normal: DVec3, boundary: &[(DVec3, DVec3)]) -> Vec<[DVec3; 3]> {
-    // the boundary's points, each once (by its bits), and its segments between them
-    let key = |p: DVec3| (p + DVec3::ZERO).to_array().map(f64::to_bits);
-    let mut id_of: HashMap<[u64; 3], u32> = HashMap::new();
-    let mut points: Vec<DVec3> = Vec::new();
-    let mut id = |p: DVec3| {
-        *id_of.entry(key(p)).or_insert_with(|| {
-            points.push(p);
-            points.len() as u32 - 1
-        })
-    };
-    let segments: Vec<[u32; 2]> = boundary.iter().map(|&(a, b)| [id(a), id(b)]).filter(|[a, b]| a != b).collect();
+    let Boundary { points, segments } = Boundary::new(boundary);
     let Some(&[first, _]) = segments.first() else {
         return Vec::new();
     };
@@ -45,104 +35,15 @@ pub(super) fn region_triangles(normal: DVec3, boundary: &[(DVec3, DVec3)]) -> Ve
     let u = normal.any_orthonormal_vector();
     let v = normal.cross(u);
     let flat = |p: DVec3| DVec2::new((p - origin).dot(u), (p - origin).dot(v));
-
-    // every point a vertex; points that fall on one point of the plane share it, and the vertex
-    // stands for the first of them
-    let mut cdt: ConstrainedDelaunayTriangulation<Point2<f64>> = ConstrainedDelaunayTriangulation::new();
-    let mut vertex_of = Vec::with_capacity(points.len());
-    let mut point_of: Vec<u32> = Vec::new(); // by vertex index
-    for (k, &p) in points.iter().enumerate() {
-        let q = flat(p);
-        let Ok(handle) = cdt.insert(Point2::new(q.x, q.y)) else {
-            return Vec::new(); // not finite: nothing to triangulate
-        };
-        if handle.index() >= point_of.len() {
-            point_of.resize(handle.index() + 1, k as u32);
-        }
-        vertex_of.push(handle.index());
-    }
-
-    // each segment's path of vertices in the triangulation: the constraint edge (split where it
-    // runs through other vertices), or, where it would cross a constraint, the shortest path
-    let mut paths: HashMap<[usize; 2], Option<Vec<usize>>> = HashMap::new(); // by ends, either way
-    for &[a, b] in &segments {
-        let (from, to) = (vertex_of[a as usize], vertex_of[b as usize]);
-        if from == to || paths.contains_key(&[from, to]) || paths.contains_key(&[to, from]) {
-            continue;
-        }
-        let edges = cdt.try_add_constraint(FixedVertexHandle::from_index(from), FixedVertexHandle::from_index(to));
-        let mut path = vec![from];
-        for edge in edges {
-            let edge = cdt.directed_edge(edge);
-            if Some(&edge.from().fix().index()) != path.last() {
-                break;
-            }
-            path.push(edge.to().fix().index());
-        }
-        paths.insert([from, to], (path.len() > 1 && path.last() == Some(&to)).then_some(path));
-    }
-    let refused: Vec<[usize; 2]> = paths.iter().filter(|(_, path)| path.is_none()).map(|(&ends, _)| ends).collect();
-    if !refused.is_empty() {
-        let mut graph: Vec<Vec<(usize, f64)>> = vec![Vec::new(); point_of.len()];
-        for edge in cdt.directed_edges() {
-            let [from, to] = [edge.from(), edge.to()].map(|vertex| vertex.position());
-            graph[edge.from().fix().index()].push((edge.to().fix().index(), (from.x - to.x).hypot(from.y - to.y)));
-        }
-        for [from, to] in refused {
-            paths.insert([from, to], shortest_path(&graph, from, to));
-        }
-    }
-    let path_of = |from: usize, to: usize| -> Vec<usize> {
-        if from == to {
-            return vec![from];
-        }
-        match (paths.get(&[from, to]), paths.get(&[to, from])) {
-            (Some(Some(path)), _) => path.clone(),
-            (_, Some(Some(path))) => path.iter().rev().copied().collect(),
-            _ => Vec::new(), // no path (cannot happen: the triangulation is connected)
-        }
+    let Some(mut face) = FaceTriangulation::new(&points, flat) else {
+        return Vec::new(); // not finite: nothing to triangulate
     };
-
-    // the winding number of each face: zero outside, stepping by the paths along each edge
-    let mut steps: HashMap<[usize; 2], i32> = HashMap::new();
-    let mut corrections = TriangleChain::default();
-    for &[a, b] in &segments {
-        let (va, vb) = (vertex_of[a as usize], vertex_of[b as usize]);
-        let path = path_of(va, vb);
-        for pair in path.windows(2) {
-            *steps.entry([pair[0], pair[1]]).or_default() += 1;
-            *steps.entry([pair[1], pair[0]]).or_default() -= 1;
-        }
-        if path.len() != 2 || point_of[va] != a || point_of[vb] != b {
-            // what the path misses of the segment: the cycle a, b, the path back from b's
-            // vertex to a's, closed by a fan from a (thin triangles along the segment)
-            let mut cycle = vec![a, b];
-            cycle.extend(path.iter().rev().map(|&vertex| point_of[vertex]));
-            corrections.add_fan(&cycle, 1);
-        }
-    }
-    let mut across: Vec<Vec<(usize, i32)>> = vec![Vec::new(); cdt.num_all_faces()];
-    for edge in cdt.directed_edges() {
-        let (left, right) = (edge.face().fix().index(), edge.rev().face().fix().index());
-        let step = steps.get(&[edge.from().fix().index(), edge.to().fix().index()]).copied().unwrap_or(0);
-        across[left].push((right, -step));
-    }
-    let mut winding: Vec<Option<i32>> = vec![None; across.len()];
-    let outer = cdt.outer_face().fix().index();
-    winding[outer] = Some(0);
-    let mut queue = VecDeque::from([outer]);
-    while let Some(face) = queue.pop_front() {
-        let here = winding[face].unwrap_or(0);
-        for &(next, step) in &across[face] {
-            if winding[next].is_none() {
-                winding[next] = Some(here + step);
-                queue.push_back(next);
-            }
-        }
-    }
-    let triangles = cdt.inner_faces().flat_map(|face| {
-        let [a, b, c] = face.vertices().map(|vertex| point_of[vertex.fix().index()]);
-        let winding = winding[face.fix().index()].unwrap_or(0);
+    let paths = face.constrain(&segments);
+    let (steps, mut corrections) = face.winding_steps(&segments, &paths);
+    let winding = face.windings(&steps);
+    let triangles = face.cdt.inner_faces().flat_map(|triangle| {
+        let [a, b, c] = triangle.vertices().map(|vertex| face.point_of[vertex.fix().index()]);
+        let winding = winding[triangle.fix().index()].unwrap_or(0);
         let triangle = if winding < 0 { [a, c, b] } else { [a, b, c] };
         std::iter::repeat_n(triangle, winding.unsigned_abs() as usize)
     });
@@ -154,6 +55,164 @@ pub(super) fn region_triangles(normal: DVec3, boundary: &[(DVec3, DVec3)]) -> Ve
             corrections.add_triangle(triangle, 1);
         }
         corrections.triangles(&points)
+    }
+}
+
+/// A boundary's points, each once (by its bits), and its segments between them (by point id).
+struct Boundary {
+    points: Vec<DVec3>,
+    /// Segments between two different points.
+    segments: Vec<[u32; 2]>,
+}
+
+impl Boundary {
+    /// The points and segments of `boundary`.
+    fn new(boundary: &[(DVec3, DVec3)]) -> Boundary {
+        let key = |p: DVec3| (p + DVec3::ZERO).to_array().map(f64::to_bits);
+        let mut id_of: HashMap<[u64; 3], u32> = HashMap::new();
+        let mut points: Vec<DVec3> = Vec::new();
+        let mut id = |p: DVec3| {
+            *id_of.entry(key(p)).or_insert_with(|| {
+                points.push(p);
+                points.len() as u32 - 1
+            })
+        };
+        let segments: Vec<[u32; 2]> = boundary.iter().map(|&(a, b)| [id(a), id(b)]).filter(|[a, b]| a != b).collect();
+        Boundary { points, segments }
+    }
+}
+
+/// The constrained Delaunay triangulation of a boundary's points in their plane. Every point is
+/// a vertex; points that fall on one point of the plane share it, and the vertex stands for the
+/// first of them.
+struct FaceTriangulation {
+    cdt: ConstrainedDelaunayTriangulation<Point2<f64>>,
+    /// Each point's vertex index.
+    vertex_of: Vec<usize>,
+    /// Each vertex's point id.
+    point_of: Vec<u32>,
+}
+
+/// Each segment's path of vertices in the triangulation, by its ends' vertices (either way
+/// round); None where there is none.
+struct SegmentPaths(HashMap<[usize; 2], Option<Vec<usize>>>);
+
+impl SegmentPaths {
+    /// The path from vertex `from` to vertex `to`.
+    fn between(&self, from: usize, to: usize) -> Vec<usize> {
+        if from == to {
+            return vec![from];
+        }
+        match (self.0.get(&[from, to]), self.0.get(&[to, from])) {
+            (Some(Some(path)), _) => path.clone(),
+            (_, Some(Some(path))) => path.iter().rev().copied().collect(),
+            _ => Vec::new(), // no path (cannot happen: the triangulation is connected)
+        }
+    }
+}
+
+impl FaceTriangulation {
+    /// The triangulation of `points`, placed in the plane by `flat`; None when a point is not
+    /// finite.
+    fn new(points: &[DVec3], flat: impl Fn(DVec3) -> DVec2) -> Option<FaceTriangulation> {
+        let mut cdt: ConstrainedDelaunayTriangulation<Point2<f64>> = ConstrainedDelaunayTriangulation::new();
+        let mut vertex_of = Vec::with_capacity(points.len());
+        let mut point_of: Vec<u32> = Vec::new(); // by vertex index
+        for (k, &p) in points.iter().enumerate() {
+            let q = flat(p);
+            let handle = cdt.insert(Point2::new(q.x, q.y)).ok()?;
+            if handle.index() >= point_of.len() {
+                point_of.resize(handle.index() + 1, k as u32);
+            }
+            vertex_of.push(handle.index());
+        }
+        Some(FaceTriangulation { cdt, vertex_of, point_of })
+    }
+
+    /// Adds `segments` as constraints: each segment's path of vertices is the constraint edge
+    /// (split where it runs through other vertices), or, where it would cross a constraint, the
+    /// shortest path.
+    fn constrain(&mut self, segments: &[[u32; 2]]) -> SegmentPaths {
+        let cdt = &mut self.cdt;
+        let mut paths: HashMap<[usize; 2], Option<Vec<usize>>> = HashMap::new(); // by ends, either way
+        for &[a, b] in segments {
+            let (from, to) = (self.vertex_of[a as usize], self.vertex_of[b as usize]);
+            if from == to || paths.contains_key(&[from, to]) || paths.contains_key(&[to, from]) {
+                continue;
+            }
+            let edges = cdt.try_add_constraint(FixedVertexHandle::from_index(from), FixedVertexHandle::from_index(to));
+            let mut path = vec![from];
+            for edge in edges {
+                let edge = cdt.directed_edge(edge);
+                if Some(&edge.from().fix().index()) != path.last() {
+                    break;
+                }
+                path.push(edge.to().fix().index());
+            }
+            paths.insert([from, to], (path.len() > 1 && path.last() == Some(&to)).then_some(path));
+        }
+        let refused: Vec<[usize; 2]> = paths.iter().filter(|(_, path)| path.is_none()).map(|(&ends, _)| ends).collect();
+        if !refused.is_empty() {
+            let mut graph: Vec<Vec<(usize, f64)>> = vec![Vec::new(); self.point_of.len()];
+            for edge in cdt.directed_edges() {
+                let [from, to] = [edge.from(), edge.to()].map(|vertex| vertex.position());
+                graph[edge.from().fix().index()].push((edge.to().fix().index(), (from.x - to.x).hypot(from.y - to.y)));
+            }
+            for [from, to] in refused {
+                paths.insert([from, to], shortest_path(&graph, from, to));
+            }
+        }
+        SegmentPaths(paths)
+    }
+
+    /// How the winding number steps across each directed edge (by the paths of `segments` along
+    /// it), and the fans that close what the paths miss of the segments.
+    fn winding_steps(&self, segments: &[[u32; 2]], paths: &SegmentPaths) -> (HashMap<[usize; 2], i32>, TriangleChain) {
+        let point_of = &self.point_of;
+        let mut steps: HashMap<[usize; 2], i32> = HashMap::new();
+        let mut corrections = TriangleChain::default();
+        for &[a, b] in segments {
+            let (va, vb) = (self.vertex_of[a as usize], self.vertex_of[b as usize]);
+            let path = paths.between(va, vb);
+            for pair in path.windows(2) {
+                *steps.entry([pair[0], pair[1]]).or_default() += 1;
+                *steps.entry([pair[1], pair[0]]).or_default() -= 1;
+            }
+            if path.len() != 2 || point_of[va] != a || point_of[vb] != b {
+                // what the path misses of the segment: the cycle a, b, the path back from b's
+                // vertex to a's, closed by a fan from a (thin triangles along the segment)
+                let mut cycle = vec![a, b];
+                cycle.extend(path.iter().rev().map(|&vertex| point_of[vertex]));
+                corrections.add_fan(&cycle, 1);
+            }
+        }
+        (steps, corrections)
+    }
+
+    /// The winding number of each face (by index): zero outside, stepping by `steps` across
+    /// each edge.
+    fn windings(&self, steps: &HashMap<[usize; 2], i32>) -> Vec<Option<i32>> {
+        let cdt = &self.cdt;
+        let mut across: Vec<Vec<(usize, i32)>> = vec![Vec::new(); cdt.num_all_faces()];
+        for edge in cdt.directed_edges() {
+            let (left, right) = (edge.face().fix().index(), edge.rev().face().fix().index());
+            let step = steps.get(&[edge.from().fix().index(), edge.to().fix().index()]).copied().unwrap_or(0);
+            across[left].push((right, -step));
+        }
+        let mut winding: Vec<Option<i32>> = vec![None; across.len()];
+        let outer = cdt.outer_face().fix().index();
+        winding[outer] = Some(0);
+        let mut queue = VecDeque::from([outer]);
+        while let Some(face) = queue.pop_front() {
+            let here = winding[face].unwrap_or(0);
+            for &(next, step) in &across[face] {
+                if winding[next].is_none() {
+                    winding[next] = Some(here + step);
+                    queue.push_back(next);
+                }
+            }
+        }
+        winding
     }
 }
 

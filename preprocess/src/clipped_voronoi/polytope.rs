@@ -3,8 +3,10 @@
 
 use glam::DVec3;
 
-use super::NONE;
 use super::clipping::{ClipVertices, Corner, clip_cycle, cut_point, plane_parts, side};
+
+/// No vertex, face or site.
+pub(super) const NONE: u32 = u32::MAX;
 
 /// A face of a polytope: the plane it lies on (an index into the cell's planes) and its corners,
 /// counterclockwise seen from outside, each edge labelled with the plane of the face across it.
@@ -22,7 +24,7 @@ pub(super) struct Polytope {
 }
 
 impl Polytope {
-    /// The box `[lo, hi]`; its faces lie on planes 0..6 of [`Frame::planes`](super::Frame::planes).
+    /// The box `[lo, hi]`; its faces lie on planes 0..6 of [`Frame::planes`](super::cell_box::Frame::planes).
     pub(super) fn cuboid(lo: DVec3, hi: DVec3) -> Polytope {
         let vertices = (0..8)
             .map(|i| DVec3::new([lo.x, hi.x][i & 1], [lo.y, hi.y][(i >> 1) & 1], [lo.z, hi.z][(i >> 2) & 1]))

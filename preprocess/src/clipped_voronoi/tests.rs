@@ -1,11 +1,13 @@
 //! Clipped Voronoi diagrams of cubes, octahedra and overlapping or hollow meshes: volumes and
 //! areas adding up, adjacency, degenerate site layouts and bad input.
 
+use glam::DVec3;
 use shatter_core::random::SplitMix64;
+use shatter_geometry::mesh::TriangleMesh;
 
 use super::*;
-use crate::mesh_query::tests::octahedron;
-use crate::test_meshes::cube;
+use crate::mesh_query::MeshQuery;
+use crate::test_meshes::{cube, octahedron};
 
 /// `count` random points strictly inside the mesh.
 fn random_sites(mesh: &TriangleMesh, count: usize, seed: u64) -> Vec<DVec3> {

@@ -5,10 +5,10 @@
 use glam::DVec3;
 use robust::insphere;
 
-use super::NO_TET;
 use super::edge_table::EdgeTable;
 use super::predicates::{coord, orient};
 use super::splitmix::SplitMix64;
+use super::tetrahedralization::NO_TET;
 
 /// The symbolic vertex at infinity shared by all ghost tets (always at index 3 of a ghost).
 const GHOST: u32 = u32::MAX;

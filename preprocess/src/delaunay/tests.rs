@@ -3,10 +3,11 @@
 
 use std::collections::{BTreeSet, HashMap, HashSet};
 
+use glam::DVec3;
 use robust::insphere;
 
 use super::insertion_order::{MortonFrame, spread_bits};
-use super::predicates::coord;
+use super::predicates::{coord, orient};
 use super::splitmix::SplitMix64;
 use super::*;
 

@@ -34,6 +34,9 @@
 //!   sequential).
 //!
 //! No relaxation is applied: the points are the raw maximal Poisson disk sample.
+//!
+//! [`thin`] keeps the same minimum distance among given points, in their order (the tet shell's
+//! layers).
 
 use glam::DVec3;
 use shatter_core::random::{SplitMix64, splitmix64};
@@ -61,6 +64,9 @@ pub const POISSON_DENSITY: f64 = 0.70;
 
 /// The most grid cubes the sampler will allocate.
 pub const MAX_GRID_CUBES: usize = 1 << 28;
+
+/// The most cells the thinning grid of [`thin`] allocates (larger grids use larger cells).
+const MAX_THINNING_CELLS: f64 = (1u64 << 24) as f64;
 
 const NONE: u32 = u32::MAX;
 
@@ -417,6 +423,57 @@ fn classify_cubes(query: &MeshQuery, grid: &Grid) -> Vec<Region> {
     region
 }
 
+/// Poisson disk thinning: keeps each point (in the given order) that is at least `r` from every
+/// point kept before it. `None` when the grid would be too large.
+pub fn thin(points: &[DVec3], r: f64) -> Option<Vec<DVec3>> {
+    if points.is_empty() {
+        return Some(Vec::new());
+    }
+    let (lo, hi) = points.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    let extent = (hi - lo).max(DVec3::splat(r));
+    let side = r.max((extent.x * extent.y * extent.z / MAX_THINNING_CELLS).cbrt());
+    let dims = (extent / side).floor().to_array().map(|n| n as usize + 1);
+    let cells = dims.iter().try_fold(1usize, |total, &n| total.checked_mul(n))?;
+    if cells > 2 * MAX_THINNING_CELLS as usize {
+        return None;
+    }
+    let cell_of = |p: DVec3| -> [usize; 3] {
+        let q = ((p - lo) / side).floor().to_array();
+        std::array::from_fn(|k| (q[k].max(0.0) as usize).min(dims[k] - 1))
+    };
+    let linear = |c: [usize; 3]| c[0] + dims[0] * (c[1] + dims[1] * c[2]);
+    let mut head = vec![NONE; cells];
+    let mut next: Vec<u32> = Vec::new();
+    let mut kept: Vec<DVec3> = Vec::new();
+    let keep_out_sq = r * r * (1.0 + DISTANCE_MARGIN);
+    for &p in points {
+        let cell = cell_of(p);
+        let range = |k: usize| cell[k].saturating_sub(1)..=(cell[k] + 1).min(dims[k] - 1);
+        let mut conflict = false;
+        'search: for z in range(2) {
+            for y in range(1) {
+                for x in range(0) {
+                    let mut q = head[linear([x, y, z])];
+                    while q != NONE {
+                        if kept[q as usize].distance_squared(p) < keep_out_sq {
+                            conflict = true;
+                            break 'search;
+                        }
+                        q = next[q as usize];
+                    }
+                }
+            }
+        }
+        if !conflict {
+            let index = linear(cell);
+            next.push(head[index]);
+            head[index] = kept.len() as u32;
+            kept.push(p);
+        }
+    }
+    Some(kept)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -496,5 +553,11 @@ mod tests {
         let error = (points.len() as f64 / 2000.0 - 1.0).abs();
         assert!(error < 0.03, "{} points at r = {r}", points.len());
         assert!(min_pair_distance(&points, 2.0 * r) >= r);
+    }
+
+    #[test]
+    fn thinning_keeps_the_first_of_close_points() {
+        let points = [DVec3::ZERO, DVec3::new(0.5, 0.0, 0.0), DVec3::new(1.0, 0.5, 0.0), DVec3::new(1.0, 1.0, 1.0)];
+        assert_eq!(thin(&points, 1.0).expect("small"), [points[0], points[2], points[3]]);
     }
 }

@@ -10,7 +10,7 @@ use crate::inside::{FillRule, InsideCells, inside_cells};
 use crate::lattice::Lattice;
 use crate::order::morton_code;
 use crate::preprocess_driver::PreprocessError;
-use crate::samplers::particle_assembly::{Placement, assemble};
+use crate::samplers::particle_assembly::{Placement, Sampled, assemble};
 use shatter_geometry::mesh::TriangleMesh;
 
 /// The largest lattice (in cells, filled or not) the grid sampler will allocate.
@@ -102,7 +102,7 @@ fn sample_cells(lattice: Lattice, keep: impl Fn(usize) -> bool) -> GridSample {
     GridSample { lattice, cells, adjacency }
 }
 
-// The sample as particles, for the dispatch in `samplers/mod.rs`.
+// The sample as particles, for the dispatch in `samplers/sampler_dispatch.rs`.
 
 /// A lattice too large for the spacing, as an error of the `geometry.spacing_m` setting.
 pub(super) fn spacing_error(spacing: f64) -> impl Fn(GridError) -> PreprocessError {
@@ -133,7 +133,15 @@ pub(super) fn grid_particles(
         orientation: placement.rotation.as_quat().to_array(),
     };
     let volumes = vec![lambda.powi(3); n];
-    assemble(config, lambda, &points, stored, &volumes, elements, sample.adjacency.clone(), progress, notes)
+    let sampled = Sampled {
+        lambda_m: lambda,
+        points: &points,
+        rest_position_m: stored,
+        volume_m3: &volumes,
+        elements,
+        adjacency: sample.adjacency.clone(),
+    };
+    assemble(config, sampled, progress, notes)
 }
 
 /// Largest change of the spacing between stored positions that [`exact_lattice_positions`]

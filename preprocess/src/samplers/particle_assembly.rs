@@ -63,22 +63,32 @@ fn particle_meta(config: &PipelineConfig, lambda: f64, delta: f64, mean_threshol
     }
 }
 
-/// Particles at `points` (sampling frame), stored in the file at `rest_position_m` (world),
-/// with `volumes` and `elements` (already in the world), bonded within `lambda` times the
-/// horizon factor; element pairs in `adjacency` (indices into `points`, a < b, sorted) that are
-/// not bonds are dropped, with a note.
-#[allow(clippy::too_many_arguments)]
+/// What a sampler made, for [`assemble`] to bond: its particles in the sampling frame and as the
+/// file stores them.
+pub(super) struct Sampled<'a> {
+    /// The sampler's minimum distance between particles.
+    pub lambda_m: f64,
+    /// The particles, sampling frame.
+    pub points: &'a [DVec3],
+    /// The particles as the file stores them (world).
+    pub rest_position_m: Vec<[f32; 3]>,
+    /// The particles' volumes.
+    pub volume_m3: &'a [f64],
+    /// The elements, already in the world.
+    pub elements: Elements,
+    /// Adjacent element pairs (indices into `points`, a < b, sorted).
+    pub adjacency: Vec<[u32; 2]>,
+}
+
+/// The particles of `sampled`, bonded within `lambda_m` times the horizon factor; element pairs of
+/// its adjacency that are not bonds are dropped, with a note.
 pub(super) fn assemble(
     config: &PipelineConfig,
-    lambda: f64,
-    points: &[DVec3],
-    rest_position_m: Vec<[f32; 3]>,
-    volumes: &[f64],
-    elements: Elements,
-    mut adjacency: Vec<[u32; 2]>,
+    sampled: Sampled,
     progress: &dyn Progress,
     notes: &mut Vec<String>,
 ) -> ParticleSet {
+    let Sampled { lambda_m: lambda, points, rest_position_m, volume_m3: volumes, elements, mut adjacency } = sampled;
     let delta = config.geometry.horizon_factor * lambda;
     let mean_threshold = config.material.mean_critical_stretch(delta);
     let params = BondParams {

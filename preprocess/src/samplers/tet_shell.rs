@@ -19,9 +19,10 @@
 //!    surface, wherever it exists.
 //! 3. **Thinning**: the projected candidates in a seeded random order; each is kept when no kept
 //!    point of its layer is closer than `r` (with a relative margin of 1e-12 on the squared
-//!    distance that covers its rounding, as [`blue_noise`](super::blue_noise) does). This is Poisson
-//!    disk sampling on the layer: no two points of a layer are closer than `r`, and the candidates
-//!    being dense, every point of the layer is within about `r` of a kept point.
+//!    distance that covers its rounding, as [`blue_noise`](super::blue_noise) does: [`thin`]).
+//!    This is Poisson disk sampling on the layer: no two points of a layer are closer than `r`,
+//!    and the candidates being dense, every point of the layer is within about `r` of a kept
+//!    point.
 //!
 //! A layer that comes out empty (the solid is nowhere thicker than twice its depth) ends the
 //! sampling: the deeper layers would lie inside it.
@@ -64,8 +65,8 @@ use crate::delaunay::{DelaunayError, NO_NEIGHBOR, tet_volume, tetrahedralize};
 use crate::mesh_query::MeshQuery;
 use crate::order::z_order;
 use crate::preprocess_driver::PreprocessError;
-use crate::samplers::blue_noise::{MAX_GRID_CUBES, poisson_disk};
-use crate::samplers::particle_assembly::{Placement, assemble, check_count};
+use crate::samplers::blue_noise::{MAX_GRID_CUBES, poisson_disk, thin};
+use crate::samplers::particle_assembly::{Placement, Sampled, assemble, check_count};
 use shatter_geometry::mesh::TriangleMesh;
 
 /// Candidates per `r^2` of surface area (`r` the point spacing). Thinning keeps about 0.6 per
@@ -83,16 +84,10 @@ pub const MAX_CANDIDATES: usize = 1 << 27;
 /// Projection steps a candidate gets to settle on its layer.
 const MAX_PROJECTION_STEPS: usize = 8;
 
-/// Relative margin on the squared minimum distance (as in [`blue_noise`](super::blue_noise)).
-const DISTANCE_MARGIN: f64 = 1e-12;
-
-/// The most cells the thinning grid allocates (larger grids use larger cells).
-const MAX_THINNING_CELLS: f64 = (1u64 << 24) as f64;
-
 /// Mixed into the seed, so this sampler's streams differ from other users of the same seed.
 const SEED_SALT: u64 = 0x7E75_11E1_0000_0004;
 
-/// No point in a cell of the thinning grid.
+/// No kept tet (the new index of a removed one).
 const NONE: u32 = u32::MAX;
 
 /// How the shell is built.
@@ -480,58 +475,7 @@ pub fn project(query: &MeshQuery, y: DVec3, n: DVec3, depth: f64, tolerance: f64
     None
 }
 
-/// Poisson disk thinning: keeps each point (in the given order) that is at least `r` from every
-/// point kept before it. `None` when the grid would be too large.
-pub fn thin(points: &[DVec3], r: f64) -> Option<Vec<DVec3>> {
-    if points.is_empty() {
-        return Some(Vec::new());
-    }
-    let (lo, hi) = points.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
-    let extent = (hi - lo).max(DVec3::splat(r));
-    let side = r.max((extent.x * extent.y * extent.z / MAX_THINNING_CELLS).cbrt());
-    let dims = (extent / side).floor().to_array().map(|n| n as usize + 1);
-    let cells = dims.iter().try_fold(1usize, |total, &n| total.checked_mul(n))?;
-    if cells > 2 * MAX_THINNING_CELLS as usize {
-        return None;
-    }
-    let cell_of = |p: DVec3| -> [usize; 3] {
-        let q = ((p - lo) / side).floor().to_array();
-        std::array::from_fn(|k| (q[k].max(0.0) as usize).min(dims[k] - 1))
-    };
-    let linear = |c: [usize; 3]| c[0] + dims[0] * (c[1] + dims[1] * c[2]);
-    let mut head = vec![NONE; cells];
-    let mut next: Vec<u32> = Vec::new();
-    let mut kept: Vec<DVec3> = Vec::new();
-    let keep_out_sq = r * r * (1.0 + DISTANCE_MARGIN);
-    for &p in points {
-        let cell = cell_of(p);
-        let range = |k: usize| cell[k].saturating_sub(1)..=(cell[k] + 1).min(dims[k] - 1);
-        let mut conflict = false;
-        'search: for z in range(2) {
-            for y in range(1) {
-                for x in range(0) {
-                    let mut q = head[linear([x, y, z])];
-                    while q != NONE {
-                        if kept[q as usize].distance_squared(p) < keep_out_sq {
-                            conflict = true;
-                            break 'search;
-                        }
-                        q = next[q as usize];
-                    }
-                }
-            }
-        }
-        if !conflict {
-            let index = linear(cell);
-            next.push(head[index]);
-            head[index] = kept.len() as u32;
-            kept.push(p);
-        }
-    }
-    Some(kept)
-}
-
-// The shell as particles, for the dispatch in `samplers/mod.rs`.
+// The shell as particles, for the dispatch in `samplers/sampler_dispatch.rs`.
 
 /// The tets of the layered shell as particles: barycentres, tet volumes, the tets in the world.
 pub(super) fn tet_shell_particles(
@@ -573,7 +517,15 @@ pub(super) fn tet_shell_particles(
     let vertices_m = tets.iter().map(|tet| tet.map(|v| placement.world(points.points[v as usize]))).collect();
     let elements = Elements::Tets { vertices_m };
     let stored = placement.stored_positions(&barycentres);
-    Ok(assemble(config, geometry.spacing_m, &barycentres, stored, &volumes, elements, adjacency, progress, notes))
+    let sampled = Sampled {
+        lambda_m: geometry.spacing_m,
+        points: &barycentres,
+        rest_position_m: stored,
+        volume_m3: &volumes,
+        elements,
+        adjacency,
+    };
+    Ok(assemble(config, sampled, progress, notes))
 }
 
 /// What the shell is made of, for the user.
@@ -647,11 +599,5 @@ mod tests {
         eprintln!("{total} against 1");
         assert!((total - 1.0).abs() < 0.01, "{total}");
         assert!(solid.points.core > 0);
-    }
-
-    #[test]
-    fn thinning_keeps_the_first_of_close_points() {
-        let points = [DVec3::ZERO, DVec3::new(0.5, 0.0, 0.0), DVec3::new(1.0, 0.5, 0.0), DVec3::new(1.0, 1.0, 1.0)];
-        assert_eq!(thin(&points, 1.0).expect("small"), [points[0], points[2], points[3]]);
     }
 }

@@ -15,7 +15,7 @@ use crate::preprocess_driver::PreprocessError;
 use crate::samplers::blue_noise::{
     MAX_GRID_CUBES, POISSON_DENSITY, min_distance_for_count, poisson_disk, poisson_disk_with_count,
 };
-use crate::samplers::particle_assembly::{Placement, assemble, check_count};
+use crate::samplers::particle_assembly::{Placement, Sampled, assemble, check_count};
 use shatter_geometry::mesh::TriangleMesh;
 
 /// How far apart the sites are.
@@ -98,7 +98,7 @@ pub fn voronoi_sample(
     Ok(VoronoiSample { sample_distance, sites, diagram })
 }
 
-// The sample as particles, for the dispatch in `samplers/mod.rs`.
+// The sample as particles, for the dispatch in `samplers/sampler_dispatch.rs`.
 
 /// How far apart two sampling-frame points may come once rounded to f32 world coordinates
 /// (an upper bound on the change of their distance), for a mesh with these bounds.
@@ -192,7 +192,15 @@ pub(super) fn voronoi_particles(
         face_planes,
     };
     let stored = placement.stored_positions(&sites);
-    Ok(assemble(config, lambda, &sites, stored, &volumes, elements, diagram.adjacency, progress, notes))
+    let sampled = Sampled {
+        lambda_m: lambda,
+        points: &sites,
+        rest_position_m: stored,
+        volume_m3: &volumes,
+        elements,
+        adjacency: diagram.adjacency,
+    };
+    Ok(assemble(config, sampled, progress, notes))
 }
 
 #[cfg(test)]

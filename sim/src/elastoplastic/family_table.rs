@@ -13,7 +13,8 @@ use shatter_core::particles::ParticleSet;
 
 use super::StateBasedConstants;
 use super::passes::{
-    ChunkOutputs, FamilyView, ForceInputs, LANES, Record, bond_forces, dilatation, energy_j, stiffness_n_m,
+    ChunkOutputs, DilatationInputs, DilatationOutputs, FamilyView, ForceInputs, LANES, Record, bond_forces, dilatation,
+    energy_j, stiffness_n_m,
 };
 use crate::SimError;
 
@@ -268,13 +269,13 @@ impl FamilyTable {
         let mut breaks = std::mem::take(&mut self.breaks);
         {
             let view = self.view();
-            let counts = (&intact[..], &self.initial[..]);
-            let (influence_all, record_all) = (&influence[..], &record[..]);
+            let first_pass =
+                DilatationInputs { influence: &influence, record: &record, intact: &intact, initial: &self.initial };
             (theta.par_chunks_mut(size), damage.par_chunks_mut(size), extension.par_chunks_mut(run))
                 .into_par_iter()
                 .enumerate()
                 .for_each(|(c, (theta, damage, extension))| {
-                    dilatation(&view, influence_all, record_all, counts, c * size, theta, damage, extension);
+                    dilatation(&view, &first_pass, c * size, &mut DilatationOutputs { theta, damage, extension });
                 });
             record.par_iter_mut().zip(theta.par_iter().zip(&damage)).for_each(|(r, (theta, damage))| {
                 (r[Record::THETA], r[Record::DAMAGE]) = (*theta, *damage);

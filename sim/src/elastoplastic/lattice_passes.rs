@@ -3,7 +3,7 @@
 //! [`super::passes`], but each bond computed once per pass for both its ends, eight bonds at a
 //! time, their partners eight consecutive slots (no gathers).
 //!
-//! The arithmetic is lane helpers ([`crate::kernels::lanes`]), each one vector instruction; the
+//! The arithmetic is lane helpers (`crate::kernels::lanes`), each one vector instruction; the
 //! choices between values are bit-mask blends, which the compiler cannot turn into a branch per
 //! lane (it did, and computed half the lanes one at a time).
 //!

@@ -113,24 +113,37 @@ fn extension(view: &FamilyView, e: usize, u_i: [f32; 3], u_j: [f32; 3]) -> (f32,
     (s * rest, y, length)
 }
 
-/// Pass 1 over particles `first..first + theta.len()` (`first` a multiple of [`LANES`]):
-/// dilatation theta_i and damage phi_i, and each entry's extension (into `extension_out`, the
+/// What [`dilatation`] reads besides the geometry.
+#[derive(Debug, Clone, Copy)]
+pub struct DilatationInputs<'a> {
+    /// Influences omega, every entry (a broken bond's: zero).
+    pub influence: &'a [f32],
+    /// Each particle's [`Record`]: its displacement and volume are read.
+    pub record: &'a [[f32; 8]],
+    /// Intact bonds, every particle.
+    pub intact: &'a [u32],
+    /// Bonds at the start (the particle file's), every particle.
+    pub initial: &'a [u32],
+}
+
+/// What [`dilatation`] writes for one chunk.
+pub struct DilatationOutputs<'a> {
+    /// The chunk's dilatations theta.
+    pub theta: &'a mut [f32],
+    /// The chunk's damage phi.
+    pub damage: &'a mut [f32],
+    /// The chunk's run of entries' extensions, metres.
+    pub extension: &'a mut [f32],
+}
+
+/// Pass 1 over particles `first..first + out.theta.len()` (`first` a multiple of [`LANES`]):
+/// dilatation theta_i and damage phi_i, and each entry's extension (into `out.extension`, the
 /// chunk's run of entries; the force pass reuses the intact ones'). It reads the
-/// displacements and volumes of `record` ([`Record`]).
-#[allow(clippy::too_many_arguments)]
-pub fn dilatation(
-    view: &FamilyView,
-    influence: &[f32],
-    record: &[[f32; 8]],
-    counts: (&[u32], &[u32]),
-    first: usize,
-    theta: &mut [f32],
-    damage: &mut [f32],
-    extension_out: &mut [f32],
-) {
-    let (intact, initial) = counts;
+/// displacements and volumes of `inputs.record` ([`Record`]).
+pub fn dilatation(view: &FamilyView, inputs: &DilatationInputs, first: usize, out: &mut DilatationOutputs) {
+    let DilatationInputs { influence, record, intact, initial } = *inputs;
     let stride = view.stride;
-    for (group, theta) in theta.chunks_mut(LANES).enumerate() {
+    for (group, theta) in out.theta.chunks_mut(LANES).enumerate() {
         let first_i = first + group * LANES;
         let (u_i, _) = gather_motion(record, std::array::from_fn(|l| (first_i + l).min(record.len() - 1) as u32));
         let mut sum: Lanes = [0.0; LANES];
@@ -154,13 +167,13 @@ pub fn dilatation(
                 }
             }
             let local = at - first * stride;
-            extension_out[local..local + LANES].copy_from_slice(&extension);
+            out.extension[local..local + LANES].copy_from_slice(&extension);
         }
         for (l, theta) in theta.iter_mut().enumerate() {
             *theta = 3.0 * sum[l] / view.weighted_volume[first_i + l];
         }
     }
-    for (local, damage) in damage.iter_mut().enumerate() {
+    for (local, damage) in out.damage.iter_mut().enumerate() {
         let i = first + local;
         *damage = if initial[i] == 0 { 0.0 } else { 1.0 - intact[i] as f32 / initial[i] as f32 };
     }

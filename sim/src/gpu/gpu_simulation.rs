@@ -120,23 +120,21 @@ fn layout_error(error: GpuLayoutError) -> GpuError {
     GpuError::Split { message: error.to_string() }
 }
 
-impl GpuSimulation {
-    /// A body at rest in its reference shape, on the GPU. `factors` are art-direction multipliers
-    /// of the thresholds, one per particle-file bond entry.
-    pub fn new(
-        ctx: GpuHandle,
-        particles: &ParticleSet,
-        model: Model,
-        factors: Option<&[f32]>,
-        correction: StiffnessCorrection,
-        options: &GpuOptions,
-    ) -> Result<GpuSimulation, GpuError> {
-        let n = particles.len();
-        if n == 0 {
-            return Err(GpuError::Split { message: "the particle set is empty".into() });
-        }
-        let binding = ctx.max_storage_binding_bytes();
-        let limit = options.max_binding_bytes.map_or(binding, |limit| limit.min(binding));
+/// What a simulation's bonds are made from: the particles, the model, the art direction's
+/// threshold factors (one per particle-file bond entry) and the stiffness correction.
+struct BondInputs<'a> {
+    particles: &'a ParticleSet,
+    model: &'a Model,
+    factors: Option<&'a [f32]>,
+    correction: StiffnessCorrection,
+}
+
+impl BondInputs<'_> {
+    /// The sliced bond layout, each range's arrays within `limit` bytes (a quarter of it for the
+    /// elastoplastic model); an error also when the particle records exceed one binding of
+    /// `binding` bytes.
+    fn layout(&self, ctx: &GpuContext, binding: u64, limit: u64) -> Result<GpuBondLayout, GpuError> {
+        let (particles, model, n) = (self.particles, self.model, self.particles.len());
         // the layout sizes ranges by its 4-byte arrays; the elastoplastic model's widest is 16 bytes
         // an entry
         let max_binding = if model.elastoplastic.is_some() { limit / 4 } else { limit };
@@ -144,8 +142,8 @@ impl GpuSimulation {
             particles,
             model.bond_constant,
             model.threshold_scale,
-            factors,
-            correction,
+            self.factors,
+            self.correction,
             model.rules.partial_volumes,
             max_binding,
         )
@@ -160,10 +158,18 @@ impl GpuSimulation {
                 ),
             });
         }
-        let rest = [0, 1, 2].map(|axis| particles.rest_position_m.iter().map(|p| p[axis]).collect::<Vec<f32>>());
-        let mass: Vec<f32> = particles.volume_m3.iter().map(|v| (f64::from(*v) * model.density_kg_m3) as f32).collect();
-        let inverse_mass: Vec<f32> = mass.iter().map(|m| 1.0 / m).collect();
-        let bond_count: Vec<u32> = (0..n).map(|i| particles.bonds.row(i).len() as u32).collect();
+        Ok(layout)
+    }
+
+    /// The elastoplastic model's family table (None for PMB springs), whose bonds must fit the
+    /// one range of `layout` (bindings of `limit` bytes); an error also for grips without it.
+    fn family_table(
+        &self,
+        ctx: &GpuContext,
+        layout: &GpuBondLayout,
+        limit: u64,
+    ) -> Result<Option<FamilyTable>, GpuError> {
+        let (particles, model) = (self.particles, self.model);
         let family_table = match model.elastoplastic {
             Some(constants) => {
                 if layout.ranges.len() != 1 {
@@ -182,12 +188,13 @@ impl GpuSimulation {
                     particles,
                     model.bond_constant,
                     model.threshold_scale,
-                    factors,
-                    correction,
+                    self.factors,
+                    self.correction,
                     model.rules.partial_volumes,
                 );
-                let table = FamilyTable::new(particles, constants, chunk_size(n), |k| values.threshold(k))
-                    .map_err(|error| GpuError::Split { message: error.to_string() })?;
+                let table =
+                    FamilyTable::new(particles, constants, chunk_size(particles.len()), |k| values.threshold(k))
+                        .map_err(|error| GpuError::Split { message: error.to_string() })?;
                 Some(table)
             }
             None => None,
@@ -197,70 +204,115 @@ impl GpuSimulation {
                 message: "grips ([[sim.grip]]) hold particles on the GPU with the elastoplastic model only".into(),
             });
         }
+        Ok(family_table)
+    }
+}
+
+/// The rules other than Levine's that `model` follows, as the bits of [`Params::rules`].
+fn rule_bits(model: &Model) -> u32 {
+    let pass = model.pass_rules();
+    u32::from(pass.signed_boost) * RULE_SIGNED_BOOST
+        + u32::from(pass.breaking_step_force) * RULE_BREAKING_FORCE
+        + u32::from(model.rules.contact == ContactModel::Lammps) * RULE_LAMMPS_CONTACT
+}
+
+/// The kernels' constants for a run of `model` on `particles` with `layout`, and the dispatch
+/// grid over the particles.
+fn step_params(
+    ctx: &GpuContext,
+    particles: &ParticleSet,
+    model: &Model,
+    options: &GpuOptions,
+    layout: &GpuBondLayout,
+) -> Result<(Params, DispatchGrid), GpuError> {
+    let n = particles.len();
+    let contact = model.has_contact();
+    let lammps_contact = model.rules.contact == ContactModel::Lammps;
+    // LAMMPS's 15 c V_i V_j / delta, on masses m = rho V
+    let contact_stiffness = if lammps_contact {
+        (15.0 * model.bond_constant / (model.delta_m * model.density_kg_m3 * model.density_kg_m3)) as f32
+    } else {
+        model.contact_stiffness_pa
+    };
+    let table = (2 * n).next_power_of_two().max(16);
+    let scan_blocks = table.div_ceil(SCAN_BLOCK);
+    let particle_grid = ctx.dispatch_grid(n.div_ceil(WG) as u64)?;
+    let table_grid = ctx.dispatch_grid(table.div_ceil(WG) as u64)?;
+    let block_grid = ctx.dispatch_grid(scan_blocks as u64)?;
+    let distance = model.contact_reach_m();
+    let skin = SKIN_FRACTION * distance;
+    let unique = particles.bonds.unique_count();
+    let event_capacity = options.event_capacity.unwrap_or(unique.clamp(16, 1 << 20) as u32).max(1);
+    let params = Params {
+        n: n as u32,
+        batch_first_step: 0,
+        dt: model.dt_s as f32,
+        half_dt: 0.5 * model.dt_s as f32,
+        alpha: model.alpha,
+        break_rule: match model.break_rule {
+            BreakRule::Max => 0,
+            BreakRule::Min => 1,
+        },
+        gravity_x: model.gravity_m_s2[0],
+        gravity_y: model.gravity_m_s2[1],
+        gravity_z: model.gravity_m_s2[2],
+        contact_enabled: u32::from(contact),
+        contact_stiffness,
+        contact_distance: distance,
+        skin_limit: if contact { 0.25 * skin * skin } else { f32::MAX },
+        reach: distance + skin,
+        inverse_cell: 1.0 / (2.0 * (distance + skin)),
+        table_mask: (table - 1) as u32,
+        contact_cap: options.contact_cap.max(1),
+        floor_enabled: u32::from(model.floor.is_some()),
+        floor_height: model.floor.map_or(0.0, |f| f.height_m),
+        restitution: model.floor.map_or(0.0, |f| f.restitution),
+        projectiles: model.projectiles.len() as u32,
+        indenters: model.indenters.len() as u32,
+        event_capacity,
+        power_count: layout.workgroups(),
+        particle_grid_x: particle_grid.x,
+        particle_grid_y: particle_grid.y,
+        table_grid_x: table_grid.x,
+        table_grid_y: table_grid.y,
+        block_grid_x: block_grid.x,
+        block_grid_y: block_grid.y,
+        scan_blocks: scan_blocks as u32,
+        rules: rule_bits(model),
+    };
+    Ok((params, particle_grid))
+}
+
+impl GpuSimulation {
+    /// A body at rest in its reference shape, on the GPU. `factors` are art-direction multipliers
+    /// of the thresholds, one per particle-file bond entry.
+    pub fn new(
+        ctx: GpuHandle,
+        particles: &ParticleSet,
+        model: Model,
+        factors: Option<&[f32]>,
+        correction: StiffnessCorrection,
+        options: &GpuOptions,
+    ) -> Result<GpuSimulation, GpuError> {
+        let n = particles.len();
+        if n == 0 {
+            return Err(GpuError::Split { message: "the particle set is empty".into() });
+        }
+        let binding = ctx.max_storage_binding_bytes();
+        let limit = options.max_binding_bytes.map_or(binding, |limit| limit.min(binding));
+        let bond_inputs = BondInputs { particles, model: &model, factors, correction };
+        let layout = bond_inputs.layout(&ctx, binding, limit)?;
+        let rest = [0, 1, 2].map(|axis| particles.rest_position_m.iter().map(|p| p[axis]).collect::<Vec<f32>>());
+        let mass: Vec<f32> = particles.volume_m3.iter().map(|v| (f64::from(*v) * model.density_kg_m3) as f32).collect();
+        let inverse_mass: Vec<f32> = mass.iter().map(|m| 1.0 / m).collect();
+        let bond_count: Vec<u32> = (0..n).map(|i| particles.bonds.row(i).len() as u32).collect();
+        let family_table = bond_inputs.family_table(&ctx, &layout, limit)?;
         let stable_dt_s = match &family_table {
             Some(table) => table.stable_dt_s(model.density_kg_m3),
             None => stable_dt(&layout, &particles.bonds.rest_length_m, &mass),
         };
         let spheres: Vec<MovingSphere> = model.projectiles.iter().chain(&model.indenters).copied().collect();
-
-        let contact = model.has_contact();
-        let lammps_contact = model.rules.contact == ContactModel::Lammps;
-        let pass = model.pass_rules();
-        let rules = u32::from(pass.signed_boost) * RULE_SIGNED_BOOST
-            + u32::from(pass.breaking_step_force) * RULE_BREAKING_FORCE
-            + u32::from(lammps_contact) * RULE_LAMMPS_CONTACT;
-        // LAMMPS's 15 c V_i V_j / delta, on masses m = rho V
-        let contact_stiffness = if lammps_contact {
-            (15.0 * model.bond_constant / (model.delta_m * model.density_kg_m3 * model.density_kg_m3)) as f32
-        } else {
-            model.contact_stiffness_pa
-        };
-        let table = (2 * n).next_power_of_two().max(16);
-        let scan_blocks = table.div_ceil(SCAN_BLOCK);
-        let particle_grid = ctx.dispatch_grid(n.div_ceil(WG) as u64)?;
-        let table_grid = ctx.dispatch_grid(table.div_ceil(WG) as u64)?;
-        let block_grid = ctx.dispatch_grid(scan_blocks as u64)?;
-        let distance = model.contact_reach_m();
-        let skin = SKIN_FRACTION * distance;
-        let unique = particles.bonds.unique_count();
-        let event_capacity = options.event_capacity.unwrap_or(unique.clamp(16, 1 << 20) as u32).max(1);
-        let params = Params {
-            n: n as u32,
-            batch_first_step: 0,
-            dt: model.dt_s as f32,
-            half_dt: 0.5 * model.dt_s as f32,
-            alpha: model.alpha,
-            break_rule: match model.break_rule {
-                BreakRule::Max => 0,
-                BreakRule::Min => 1,
-            },
-            gravity_x: model.gravity_m_s2[0],
-            gravity_y: model.gravity_m_s2[1],
-            gravity_z: model.gravity_m_s2[2],
-            contact_enabled: u32::from(contact),
-            contact_stiffness,
-            contact_distance: distance,
-            skin_limit: if contact { 0.25 * skin * skin } else { f32::MAX },
-            reach: distance + skin,
-            inverse_cell: 1.0 / (2.0 * (distance + skin)),
-            table_mask: (table - 1) as u32,
-            contact_cap: options.contact_cap.max(1),
-            floor_enabled: u32::from(model.floor.is_some()),
-            floor_height: model.floor.map_or(0.0, |f| f.height_m),
-            restitution: model.floor.map_or(0.0, |f| f.restitution),
-            projectiles: model.projectiles.len() as u32,
-            indenters: model.indenters.len() as u32,
-            event_capacity,
-            power_count: layout.workgroups(),
-            particle_grid_x: particle_grid.x,
-            particle_grid_y: particle_grid.y,
-            table_grid_x: table_grid.x,
-            table_grid_y: table_grid.y,
-            block_grid_x: block_grid.x,
-            block_grid_y: block_grid.y,
-            scan_blocks: scan_blocks as u32,
-            rules,
-        };
+        let (params, particle_grid) = step_params(&ctx, particles, &model, options, &layout)?;
 
         let kernels = Kernels::new(&ctx)?;
         let buffers = Buffers::new(&ctx, particles, &mass, &inverse_mass, &spheres, &params, &layout)?;
@@ -275,6 +327,7 @@ impl GpuSimulation {
             Some(table) => Some(GpuFamily::new(&ctx, table, &layout.rows, stored_entries, &model.grips, model.dt_s)?),
             None => None,
         };
+        let contact = model.has_contact();
         let groups = BindGroups::new(&ctx, &kernels, &buffers, &ranges, contact, family.as_ref().map(|f| &f.buffers))?;
         let mut simulation = GpuSimulation {
             model,

@@ -4,8 +4,8 @@
 //! # Kernels
 //!
 //! One entry point per file in `sim/shaders/`, each with a CPU twin of the same name in
-//! [`crate::twins`]. A step is, in one compute pass (and a batch of up to [`BATCH`] steps in one
-//! submission):
+//! `sim/src/twins/` (built for tests only). A step is, in one compute pass (and a batch of up to
+//! [`BATCH`] steps in one submission):
 //!
 //! 1. `kick_drift` (position update; from the second step of a batch on, compiled with
 //!    `LAND_FIRST`: the previous step's velocity update fused in): v += dt/2 F/m, u += dt v; packs

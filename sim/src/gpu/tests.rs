@@ -14,7 +14,12 @@ use super::wgsl_structs::{
     Params, RULE_BREAKING_FORCE, RULE_LAMMPS_CONTACT, RULE_SIGNED_BOOST, SCAN_BLOCK, SLICE, Status, WG,
 };
 use crate::bond_layouts::gpu_layout::GpuBondLayout;
-use crate::twins::{self, I4, U4, V4};
+use crate::twins::{
+    self, BondEnergyBindings, CollisionsBindings, ContactCandidatesBindings, ContactCountBindings, ContactPlanBindings,
+    ContactRankBindings, ContactScatterBindings, FamilyDilatationBindings, FamilyForcesBindings, I4, KickDriftBindings,
+    KickFloorBindings, PowerSumBindings, ScanAddBindings, ScanBlockSumsBindings, ScanBlocksBindings,
+    SpringForcesBindings, U4, V4,
+};
 
 fn gpu() -> &'static GpuContext {
     GpuContext::shared_for_tests().unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"))
@@ -246,13 +251,27 @@ fn kick_kernels_match_their_twins() {
         let (boost, built, sb) = (upload(&scene.boost_next), upload(&scene.built_at), upload(&[status]));
         match name {
             "kick_floor.wgsl" => {
-                twins::kick_floor(&scene.params, &body, &mut vel, &scene.force);
+                twins::kick_floor(KickFloorBindings {
+                    params: &scene.params,
+                    body: &body,
+                    vel: &mut vel,
+                    force: &scene.force,
+                });
                 dispatch(name, &[&pb, &bb, &vb, &fb], groups(n));
             }
             _ => {
-                let (params, force, boost_next, built_at) =
-                    (&scene.params, &scene.force, &scene.boost_next, &scene.built_at);
-                twins::kick_drift(params, land_first, &mut body, &mut vel, force, boost_next, built_at, &mut status);
+                twins::kick_drift(
+                    land_first,
+                    KickDriftBindings {
+                        params: &scene.params,
+                        body: &mut body,
+                        vel: &mut vel,
+                        force: &scene.force,
+                        boost_next: &scene.boost_next,
+                        built_at: &scene.built_at,
+                        status: &mut status,
+                    },
+                );
                 let constants = [("LAND_FIRST", f64::from(u8::from(land_first)))];
                 dispatch_with(name, &constants, &[&pb, &bb, &vb, &fb, &boost, &built, &sb], groups(n));
             }
@@ -290,7 +309,7 @@ fn contact_kernels_match_their_twins() {
         (params.particle_grid_x, params.particle_grid_y, params.table_grid_x) = (5, 1, 9);
         (params.table_grid_y, params.block_grid_x, params.block_grid_y) = (2, 1, 1);
         let (qb, sb, ib) = (uniform(&params), upload(&[status]), upload(&indirect));
-        twins::contact_plan(&params, &mut status, &mut indirect);
+        twins::contact_plan(ContactPlanBindings { params: &params, status: &mut status, indirect: &mut indirect });
         dispatch("contact_plan.wgsl", &[&qb, &sb, &ib], 1);
         assert_eq!(read::<u32>(&ib, 12), indirect);
         assert_eq!(read::<Status>(&sb, 1)[0], status);
@@ -305,7 +324,13 @@ fn contact_kernels_match_their_twins() {
     let mut arrival = vec![0u32; n];
     let bodyb = upload(&scene.body);
     let (cellb, arrb) = (upload(&cell), upload(&arrival));
-    twins::contact_count(&p, &scene.body, &mut cell, &mut arrival, &mut counts);
+    twins::contact_count(ContactCountBindings {
+        params: &p,
+        body: &scene.body,
+        cell: &mut cell,
+        arrival: &mut arrival,
+        bucket_count: &mut counts,
+    });
     dispatch("contact_count.wgsl", &[&pb, &bodyb, &cellb, &arrb, &cb], groups(n));
     let gpu_cell: Vec<I4> = read(&cellb, n);
     assert_eq!(gpu_cell, cell);
@@ -321,15 +346,20 @@ fn contact_kernels_match_their_twins() {
     let mut start = vec![0u32; table + 1];
     let mut sums = vec![0u32; blocks];
     let (startb, sumsb) = (upload(&start), upload(&sums));
-    twins::scan_blocks(&p, &counts, &mut start, &mut sums);
+    twins::scan_blocks(ScanBlocksBindings {
+        params: &p,
+        bucket_count: &counts,
+        bucket_start: &mut start,
+        block_sums: &mut sums,
+    });
     dispatch("scan_blocks.wgsl", &[&pb, &cb, &startb, &sumsb], blocks as u64);
     assert_eq!(read::<u32>(&startb, table + 1), start);
     assert_eq!(read::<u32>(&sumsb, blocks), sums);
-    twins::scan_block_sums(&p, &mut start, &mut sums);
+    twins::scan_block_sums(ScanBlockSumsBindings { params: &p, bucket_start: &mut start, block_sums: &mut sums });
     dispatch("scan_block_sums.wgsl", &[&pb, &startb, &sumsb], 1);
     assert_eq!(read::<u32>(&startb, table + 1), start);
     assert_eq!(read::<u32>(&sumsb, blocks), sums);
-    twins::scan_add(&p, &mut start, &sums);
+    twins::scan_add(ScanAddBindings { params: &p, bucket_start: &mut start, block_sums: &sums });
     dispatch("scan_add.wgsl", &[&pb, &startb, &sumsb], groups(table));
     assert_eq!(read::<u32>(&startb, table + 1), start);
     assert_eq!(start[table] as usize, n);
@@ -339,7 +369,14 @@ fn contact_kernels_match_their_twins() {
     let mut unsorted = vec![0u32; n];
     let unsortedb = upload(&unsorted);
     let mut cleared = counts.clone();
-    twins::contact_scatter(&p, &cell, &arrival, &start, &mut unsorted, &mut cleared);
+    twins::contact_scatter(ContactScatterBindings {
+        params: &p,
+        cell: &cell,
+        arrival: &arrival,
+        bucket_start: &start,
+        unsorted: &mut unsorted,
+        bucket_count: &mut cleared,
+    });
     dispatch("contact_scatter.wgsl", &[&pb, &cellb, &arrb, &startb, &unsortedb, &cb], groups(n));
     assert_eq!(read::<u32>(&unsortedb, n), unsorted);
     assert_eq!(read::<u32>(&cb, table), cleared);
@@ -351,7 +388,13 @@ fn contact_kernels_match_their_twins() {
     }
     let mut sorted = vec![0u32; n];
     let (scrambledb, sortedb) = (upload(&scrambled), upload(&sorted));
-    twins::contact_rank(&p, &cell, &start, &unsorted, &mut sorted);
+    twins::contact_rank(ContactRankBindings {
+        params: &p,
+        cell: &cell,
+        bucket_start: &start,
+        unsorted: &unsorted,
+        sorted: &mut sorted,
+    });
     dispatch("contact_rank.wgsl", &[&pb, &cellb, &startb, &scrambledb, &sortedb], groups(n));
     assert_eq!(read::<u32>(&sortedb, n), sorted);
     for b in 0..table {
@@ -367,17 +410,17 @@ fn contact_kernels_match_their_twins() {
         let mut built = scene.built_at.clone();
         let mut status = scene.status;
         let (countb, listb, builtb, sb) = (upload(&count), upload(&list), upload(&built), upload(&[status]));
-        twins::contact_candidates(
-            &params,
-            &scene.body,
-            &cell,
-            &start,
-            &sorted,
-            &mut count,
-            &mut list,
-            &mut built,
-            &mut status,
-        );
+        twins::contact_candidates(ContactCandidatesBindings {
+            params: &params,
+            body: &scene.body,
+            cell: &cell,
+            bucket_start: &start,
+            sorted: &sorted,
+            contact_count: &mut count,
+            contact_list: &mut list,
+            built_at: &mut built,
+            status: &mut status,
+        });
         dispatch(
             "contact_candidates.wgsl",
             &[&qb, &bodyb, &cellb, &startb, &sortedb, &countb, &listb, &builtb, &sb],
@@ -401,21 +444,55 @@ fn contact_lists(scene: &Scene) -> (Vec<u32>, Vec<u32>) {
     let mut counts = vec![0u32; table];
     let mut cell = vec![[0i32; 4]; n];
     let mut arrival = vec![0u32; n];
-    twins::contact_count(&p, &scene.body, &mut cell, &mut arrival, &mut counts);
+    twins::contact_count(ContactCountBindings {
+        params: &p,
+        body: &scene.body,
+        cell: &mut cell,
+        arrival: &mut arrival,
+        bucket_count: &mut counts,
+    });
     let mut start = vec![0u32; table + 1];
     let mut sums = vec![0u32; p.scan_blocks as usize];
-    twins::scan_blocks(&p, &counts, &mut start, &mut sums);
-    twins::scan_block_sums(&p, &mut start, &mut sums);
-    twins::scan_add(&p, &mut start, &sums);
+    twins::scan_blocks(ScanBlocksBindings {
+        params: &p,
+        bucket_count: &counts,
+        bucket_start: &mut start,
+        block_sums: &mut sums,
+    });
+    twins::scan_block_sums(ScanBlockSumsBindings { params: &p, bucket_start: &mut start, block_sums: &mut sums });
+    twins::scan_add(ScanAddBindings { params: &p, bucket_start: &mut start, block_sums: &sums });
     let mut unsorted = vec![0u32; n];
-    twins::contact_scatter(&p, &cell, &arrival, &start, &mut unsorted, &mut counts);
+    twins::contact_scatter(ContactScatterBindings {
+        params: &p,
+        cell: &cell,
+        arrival: &arrival,
+        bucket_start: &start,
+        unsorted: &mut unsorted,
+        bucket_count: &mut counts,
+    });
     let mut sorted = vec![0u32; n];
-    twins::contact_rank(&p, &cell, &start, &unsorted, &mut sorted);
+    twins::contact_rank(ContactRankBindings {
+        params: &p,
+        cell: &cell,
+        bucket_start: &start,
+        unsorted: &unsorted,
+        sorted: &mut sorted,
+    });
     let mut count = vec![0u32; n];
     let mut list = vec![0u32; n * p.contact_cap as usize];
     let mut built = scene.built_at.clone();
     let mut status = scene.status;
-    twins::contact_candidates(&p, &scene.body, &cell, &start, &sorted, &mut count, &mut list, &mut built, &mut status);
+    twins::contact_candidates(ContactCandidatesBindings {
+        params: &p,
+        body: &scene.body,
+        cell: &cell,
+        bucket_start: &start,
+        sorted: &sorted,
+        contact_count: &mut count,
+        contact_list: &mut list,
+        built_at: &mut built,
+        status: &mut status,
+    });
     (count, list)
 }
 
@@ -461,7 +538,17 @@ fn force_kernels_match_their_twins_under(lammps: bool) {
     let contactb = upload(&contact);
     for (part, bits) in scene.layout.ranges.iter().zip(&scene.bits) {
         let (rb, nb, bb) = (uniform(&part.range), upload(&part.neighbor), upload(bits));
-        twins::collisions(&p, &part.range, &scene.body, &scene.rows, &count, &list, &mut contact, &part.neighbor, bits);
+        twins::collisions(CollisionsBindings {
+            params: &p,
+            range: &part.range,
+            body: &scene.body,
+            rows: &scene.rows,
+            contact_count: &count,
+            contact_list: &list,
+            contact_force: &mut contact,
+            neighbor: &part.neighbor,
+            bits,
+        });
         dispatch(
             "collisions.wgsl",
             &[&pb, &rb, &bodyb, &rowsb, &countb, &listb, &contactb, &nb, &bb],
@@ -495,26 +582,26 @@ fn force_kernels_match_their_twins_under(lammps: bool) {
             upload(&part.threshold),
             upload(bits),
         );
-        twins::spring_forces(
-            &p,
-            &part.range,
-            &scene.body,
-            &scene.vel,
-            &mut force,
-            &mut boost,
-            &scene.rows,
-            &mut broken,
-            &count,
-            &contact,
-            &part.neighbor,
-            &part.stiffness,
-            &part.threshold,
-            &mut twin_bits,
-            &mut power,
-            &mut status,
-            &scene.spheres,
-            &mut events,
-        );
+        twins::spring_forces(SpringForcesBindings {
+            params: &p,
+            range: &part.range,
+            body: &scene.body,
+            vel: &scene.vel,
+            force: &mut force,
+            boost_next: &mut boost,
+            rows: &scene.rows,
+            broken_count: &mut broken,
+            contact_count: &count,
+            contact_force: &contact,
+            neighbor: &part.neighbor,
+            stiffness: &part.stiffness,
+            threshold: &part.threshold,
+            bits: &mut twin_bits,
+            power: &mut power,
+            status: &mut status,
+            spheres: &scene.spheres,
+            events: &mut events,
+        });
         dispatch(
             "spring_forces.wgsl",
             &[
@@ -574,7 +661,7 @@ fn force_kernels_match_their_twins_under(lammps: bool) {
     let mut status = scene.status;
     let sb = upload(&[status]);
     let powerb = upload(&power);
-    twins::power_sum(&p, &power, &mut status);
+    twins::power_sum(PowerSumBindings { params: &p, power: &power, status: &mut status });
     dispatch("power_sum.wgsl", &[&pb, &powerb, &sb], 1);
     let gpu_status = read::<Status>(&sb, 1)[0];
     let error = (gpu_status.work_j() - status.work_j()).abs() / status.work_j().abs();
@@ -586,7 +673,15 @@ fn force_kernels_match_their_twins_under(lammps: bool) {
     let energyb = upload(&energy);
     for (part, bits) in scene.layout.ranges.iter().zip(&scene.bits) {
         let (rb, nb, sb, bb) = (uniform(&part.range), upload(&part.neighbor), upload(&part.stiffness), upload(bits));
-        twins::bond_energy(&part.range, &scene.body, &scene.rows, &part.neighbor, &part.stiffness, bits, &mut energy);
+        twins::bond_energy(BondEnergyBindings {
+            range: &part.range,
+            body: &scene.body,
+            rows: &scene.rows,
+            neighbor: &part.neighbor,
+            stiffness: &part.stiffness,
+            bits,
+            energy: &mut energy,
+        });
         dispatch("bond_energy.wgsl", &[&rb, &bodyb, &rowsb, &nb, &sb, &bb, &energyb], u64::from(part.range.workgroups));
     }
     let error = relative_error(&read::<f32>(&energyb, n), &energy);
@@ -656,21 +751,21 @@ fn elastoplastic_kernels_match_their_twins() {
     let mut extension = vec![0.0f32; entries];
     let mut record = vec![[0.0f32; 4]; n];
     let mut damage = vec![0.0f32; n];
-    twins::family_dilatation(
-        &p,
-        &scene.body,
-        &scene.rows,
-        &broken,
-        &part.neighbor,
+    twins::family_dilatation(FamilyDilatationBindings {
+        params: &p,
+        body: &scene.body,
+        rows: &scene.rows,
+        broken_count: &broken,
+        neighbor: &part.neighbor,
         bits,
-        &arrays.entry,
-        &particle_constants,
-        &table.weighted_volume,
-        &mut twin_plastic,
-        &mut extension,
-        &mut record,
-        &mut damage,
-    );
+        family_entry: &arrays.entry,
+        family_particle: &particle_constants,
+        weighted_volume: &table.weighted_volume,
+        plastic: &mut twin_plastic,
+        extension: &mut extension,
+        family_record: &mut record,
+        damage: &mut damage,
+    });
     let pb = uniform(&p);
     let (bodyb, rowsb, brokenb, nb, bb) =
         (upload(&scene.body), upload(&scene.rows), upload(&broken), upload(&part.neighbor), upload(bits));
@@ -710,7 +805,17 @@ fn elastoplastic_kernels_match_their_twins() {
     // family_forces, from the twin's first-pass outputs
     let (count, list) = contact_lists(&scene);
     let mut contact = vec![[0.0f32; 4]; n];
-    twins::collisions(&p, &part.range, &scene.body, &scene.rows, &count, &list, &mut contact, &part.neighbor, bits);
+    twins::collisions(CollisionsBindings {
+        params: &p,
+        range: &part.range,
+        body: &scene.body,
+        rows: &scene.rows,
+        contact_count: &count,
+        contact_list: &list,
+        contact_force: &mut contact,
+        neighbor: &part.neighbor,
+        bits,
+    });
     let mut vel = scene.vel.clone();
     let mut force = vec![[0.0f32; 4]; n];
     let mut broken_after = broken.clone();
@@ -733,32 +838,32 @@ fn elastoplastic_kernels_match_their_twins() {
     let (powerb, statusb, spheresb, eventsb, holdb) =
         (upload(&power), upload(&[status]), upload(&scene.spheres), upload(&events), upload(&hold));
     let bb = upload(bits);
-    twins::family_forces(
-        &p,
-        &family,
-        &scene.body,
-        &mut vel,
-        &mut force,
-        &scene.rows,
-        &mut broken_after,
-        &count,
-        &contact,
-        &part.neighbor,
-        &mut twin_bits,
-        &arrays.entry,
-        &particle_constants,
-        &arrays.reverse,
-        &arrays.threshold,
-        &mut plastic_after,
-        &extension,
-        &record,
-        &damage,
-        &mut power,
-        &mut status,
-        &scene.spheres,
-        &mut events,
-        &hold,
-    );
+    twins::family_forces(FamilyForcesBindings {
+        params: &p,
+        family: &family,
+        body: &scene.body,
+        vel: &mut vel,
+        force: &mut force,
+        rows: &scene.rows,
+        broken_count: &mut broken_after,
+        contact_count: &count,
+        contact_force: &contact,
+        neighbor: &part.neighbor,
+        bits: &mut twin_bits,
+        family_entry: &arrays.entry,
+        family_particle: &particle_constants,
+        family_reverse: &arrays.reverse,
+        threshold: &arrays.threshold,
+        plastic: &mut plastic_after,
+        extension: &extension,
+        family_record: &record,
+        damage: &damage,
+        power: &mut power,
+        status: &mut status,
+        spheres: &scene.spheres,
+        events: &mut events,
+        hold: &hold,
+    });
     dispatch(
         "family_forces.wgsl",
         &[

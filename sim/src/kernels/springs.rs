@@ -274,6 +274,18 @@ mod tests {
     use super::*;
     use crate::bond_layouts::row_layout::BondEntry;
 
+    #[test]
+    fn stretch_from_displacement_is_exact_where_subtraction_is_not() {
+        // Far from the origin a stretch of 1e-6 is below f32 resolution of positions; from the
+        // displacement difference it is still exact to f32 rounding of the stretch itself.
+        let xi = [1e-3, 0.0, 0.0];
+        let eta = [1e-9, 0.0, 0.0];
+        let (s, _, _) = stretch(xi, eta, 1e-3);
+        assert!((s - 1e-6).abs() < 1e-12, "{s}");
+        let (s, _, _) = stretch(xi, [0.0; 3], 1e-3);
+        assert_eq!(s, 0.0);
+    }
+
     /// A chunk of 40 particles (from index 100 of 300) with random rows of 0 to 20 bonds, inside
     /// and outside the chunk, random rest vectors, stiffnesses (some broken) and thresholds set
     /// so that about a tenth of the bonds break; and random gather records.

@@ -3,16 +3,27 @@
 use super::common::{U4, V4, add, dot3, sub, xyz};
 use crate::gpu::wgsl_structs::{Range, SLICE};
 
+/// The bindings of `bond_energy.wgsl`, in binding order.
+pub struct BondEnergyBindings<'a> {
+    /// The bond range of this dispatch.
+    pub range: &'a Range,
+    /// Two records per particle: rest position and mass; displacement and boost.
+    pub body: &'a [V4],
+    /// Per particle: first entry, first bit word, row length, first file entry.
+    pub rows: &'a [U4],
+    /// Per entry: the partner.
+    pub neighbor: &'a [u32],
+    /// Per entry: k_ij, N per unit stretch.
+    pub stiffness: &'a [f32],
+    /// Broken bits, one per entry.
+    pub bits: &'a [u32],
+    /// Per particle: its share of the bond energy, joules.
+    pub energy: &'a mut [f32],
+}
+
 /// Twin of `bond_energy.wgsl`.
-pub fn bond_energy(
-    range: &Range,
-    body: &[V4],
-    rows: &[U4],
-    neighbor: &[u32],
-    stiffness: &[f32],
-    bits: &[u32],
-    energy: &mut [f32],
-) {
+pub fn bond_energy(b: BondEnergyBindings) {
+    let BondEnergyBindings { range, body, rows, neighbor, stiffness, bits, energy } = b;
     for local in 0..range.count as usize {
         let i = range.first as usize + local;
         let own = body[2 * i];

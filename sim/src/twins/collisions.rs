@@ -3,6 +3,28 @@
 use super::common::{U4, V4, add, dot3, scale, sub, xyz};
 use crate::gpu::wgsl_structs::{Params, RULE_LAMMPS_CONTACT, Range, SLICE};
 
+/// The bindings of `collisions.wgsl`, in binding order.
+pub struct CollisionsBindings<'a> {
+    /// The batch's constants.
+    pub params: &'a Params,
+    /// The bond range of this dispatch.
+    pub range: &'a Range,
+    /// Two records per particle: rest position and mass; displacement and boost.
+    pub body: &'a [V4],
+    /// Per particle: first entry, first bit word, row length, first file entry.
+    pub rows: &'a [U4],
+    /// Per particle: its contact candidates.
+    pub contact_count: &'a [u32],
+    /// Per particle, `params.contact_cap` slots: its candidates in increasing index.
+    pub contact_list: &'a [u32],
+    /// Per particle: the contact force, newtons.
+    pub contact_force: &'a mut [V4],
+    /// Per entry: the partner.
+    pub neighbor: &'a [u32],
+    /// Broken bits, one per entry.
+    pub bits: &'a [u32],
+}
+
 /// `bonded` of `collisions.wgsl`: an intact bond between the row's particle and j.
 fn bonded(row: U4, j: u32, neighbor: &[u32], bits: &[u32]) -> bool {
     let (mut lo, mut hi) = (0u32, row[2]);
@@ -21,17 +43,9 @@ fn bonded(row: U4, j: u32, neighbor: &[u32], bits: &[u32]) -> bool {
 }
 
 /// Twin of `collisions.wgsl`.
-pub fn collisions(
-    params: &Params,
-    range: &Range,
-    body: &[V4],
-    rows: &[U4],
-    contact_count: &[u32],
-    contact_list: &[u32],
-    contact_force: &mut [V4],
-    neighbor: &[u32],
-    bits: &[u32],
-) {
+pub fn collisions(b: CollisionsBindings) {
+    let CollisionsBindings { params, range, body, rows, contact_count, contact_list, contact_force, neighbor, bits } =
+        b;
     for local in 0..range.count as usize {
         let i = range.first as usize + local;
         let count = contact_count[i] as usize;

@@ -4,18 +4,41 @@
 use super::common::{I4, V4, add, bucket_of, cell_of, dot3, sub, xyz};
 use crate::gpu::wgsl_structs::{Params, Status};
 
+/// The bindings of `contact_candidates.wgsl`, in binding order.
+pub struct ContactCandidatesBindings<'a> {
+    /// The batch's constants.
+    pub params: &'a Params,
+    /// Two records per particle: rest position and mass; displacement and boost.
+    pub body: &'a [V4],
+    /// Per particle: its hash cell and bucket.
+    pub cell: &'a [I4],
+    /// Per bucket: where its particles start in `sorted` (one past the last bucket: the end).
+    pub bucket_start: &'a [u32],
+    /// The particles by bucket, each bucket in increasing index.
+    pub sorted: &'a [u32],
+    /// Per particle: its candidates stored.
+    pub contact_count: &'a mut [u32],
+    /// Per particle, `params.contact_cap` slots: its candidates in increasing index.
+    pub contact_list: &'a mut [u32],
+    /// Per particle: where it stood at this build.
+    pub built_at: &'a mut [V4],
+    /// The run's clock and counters (the most candidates a particle needed).
+    pub status: &'a mut Status,
+}
+
 /// Twin of `contact_candidates.wgsl`.
-pub fn contact_candidates(
-    params: &Params,
-    body: &[V4],
-    cell: &[I4],
-    bucket_start: &[u32],
-    sorted: &[u32],
-    contact_count: &mut [u32],
-    contact_list: &mut [u32],
-    built_at: &mut [V4],
-    status: &mut Status,
-) {
+pub fn contact_candidates(b: ContactCandidatesBindings) {
+    let ContactCandidatesBindings {
+        params,
+        body,
+        cell,
+        bucket_start,
+        sorted,
+        contact_count,
+        contact_list,
+        built_at,
+        status,
+    } = b;
     for i in 0..params.n as usize {
         let p = add(xyz(body[2 * i]), xyz(body[2 * i + 1]));
         let reach = params.reach;

@@ -3,8 +3,19 @@
 
 use crate::gpu::wgsl_structs::{Params, Status};
 
+/// The bindings of `contact_plan.wgsl`, in binding order.
+pub struct ContactPlanBindings<'a> {
+    /// The batch's constants.
+    pub params: &'a Params,
+    /// The run's clock and counters (the rebuild flag, the builds).
+    pub status: &'a mut Status,
+    /// The rebuild kernels' indirect dispatch sizes, three words each.
+    pub indirect: &'a mut [u32],
+}
+
 /// Twin of `contact_plan.wgsl`.
-pub fn contact_plan(params: &Params, status: &mut Status, indirect: &mut [u32]) {
+pub fn contact_plan(b: ContactPlanBindings) {
+    let ContactPlanBindings { params, status, indirect } = b;
     let rebuild = status.rebuild != 0;
     let mut set_grid = |slot: usize, x: u32, y: u32| {
         indirect[3 * slot] = if rebuild { x } else { 0 };

@@ -5,22 +5,53 @@
 use super::common::{U4, V4, add, dot3, sub, xyz};
 use crate::gpu::wgsl_structs::{Params, SLICE};
 
+/// The bindings of `family_dilatation.wgsl`, in binding order.
+pub struct FamilyDilatationBindings<'a> {
+    /// The batch's constants.
+    pub params: &'a Params,
+    /// Two records per particle: rest position and mass; displacement and boost.
+    pub body: &'a [V4],
+    /// Per particle: first entry, first bit word, row length, first file entry.
+    pub rows: &'a [U4],
+    /// Per particle: its broken bonds.
+    pub broken_count: &'a [u32],
+    /// Per entry: the partner.
+    pub neighbor: &'a [u32],
+    /// Broken bits, one per entry.
+    pub bits: &'a [u32],
+    /// Per entry: omega_ij, omega_ji, |xi| (metres), 1 / (omega_mean |xi|).
+    pub family_entry: &'a [V4],
+    /// Per particle: V (m^3), 15 mu / m, 3 K / m, the yield force.
+    pub family_particle: &'a [V4],
+    /// Per particle: the weighted volume m_i, m^5.
+    pub weighted_volume: &'a [f32],
+    /// Per entry: (plastic extension the force pass reads, the one it writes), metres.
+    pub plastic: &'a mut [[f32; 2]],
+    /// Per entry: the extension, metres.
+    pub extension: &'a mut [f32],
+    /// Per particle: displacement and dilatation theta.
+    pub family_record: &'a mut [V4],
+    /// Per particle: the damage phi.
+    pub damage: &'a mut [f32],
+}
+
 /// Twin of `family_dilatation.wgsl`.
-pub fn family_dilatation(
-    params: &Params,
-    body: &[V4],
-    rows: &[U4],
-    broken_count: &[u32],
-    neighbor: &[u32],
-    bits: &[u32],
-    family_entry: &[V4],
-    family_particle: &[V4],
-    weighted_volume: &[f32],
-    plastic: &mut [[f32; 2]],
-    extension: &mut [f32],
-    family_record: &mut [V4],
-    damage: &mut [f32],
-) {
+pub fn family_dilatation(b: FamilyDilatationBindings) {
+    let FamilyDilatationBindings {
+        params,
+        body,
+        rows,
+        broken_count,
+        neighbor,
+        bits,
+        family_entry,
+        family_particle,
+        weighted_volume,
+        plastic,
+        extension,
+        family_record,
+        damage,
+    } = b;
     for i in 0..params.n as usize {
         let own = body[2 * i];
         let u_i = xyz(body[2 * i + 1]);

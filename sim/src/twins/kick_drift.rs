@@ -5,18 +5,27 @@
 use super::common::{V4, add, dot3, floor_bounce, half_kick, scale, sub, xyz};
 use crate::gpu::wgsl_structs::{Params, Status};
 
-/// Twin of `kick_drift.wgsl`, with its `LAND_FIRST` constant as `land_first`.
-#[allow(clippy::too_many_arguments)]
-pub fn kick_drift(
-    params: &Params,
-    land_first: bool,
-    body: &mut [V4],
-    vel: &mut [V4],
-    force: &[V4],
-    boost_next: &[f32],
-    built_at: &[V4],
-    status: &mut Status,
-) {
+/// The bindings of `kick_drift.wgsl`, in binding order.
+pub struct KickDriftBindings<'a> {
+    /// The batch's constants.
+    pub params: &'a Params,
+    /// Two records per particle: rest position and mass; displacement and boost (written).
+    pub body: &'a mut [V4],
+    /// Per particle: velocity, m/s, and 1 / m.
+    pub vel: &'a mut [V4],
+    /// Per particle: the force, newtons.
+    pub force: &'a [V4],
+    /// Per particle: the compression boost of the last force pass.
+    pub boost_next: &'a [f32],
+    /// Per particle: where it stood at the last build of the contact lists.
+    pub built_at: &'a [V4],
+    /// The run's clock and counters (the step, the rebuild flag).
+    pub status: &'a mut Status,
+}
+
+/// Twin of `kick_drift.wgsl`, with its `LAND_FIRST` override constant as `land_first`.
+pub fn kick_drift(land_first: bool, b: KickDriftBindings) {
+    let KickDriftBindings { params, body, vel, force, boost_next, built_at, status } = b;
     let mut moved = false;
     for i in 0..params.n as usize {
         let f = force[i];

@@ -1,8 +1,10 @@
 //! CPU twins of the GPU kernels: one function per WGSL file in `sim/shaders/`, each in a file of
 //! the same name (`kick_drift.wgsl`'s twin in `kick_drift.rs`, and so on; `common.rs` mirrors
-//! `common.wgsl`'s helpers), with the same name and the same inputs (the shader's bindings, in
-//! binding order, as slices of the same element types), written to read like the shader: a loop
-//! over the invocations with the shader's body inside, the same operations in the same order.
+//! `common.wgsl`'s helpers), with the same name, taking the shader's bindings as one struct
+//! (`kick_drift`'s `KickDriftBindings`, and so on: a field per binding, named as the binding, in
+//! binding order, a slice of the same element type; `&mut` where the shader writes), written to
+//! read like the shader: a loop over the invocations with the shader's body inside, the same
+//! operations in the same order.
 //! The GPU may fuse a multiply and an add into one FMA and its `sqrt`, division and `pow` need not
 //! round correctly, so results agree to a few ulps, not bit for bit; the parity tests of
 //! [`crate::gpu`] (`sim/src/gpu/tests.rs`) compare each pair on random inputs.
@@ -17,7 +19,7 @@
 
 // Indexed loops mirror the shaders.
 // `!(a <= b)` is the shaders' NaN-aware test.
-#![allow(clippy::needless_range_loop, clippy::too_many_arguments, clippy::neg_cmp_op_on_partial_ord)]
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
 mod bond_energy;
 mod collisions;
@@ -38,21 +40,20 @@ mod scan_block_sums;
 mod scan_blocks;
 mod spring_forces;
 
-pub use bond_energy::bond_energy;
-pub use collisions::collisions;
-pub use common::{I4, U4, V4, bucket_of, cell_of, dot3};
-pub use contact_candidates::contact_candidates;
-pub use contact_count::contact_count;
-pub use contact_plan::contact_plan;
-pub use contact_rank::contact_rank;
-pub use contact_scatter::contact_scatter;
-pub use family_dilatation::family_dilatation;
-pub use family_forces::family_forces;
-pub use force_common::cube_root;
-pub use kick_drift::kick_drift;
-pub use kick_floor::kick_floor;
-pub use power_sum::power_sum;
-pub use scan_add::scan_add;
-pub use scan_block_sums::scan_block_sums;
-pub use scan_blocks::scan_blocks;
-pub use spring_forces::spring_forces;
+pub use bond_energy::{BondEnergyBindings, bond_energy};
+pub use collisions::{CollisionsBindings, collisions};
+pub use common::{I4, U4, V4};
+pub use contact_candidates::{ContactCandidatesBindings, contact_candidates};
+pub use contact_count::{ContactCountBindings, contact_count};
+pub use contact_plan::{ContactPlanBindings, contact_plan};
+pub use contact_rank::{ContactRankBindings, contact_rank};
+pub use contact_scatter::{ContactScatterBindings, contact_scatter};
+pub use family_dilatation::{FamilyDilatationBindings, family_dilatation};
+pub use family_forces::{FamilyForcesBindings, family_forces};
+pub use kick_drift::{KickDriftBindings, kick_drift};
+pub use kick_floor::{KickFloorBindings, kick_floor};
+pub use power_sum::{PowerSumBindings, power_sum};
+pub use scan_add::{ScanAddBindings, scan_add};
+pub use scan_block_sums::{ScanBlockSumsBindings, scan_block_sums};
+pub use scan_blocks::{ScanBlocksBindings, scan_blocks};
+pub use spring_forces::{SpringForcesBindings, spring_forces};

@@ -2,8 +2,19 @@
 
 use crate::gpu::wgsl_structs::{Params, Status};
 
+/// The bindings of `power_sum.wgsl`, in binding order.
+pub struct PowerSumBindings<'a> {
+    /// The batch's constants.
+    pub params: &'a Params,
+    /// Per force workgroup: the external power it delivers, watts.
+    pub power: &'a [f32],
+    /// The run's clock and counters (the work done, joules, as two floats).
+    pub status: &'a mut Status,
+}
+
 /// Twin of `power_sum.wgsl`.
-pub fn power_sum(params: &Params, power: &[f32], status: &mut Status) {
+pub fn power_sum(b: PowerSumBindings) {
+    let PowerSumBindings { params, power, status } = b;
     let mut partial = [0.0f32; 256];
     for lid in 0..256 {
         let mut k = lid;

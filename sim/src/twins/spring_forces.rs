@@ -6,79 +6,68 @@ use super::common::{U4, V4, add, dot3, scale, sub, xyz};
 use super::force_common::{body_force, workgroup_sum};
 use crate::gpu::wgsl_structs::{NO_STRETCH, Params, RULE_BREAKING_FORCE, RULE_SIGNED_BOOST, Range, SLICE, Status, WG};
 
+/// The bindings of `spring_forces.wgsl`, in binding order.
+pub struct SpringForcesBindings<'a> {
+    /// The batch's constants.
+    pub params: &'a Params,
+    /// The bond range of this dispatch.
+    pub range: &'a Range,
+    /// Two records per particle: rest position and mass; displacement and boost.
+    pub body: &'a [V4],
+    /// Per particle: velocity, m/s, and 1 / m.
+    pub vel: &'a [V4],
+    /// Per particle: the force, newtons.
+    pub force: &'a mut [V4],
+    /// Per particle: the compression boost of the next step.
+    pub boost_next: &'a mut [f32],
+    /// Per particle: first entry, first bit word, row length, first file entry.
+    pub rows: &'a [U4],
+    /// Per particle: its broken bonds.
+    pub broken_count: &'a mut [u32],
+    /// Per particle: its contact candidates.
+    pub contact_count: &'a [u32],
+    /// Per particle: the contact force from `collisions`, newtons.
+    pub contact_force: &'a [V4],
+    /// Per entry: the partner.
+    pub neighbor: &'a [u32],
+    /// Per entry: k_ij, N per unit stretch.
+    pub stiffness: &'a [f32],
+    /// Per entry: the critical stretch.
+    pub threshold: &'a [f32],
+    /// Broken bits, one per entry.
+    pub bits: &'a mut [u32],
+    /// Per force workgroup: the external power it delivers, watts.
+    pub power: &'a mut [f32],
+    /// The run's clock and counters (the break events logged).
+    pub status: &'a mut Status,
+    /// Projectiles then indenters: static data, then each step's centres.
+    pub spheres: &'a [V4],
+    /// Break events: (step, bond id).
+    pub events: &'a mut [[u32; 2]],
+}
+
 /// Twin of `spring_forces.wgsl` (the workgroup power sums in the shader's tree order).
-pub fn spring_forces(
-    params: &Params,
-    range: &Range,
-    body: &[V4],
-    vel: &[V4],
-    force: &mut [V4],
-    boost_next: &mut [f32],
-    rows: &[U4],
-    broken_count: &mut [u32],
-    contact_count: &[u32],
-    contact_force: &[V4],
-    neighbor: &[u32],
-    stiffness: &[f32],
-    threshold: &[f32],
-    bits: &mut [u32],
-    power: &mut [f32],
-    status: &mut Status,
-    spheres: &[V4],
-    events: &mut [[u32; 2]],
-) {
-    let wg = WG;
+pub fn spring_forces(mut b: SpringForcesBindings) {
+    let (wg, range) = (WG, b.range);
     for group in 0..range.workgroups as usize {
         let mut partial = [0.0f32; WG];
         for lid in 0..wg {
             let local = group * wg + lid;
             if local < range.count as usize {
-                partial[lid] = particle(
-                    params,
-                    range.first as usize + local,
-                    body,
-                    vel,
-                    force,
-                    boost_next,
-                    rows,
-                    broken_count,
-                    contact_count,
-                    contact_force,
-                    neighbor,
-                    stiffness,
-                    threshold,
-                    bits,
-                    status,
-                    spheres,
-                    events,
-                );
+                partial[lid] = particle(&mut b, range.first as usize + local);
             }
         }
         let total = workgroup_sum(partial);
-        power[range.first_workgroup as usize + group] = total;
+        b.power[range.first_workgroup as usize + group] = total;
     }
 }
 
 /// `particle` of `spring_forces.wgsl`: all forces on particle i; returns F_ext . v.
-fn particle(
-    params: &Params,
-    i: usize,
-    body: &[V4],
-    vel: &[V4],
-    force: &mut [V4],
-    boost_next: &mut [f32],
-    rows: &[U4],
-    broken_count: &mut [u32],
-    contact_count: &[u32],
-    contact_force: &[V4],
-    neighbor: &[u32],
-    stiffness: &[f32],
-    threshold: &[f32],
-    bits: &mut [u32],
-    status: &mut Status,
-    spheres: &[V4],
-    events: &mut [[u32; 2]],
-) -> f32 {
+fn particle(b: &mut SpringForcesBindings, i: usize) -> f32 {
+    // the bindings the shader reads, copied out, then those it writes
+    let SpringForcesBindings { params, body, vel, rows, contact_count, contact_force, neighbor, stiffness, .. } = *b;
+    let SpringForcesBindings { threshold, spheres, .. } = *b;
+    let SpringForcesBindings { force, boost_next, broken_count, bits, status, events, .. } = b;
     let own = body[2 * i];
     let record = body[2 * i + 1];
     let row = rows[i];

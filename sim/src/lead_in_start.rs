@@ -1,0 +1,96 @@
+//! A simulation that starts from the lead-in's handoff (`[lead_in]`): the handoff read and
+//! checked to belong to this run, the projectiles' and indenters' paths moved to its time, and the
+//! body's rigid motion there, which sets the particles' first displacements and velocities.
+
+use shatter_core::layout::missing_input;
+use shatter_core::lead_in::LeadIn;
+use shatter_core::{OutputLayout, PipelineConfig};
+
+use crate::sim_driver::RunError;
+
+/// The lead-in's handoff, when the scene has `[lead_in]`: checked to belong to this particle
+/// file and these settings.
+pub(crate) fn read_lead_in(
+    config: &PipelineConfig,
+    layout: &OutputLayout,
+    inputs: u32,
+) -> Result<Option<LeadIn>, RunError> {
+    if config.lead_in.is_none() {
+        return Ok(None);
+    }
+    let path = layout.lead_in();
+    if let Some(message) = missing_input(&path, "lead-in") {
+        return Err(RunError::MissingInput(message));
+    }
+    let lead_in = LeadIn::read(&path)?;
+    if lead_in.inputs != inputs {
+        return Err(RunError::MissingInput(format!(
+            "{}: made from another particle file or other [lead_in], [sim] or [material] settings; run `shatter \
+             lead-in` again",
+            path.display()
+        )));
+    }
+    Ok(Some(lead_in))
+}
+
+/// The config the simulation runs with after a lead-in: projectiles and indenters, whose paths
+/// are given in the shot's time, where they are at the handoff (the simulation's time 0).
+pub(crate) fn paths_from_handoff(config: &PipelineConfig, handoff_time_s: f64) -> PipelineConfig {
+    let mut physics = config.clone();
+    for p in &mut physics.sim.projectile {
+        p.center_m = [0, 1, 2].map(|a| p.center_m[a] + p.velocity_m_s[a] * handoff_time_s);
+    }
+    for i in &mut physics.sim.indenter {
+        i.center_m = [0, 1, 2].map(|a| i.center_m[a] + i.velocity_m_s[a] * handoff_time_s);
+    }
+    physics
+}
+
+/// The body's rigid motion at the lead-in's handoff, applied to particles by rest position.
+pub(crate) struct RigidMotion {
+    rotation: [[f64; 3]; 3],
+    translation: [f64; 3],
+    centre: [f64; 3],
+    velocity: [f64; 3],
+    angular: [f64; 3],
+}
+
+impl RigidMotion {
+    /// The motion `lead_in` hands off.
+    pub(crate) fn of(lead_in: &LeadIn) -> RigidMotion {
+        let [x, y, z, w] = lead_in.rotation;
+        let rotation = [
+            [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
+            [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
+            [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)],
+        ];
+        RigidMotion {
+            rotation,
+            translation: lead_in.translation_m,
+            centre: lead_in.centre_m,
+            velocity: lead_in.velocity_m_s,
+            angular: lead_in.angular_velocity_rad_s,
+        }
+    }
+
+    /// Where a particle at rest position `rest` is: R X + t.
+    fn position(&self, rest: [f32; 3]) -> [f64; 3] {
+        let x = rest.map(f64::from);
+        [0, 1, 2].map(|a| (0..3).map(|b| self.rotation[a][b] * x[b]).sum::<f64>() + self.translation[a])
+    }
+
+    /// The displacement that moves a particle at rest position `rest` to where it is.
+    pub(crate) fn displacement(&self, rest: [f32; 3]) -> [f32; 3] {
+        let x = self.position(rest);
+        [0, 1, 2].map(|a| (x[a] - f64::from(rest[a])) as f32)
+    }
+
+    /// v + w x (x - c), plus `sim.initial_velocity_m_s` as without a lead-in.
+    pub(crate) fn velocity(&self, rest: [f32; 3], extra: [f32; 3]) -> [f32; 3] {
+        let x = self.position(rest);
+        let r = [0, 1, 2].map(|a| x[a] - self.centre[a]);
+        let w = self.angular;
+        let spin = [w[1] * r[2] - w[2] * r[1], w[2] * r[0] - w[0] * r[2], w[0] * r[1] - w[1] * r[0]];
+        [0, 1, 2].map(|a| (self.velocity[a] + spin[a]) as f32 + extra[a])
+    }
+}
