@@ -3,9 +3,8 @@
 //! every stage. See docs/ARCHITECTURE.md.
 
 use std::collections::BTreeSet;
-use std::process::Command;
 
-use serde_json::Value;
+use crate::support;
 
 /// The stage crates, in the order data flows through them.
 const STAGES: [&str; 5] = ["shatter-preprocess", "shatter-sim", "shatter-post", "shatter-rigid", "shatter-render"];
@@ -15,13 +14,7 @@ const SHARED: [&str; 3] = ["shatter-core", "shatter-geometry", "shatter-gpu"];
 /// (package, dependency, kind) for every dependency between workspace packages; kind is
 /// "normal", "dev" or "build".
 fn workspace_edges() -> (BTreeSet<String>, Vec<(String, String, String)>) {
-    let output = Command::new(env!("CARGO"))
-        .args(["metadata", "--format-version", "1", "--no-deps", "--offline"])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("run cargo metadata");
-    assert!(output.status.success(), "cargo metadata failed: {}", String::from_utf8_lossy(&output.stderr));
-    let metadata: Value = serde_json::from_slice(&output.stdout).expect("cargo metadata prints JSON");
+    let metadata = support::workspace_metadata();
     let packages = metadata["packages"].as_array().expect("packages");
     let names: BTreeSet<String> =
         packages.iter().map(|p| p["name"].as_str().expect("package name").to_owned()).collect();

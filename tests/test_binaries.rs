@@ -4,19 +4,12 @@
 //! `tests/` must be declared there, or its tests would silently never build.
 
 use std::path::Path;
-use std::process::Command;
 
-use serde_json::Value;
+use crate::support;
 
 /// (package name, manifest folder, the source paths of its integration-test targets).
 fn test_targets() -> Vec<(String, String, Vec<String>)> {
-    let output = Command::new(env!("CARGO"))
-        .args(["metadata", "--format-version", "1", "--no-deps", "--offline"])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("run cargo metadata");
-    assert!(output.status.success(), "cargo metadata failed: {}", String::from_utf8_lossy(&output.stderr));
-    let metadata: Value = serde_json::from_slice(&output.stdout).expect("cargo metadata prints JSON");
+    let metadata = support::workspace_metadata();
     let packages = metadata["packages"].as_array().expect("packages");
     packages
         .iter()

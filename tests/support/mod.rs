@@ -24,6 +24,17 @@ density_kg_m3 = 2200.0
 bulk_modulus_pa = 14.9e9
 "#;
 
+/// The workspace's `cargo metadata` (its own packages only), as JSON.
+pub fn workspace_metadata() -> serde_json::Value {
+    let output = Command::new(env!("CARGO"))
+        .args(["metadata", "--format-version", "1", "--no-deps", "--offline"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run cargo metadata");
+    assert!(output.status.success(), "cargo metadata failed: {}", String::from_utf8_lossy(&output.stderr));
+    serde_json::from_slice(&output.stdout).expect("cargo metadata prints JSON")
+}
+
 /// Runs `shatter ARGS` in `dir`.
 pub fn shatter(args: &[&str], dir: &Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_shatter")).args(args).current_dir(dir).output().expect("shatter runs")
