@@ -37,12 +37,14 @@ fi
 
 work=$repo/target/unchanged
 mkdir -p "$work"
-export CARGO_TARGET_DIR=$repo/target
 
-# Builds the tree at $1 and copies its binary to $2.
+# Builds the tree at $2 as side $1 and copies its binary to $work/shatter-$1. Each side has its own
+# target folder: cargo hashes a workspace's crates by their paths within it, so two trees sharing
+# one folder share their artifacts, and a tree whose files are older than the other's build would
+# be taken as built and get the other's binary.
 build() {
-  cargo build --release --locked --quiet --manifest-path "$1/Cargo.toml"
-  cp "$CARGO_TARGET_DIR/release/shatter" "$2"
+  CARGO_TARGET_DIR=$work/target-$1 cargo build --release --locked --quiet --manifest-path "$2/Cargo.toml"
+  cp "$work/target-$1/release/shatter" "$work/shatter-$1"
 }
 
 # Lays out side $1 from tree $2: its scenes and assets, outputs empty.
@@ -68,8 +70,13 @@ if [ -n "$head" ]; then
   head_tree=$work/head-src
 fi
 echo "building $base and ${head:-the working tree} (release)"
-build "$work/base-src" "$work/shatter-base"
-build "$head_tree" "$work/shatter-head"
+build base "$work/base-src"
+build head "$head_tree"
+if cmp -s "$work/shatter-base" "$work/shatter-head"; then
+  # each binary's debug info holds its tree's path, so two real builds never give the same file
+  echo "error: the two builds gave the same binary; remove $work and run again" >&2
+  exit 2
+fi
 lay_out base "$work/base-src"
 lay_out head "$head_tree"
 
