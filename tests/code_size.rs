@@ -6,6 +6,8 @@
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
+use crate::support::rust_files;
+
 /// Most lines a source file may have outside its tests.
 const MAX_FILE_LINES: usize = 600;
 /// Most lines a function may have, outside tests, from its `fn` line to its closing brace.
@@ -14,19 +16,6 @@ const MAX_FN_LINES: usize = 100;
 /// The workspace root.
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// Every `.rs` file under `dir`.
-fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
-    let Ok(entries) = std::fs::read_dir(dir) else { return };
-    for entry in entries.flatten() {
-        let path = entry.path();
-        if path.is_dir() {
-            rust_files(&path, out);
-        } else if path.extension().is_some_and(|e| e == "rs") {
-            out.push(path);
-        }
-    }
 }
 
 /// The production sources: each crate's `src/` but the files of test-only modules.

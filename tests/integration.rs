@@ -11,6 +11,7 @@ mod code_size;
 mod deformed_elements;
 mod disk_full_cli;
 mod farm_log_cli;
+mod module_visibility;
 mod output_lock_cli;
 mod post_cli;
 mod regression;

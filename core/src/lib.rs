@@ -40,7 +40,7 @@ pub mod memory;
 pub mod output_lock;
 pub mod particles;
 pub mod ply;
-pub mod progress;
+mod progress;
 pub mod random;
 pub mod rigid_checkpoint;
 pub mod shot;

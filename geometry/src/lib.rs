@@ -6,7 +6,7 @@
 //! - [`point_kdtree`]: a k-d tree over points for radius and nearest-neighbour queries.
 
 pub mod mesh;
-pub mod point_kdtree;
+mod point_kdtree;
 
 pub use mesh::{MeshError, TriangleMesh};
 pub use point_kdtree::PointKdTree;

@@ -12,12 +12,12 @@
 //! - [`post_driver`]: the stage's driver.
 
 pub mod components;
-pub mod debris;
+mod debris;
 pub mod deformation;
-pub mod kabsch;
-pub mod post_driver;
-pub mod smoothing;
-pub mod tracker;
+mod kabsch;
+mod post_driver;
+mod smoothing;
+mod tracker;
 
 pub use post_driver::{PostError, PostReport, run_post};
 pub use tracker::{FragmentTracker, TrackedFrame};

@@ -17,8 +17,8 @@ pub mod delaunay;
 pub mod inside;
 pub mod lattice;
 pub mod mesh_query;
-pub mod order;
-pub mod preprocess_driver;
+mod order;
+mod preprocess_driver;
 pub mod repair;
 pub mod samplers;
 

@@ -20,7 +20,7 @@ pub(crate) fn cube_seams<'a>(
     (cubes && frame.element_affine.is_some()).then_some(frame)
 }
 
-/// [`SceneGeometry::interior_faces`]: the planes with a face neighbour (`face_neighbours`,
+/// [`SceneGeometry::interior_faces`](crate::scene_geometry::SceneGeometry::interior_faces): the planes with a face neighbour (`face_neighbours`,
 /// planes starting at `plane_offsets`); with deformed cubes (`seams`), a face between two
 /// elements of one fragment of which one or both are deformed is not one.
 pub(crate) fn interior_faces(
@@ -48,7 +48,7 @@ pub(crate) fn interior_faces(
         .collect()
 }
 
-/// [`SceneGeometry::face_neighbours`] of `particles`, whose elements' planes start at
+/// [`SceneGeometry::face_neighbours`](crate::scene_geometry::SceneGeometry::face_neighbours) of `particles`, whose elements' planes start at
 /// `plane_offsets`: from their rest adjacency.
 pub(crate) fn face_neighbours(particles: &ParticleSet, plane_offsets: &[u32]) -> Vec<u32> {
     let mut neighbours = vec![NONE; *plane_offsets.last().unwrap_or(&0) as usize];

@@ -32,9 +32,9 @@
 
 pub mod camera;
 pub mod cryptomatte;
-pub mod element_index;
-pub mod element_kdtree;
-pub mod face_seams;
+mod element_index;
+mod element_kdtree;
+mod face_seams;
 pub mod gpu_trace;
 pub mod hit_search;
 pub mod image_loop;
@@ -43,13 +43,13 @@ pub mod integrator;
 pub mod lighting;
 pub mod materials;
 pub mod mattes;
-pub mod motion;
-pub mod placing;
-pub mod primitives;
+mod motion;
+mod placing;
+mod primitives;
 pub mod render_driver;
-pub mod sampling;
+mod sampling;
 pub mod scene_geometry;
-pub mod shading;
+mod shading;
 
 #[cfg(test)]
 mod trace_tests;

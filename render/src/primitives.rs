@@ -85,12 +85,12 @@ pub fn in_opposite_pairs(planes: &[Plane]) -> bool {
 /// A cube whose six planes are [`in_opposite_pairs`], given as the normals of planes 0, 2 and 4
 /// (`axes`) and the six planes' distances, seen from one origin: the room from the origin to each
 /// plane along the plane's own normal (plane 2k's in `upper[k]`, plane 2k + 1's in `lower[k]`),
-/// which every ray from that origin shares. Its span ([`CubeFromOrigin::span`]) is
-/// [`polytope_span`]'s to the bit, from half the arithmetic and a third of the bytes. Negating a
-/// normal negates its dot products exactly (every product and sum rounds symmetrically), so one
-/// facing and one distance per pair give both planes': of a pair, the plane the ray faces is
-/// entered and the other left, and the pairs are weighed in order, as the planes are there (ties
-/// go to the lower).
+/// which every ray from that origin shares. Its span (its [`entry`](CubeFromOrigin::entry) and
+/// [`exit`](CubeFromOrigin::exit)) is [`polytope_span`]'s to the bit, from half the arithmetic and
+/// a third of the bytes. Negating a normal negates its dot products exactly (every product and sum
+/// rounds symmetrically), so one facing and one distance per pair give both planes': of a pair,
+/// the plane the ray faces is entered and the other left, and the pairs are weighed in order, as
+/// the planes are there (ties go to the lower).
 #[derive(Debug, Clone, Copy)]
 pub struct CubeFromOrigin<'a> {
     axes: &'a [[f32; 3]; 3],
@@ -109,6 +109,7 @@ impl<'a> CubeFromOrigin<'a> {
         cube
     }
 
+    #[cfg(test)]
     /// The span of the ray from the origin along `direction` inside the cube widened by `slack`
     /// ([`polytope_span`]).
     pub fn span(&self, slack: f32, direction: [f32; 3]) -> Option<Span> {

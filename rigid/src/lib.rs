@@ -14,15 +14,15 @@
 //! - [`rigid_driver`]: the `shatter rigid` stage: handoff, frames, checkpoints, resume.
 //! - [`shot_usd`]: the USD of the whole shot, lead-in to rest.
 
-pub mod contact_rules;
-pub mod handoff;
-pub mod lead_in_driver;
+mod contact_rules;
+mod handoff;
+mod lead_in_driver;
 pub mod mass;
-pub mod plane_contacts;
+mod plane_contacts;
 pub mod rigid_driver;
 pub mod shapes;
-pub mod shot_usd;
-pub mod velocity_fit;
+mod shot_usd;
+mod velocity_fit;
 pub mod world;
 
 pub use lead_in_driver::{LeadInReport, run_lead_in};

@@ -22,21 +22,21 @@
 //!   predecessor's outputs until it has a checkpoint.
 
 pub mod art;
-pub mod backend;
+mod backend;
 pub mod backend_choice;
-pub mod bond_layouts;
-pub mod contact;
-pub mod cpu_simulation;
+mod bond_layouts;
+mod contact;
+mod cpu_simulation;
 pub mod elastoplastic;
 pub mod gpu;
 pub mod kernels;
 mod lead_in_start;
-pub mod material_bonds;
-pub mod model;
-pub mod previous_run;
+mod material_bonds;
+mod model;
+mod previous_run;
 pub mod sim_driver;
-pub mod sim_error;
-pub mod state;
+mod sim_error;
+mod state;
 #[cfg(test)]
 mod twins;
 

@@ -6,9 +6,9 @@
 //! [`crate::ply`]), and each block of the break log carries one of its records. Formats:
 //! docs/FORMATS.md.
 
-pub mod break_log;
+mod break_log;
 mod frame_file_error;
-pub mod point_frame;
+mod point_frame;
 
 pub use break_log::{BreakBlock, BreakEvent, BreakLog};
 pub use frame_file_error::FrameFileError;

@@ -30,7 +30,7 @@ impl Frame {
         Frame { lo, hi, on_plane: ON_PLANE * lo.abs().max(hi.abs()).max_element().max((hi - lo).max_element()) }
     }
 
-    /// The box's planes, in the order of [`Polytope::cuboid`](polytope::Polytope::cuboid)'s faces.
+    /// The box's planes, in the order of [`Polytope::cuboid`](super::polytope::Polytope::cuboid)'s faces.
     pub(super) fn planes(&self) -> [[f64; 4]; 6] {
         let (lo, hi) = (self.lo, self.hi);
         [

@@ -1,5 +1,5 @@
 //! [`tetrahedralize`], the entry point: the input's checks, its exact duplicates, the first
-//! simplex, then each point inserted by the [`Builder`](super::bowyer_watson::Builder).
+//! simplex, then each point inserted by the [`Builder`].
 
 use glam::DVec3;
 

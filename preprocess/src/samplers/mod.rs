@@ -14,10 +14,10 @@
 
 pub mod blue_noise;
 pub mod grid;
-pub mod particle_assembly;
+pub(crate) mod particle_assembly;
 mod sampler_dispatch;
-pub mod size_estimate;
+mod size_estimate;
 pub mod tet_shell;
-pub mod voronoi;
+pub(crate) mod voronoi;
 
 pub(crate) use sampler_dispatch::sample_geometry;

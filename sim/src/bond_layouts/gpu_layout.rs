@@ -124,6 +124,7 @@ impl GpuBondLayout {
         self.range_of_group[i / WG] as usize
     }
 
+    #[cfg(test)]
     /// Where particle `i`'s bit for its row entry `k` lives: (range, word, bit).
     pub fn bit_of(&self, i: usize, k: usize) -> (usize, usize, u32) {
         let row = self.rows[i];

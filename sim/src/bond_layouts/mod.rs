@@ -10,10 +10,10 @@
 //!   into ranges that each fit one storage binding.
 
 mod entry_values;
-pub mod gpu_layout;
-pub mod lattice_layout;
-pub mod layout_choice;
-pub mod row_layout;
+pub(crate) mod gpu_layout;
+pub(crate) mod lattice_layout;
+pub(crate) mod layout_choice;
+pub(crate) mod row_layout;
 
 pub(crate) use entry_values::EntryValues;
 pub use layout_choice::LayoutChoice;

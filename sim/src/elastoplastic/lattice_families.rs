@@ -64,30 +64,20 @@ pub struct FamilyChunk {
     pub breaks: Vec<u64>,
 }
 
-/// The per-slot arrays of [`LatticeFamilies::slots`], by index.
+/// The per-slot arrays of [`LatticeFamilies::slots`], by index. In order: displacement x, y, z
+/// (metres); rest position x, y, z (metres); volume V (m^3); weighted volume m (m^5, 0 without a
+/// particle); 15 mu / m; 3 K / m; the deviatoric force scalar at which the slot's bonds yield;
+/// damage phi at the step's start; dilatation theta at the last evaluation; bond force x, y, z
+/// (newtons). [`LatticeFamilies::evaluate`] takes them apart in this order.
 pub struct FamilySlot;
 
 impl FamilySlot {
-    /// Displacement x (then y, z), metres.
-    pub const DISP: usize = 0;
     /// Rest position x (then y, z), metres.
     pub const REST: usize = 3;
     /// Volume V, m^3.
     pub const VOLUME: usize = 6;
     /// Weighted volume m, m^5 (0 without a particle).
     pub const WEIGHTED: usize = 7;
-    /// 15 mu / m.
-    pub const DEVIATORIC: usize = 8;
-    /// 3 K / m.
-    pub const DILATATIONAL: usize = 9;
-    /// The deviatoric force scalar at which the slot's bonds yield.
-    pub const YIELD: usize = 10;
-    /// Damage phi at the step's start.
-    pub const DAMAGE: usize = 11;
-    /// Dilatation theta at the last evaluation.
-    pub const THETA: usize = 12;
-    /// Bond force x (then y, z), newtons.
-    pub const FORCE: usize = 13;
     /// Arrays in all.
     pub const COUNT: usize = 16;
 }

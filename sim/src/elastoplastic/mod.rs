@@ -16,12 +16,12 @@
 //!   ends, eight bonds at a time without gathers.
 //! - [`family_bonds`]: which of the two layouts a CPU simulation runs on.
 
-pub mod constants;
-pub mod family_bonds;
-pub mod family_table;
-pub mod lattice_families;
-pub mod lattice_passes;
-pub mod passes;
+pub(crate) mod constants;
+pub(crate) mod family_bonds;
+pub(crate) mod family_table;
+pub(crate) mod lattice_families;
+pub(crate) mod lattice_passes;
+pub(crate) mod passes;
 
 pub use constants::StateBasedConstants;
 pub use family_bonds::FamilyBonds;

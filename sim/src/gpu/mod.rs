@@ -57,11 +57,11 @@
 mod bind_groups;
 mod family;
 mod gpu_simulation;
-pub mod shaders;
+pub(crate) mod shaders;
 mod sim_buffers;
 mod snapshot;
 mod stepping;
-pub mod wgsl_structs;
+pub(crate) mod wgsl_structs;
 
 #[cfg(test)]
 mod tests;

@@ -16,6 +16,7 @@ pub const RULE_SIGNED_BOOST: u32 = 1;
 pub const RULE_BREAKING_FORCE: u32 = 2;
 /// `RULE_LAMMPS_CONTACT`: LAMMPS's short-range contact.
 pub const RULE_LAMMPS_CONTACT: u32 = 4;
+#[cfg(test)]
 /// `NO_STRETCH`: the smallest stretch of a particle with no bond yet seen (signed boost).
 pub const NO_STRETCH: f32 = 3.0e38;
 
