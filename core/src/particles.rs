@@ -523,9 +523,9 @@ impl ParticleSet {
         let (min, max) = counts.fold((u64::MAX, 0), |(lo, hi), c| (lo.min(c), hi.max(c)));
         let mut bounds = [[f32::INFINITY; 3], [f32::NEG_INFINITY; 3]];
         for p in &self.rest_position_m {
-            for axis in 0..3 {
-                bounds[0][axis] = bounds[0][axis].min(p[axis]);
-                bounds[1][axis] = bounds[1][axis].max(p[axis]);
+            for (axis, &c) in p.iter().enumerate() {
+                bounds[0][axis] = bounds[0][axis].min(c);
+                bounds[1][axis] = bounds[1][axis].max(c);
             }
         }
         let thresholds = &self.bonds.threshold;
