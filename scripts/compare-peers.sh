@@ -16,7 +16,8 @@
 #   scripts/compare-peers.sh [RUNS [GROUPS]]
 #
 # GROUPS (comma-separated; default all) picks comparisons: lattice, irregular, elastoplastic, delaunay,
-# render.
+# render. The lattice and irregular groups run once per SIMD path this CPU has (portable, avx2,
+# avx512), each ratio named with its path; SHATTER_SIMD=PATH runs one path only.
 #
 # It installs what is missing: lammps with apt-get (as root), the Python peers into .peers-venv/
 # (ignored by git). Takes about 17 minutes a run on 2 cores (the lattice and irregular groups about 3, render about 2.5).

@@ -186,6 +186,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
             lead_in::run(&config)
         }
         Command::Sim { config, options } => {
+            sim::force_simd(&options)?;
             let (config, _lock) = open_scene(&config, Access::Exclusive)?;
             check_memory(&config, Stage::Sim, Stage::Sim)?;
             sim::run(&config, &options)
@@ -204,6 +205,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
             render::run(&config, &options)
         }
         Command::Run { config, options, until } => {
+            sim::force_simd(&options)?;
             let (config, _lock) = open_scene(&config, Access::Exclusive)?;
             check_memory(&config, Stage::Preprocess, until)?;
             pipeline::run(&config, &options, until)

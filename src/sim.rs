@@ -2,7 +2,8 @@
 
 use shatter_core::PipelineConfig;
 use shatter_core::config::sim::BackendChoice;
-use shatter_sim::sim_driver::{RunOptions, run_sim};
+use shatter_sim::sim_driver::{RunError, RunOptions, run_sim};
+use shatter_sim::{SimError, SimdPath};
 
 use crate::Failure;
 use crate::progress_bars::for_stderr;
@@ -20,6 +21,10 @@ pub struct SimArgs {
     /// Run even when sim.dt_s exceeds the stable time step.
     #[arg(long)]
     pub allow_unstable_dt: bool,
+    /// The CPU kernels' instruction set: portable, avx2 or avx512 (default: SHATTER_SIMD, else
+    /// the widest this CPU runs). Every path gives the same results; benches compare speeds.
+    #[arg(long, value_name = "PATH", value_parser = SimdPath::parse)]
+    pub simd: Option<SimdPath>,
 }
 
 /// `--backend` values.
@@ -44,6 +49,15 @@ impl BackendArg {
     }
 }
 
+/// Forces `--simd`'s path for the process, before any stage runs; a path this CPU lacks is bad
+/// input (exit code 2).
+pub fn force_simd(args: &SimArgs) -> Result<(), Failure> {
+    match args.simd.map(SimdPath::force) {
+        Some(Err(message)) => Err(RunError::Input(SimError::BadInput(message)).into()),
+        _ => Ok(()),
+    }
+}
+
 /// Runs the simulation stage.
 pub fn run(config: &PipelineConfig, args: &SimArgs) -> Result<(), Failure> {
     let backend = args.backend.map_or(config.sim.backend, BackendArg::backend);
@@ -54,8 +68,9 @@ pub fn run(config: &PipelineConfig, args: &SimArgs) -> Result<(), Failure> {
     }
     let steps_per_second = report.steps as f64 / report.wall_s.max(1e-9);
     println!(
-        "sim on {}: {} particles, frames {}..{} ({} steps, {:.0} steps/s), {} bonds broken, stable dt {:.3e} s",
+        "sim on {}{}: {} particles, frames {}..{} ({} steps, {:.0} steps/s), {} bonds broken, stable dt {:.3e} s",
         report.backend,
+        report.simd.map_or(String::new(), |simd| format!(", {simd} kernels")),
         report.particles,
         report.started_at_frame,
         report.frames,

@@ -247,3 +247,41 @@ fn a_projectile_that_would_throw_particles_through_itself_is_refused_by_its_key(
     assert!(output.status.success(), "{}", stderr(&output));
     assert!(stderr(&output).contains("at which sim.projectile[0].stiffness_pa holds particles"), "{}", stderr(&output));
 }
+
+/// `--simd` and `SHATTER_SIMD` pick the CPU kernels' instruction set: every path this CPU has
+/// writes the same frames, the summary names the path, and an unknown name or a path the CPU
+/// lacks is exit 2 naming where it came from.
+#[test]
+fn every_simd_path_writes_the_same_frames_and_a_bad_one_is_refused_by_name() {
+    let config = scene(12, 4, 40, "backend = \"cpu\"");
+    let mut frames = Vec::new();
+    for path in ["portable", "avx2", "avx512"] {
+        let dir = folder_with(&config);
+        let output = shatter(&["run", "--until", "sim", "--simd", path], dir.path());
+        if output.status.success() {
+            let summary = String::from_utf8_lossy(&output.stdout);
+            assert!(summary.contains(&format!(", {path} kernels:")), "{summary}");
+            frames.push((path, frame_files(dir.path())));
+        } else {
+            assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+            assert!(stderr(&output).contains(&format!("--simd = {path}: this CPU cannot run")), "{}", stderr(&output));
+        }
+    }
+    assert_eq!(frames[0].0, "portable", "the portable path runs everywhere");
+    for (path, files) in &frames[1..] {
+        assert!(*files == frames[0].1, "the {path} path's frames differ from the portable path's");
+    }
+
+    let dir = folder_with(&config);
+    let output = shatter(&["sim", "--simd", "sse9"], dir.path());
+    assert_eq!(output.status.code(), Some(2));
+    assert!(stderr(&output).contains("sse9") && stderr(&output).contains("portable, avx2, avx512"), "{}", stderr(&output));
+    let output = Command::new(env!("CARGO_BIN_EXE_shatter"))
+        .args(["run", "--until", "sim"])
+        .env("SHATTER_SIMD", "sse9")
+        .current_dir(dir.path())
+        .output()
+        .expect("shatter runs");
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    assert!(stderr(&output).contains("SHATTER_SIMD: unknown SIMD path \"sse9\""), "{}", stderr(&output));
+}

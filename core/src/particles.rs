@@ -256,6 +256,34 @@ fn validate_twins(bonds: &Bonds, n: usize) -> Result<(), String> {
 }
 
 impl ParticleSet {
+    /// `elements` at `positions`, `lambda_m` apart (the horizon one spacing), each of unit volume
+    /// and mass, with no bonds and no adjacency: a scene for the tracer alone, as the render
+    /// tests and benches build theirs.
+    pub fn unbonded(positions: Vec<[f32; 3]>, elements: Elements, lambda_m: f64) -> ParticleSet {
+        let n = positions.len();
+        ParticleSet {
+            meta: ParticleMeta {
+                scene_name: "t".into(),
+                source: "box".into(),
+                sampler: "grid".into(),
+                lambda_m,
+                horizon_factor: 1.0,
+                delta_m: lambda_m,
+                density_kg_m3: 1.0,
+                bulk_modulus_pa: 1.0,
+                mean_critical_stretch: 0.01,
+                threshold_jitter: 0.0,
+                seed: 0,
+            },
+            rest_position_m: positions,
+            volume_m3: vec![1.0; n],
+            mass_kg: vec![1.0; n],
+            elements,
+            bonds: Bonds { offsets: vec![0; n + 1], ..Bonds::default() },
+            adjacency: Vec::new(),
+        }
+    }
+
     /// The face of element `from` that it shares with the adjacent element `to` (an adjacency
     /// pair), numbered as the renderer numbers an element's planes: for a cube, 2 k for the face on
     /// the positive side of its own axis k and 2 k + 1 for the negative side; for a tetrahedron, k

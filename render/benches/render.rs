@@ -15,7 +15,7 @@ use std::time::Instant;
 
 use glam::{DQuat, DVec3};
 use rayon::prelude::*;
-use shatter_core::particles::{Bonds, Elements, ParticleMeta, ParticleSet};
+use shatter_core::particles::{Elements, ParticleSet};
 use shatter_gpu::{AdapterChoice, GpuContext};
 use shatter_render::camera::Camera;
 use shatter_render::gpu_trace::GpuTracer;
@@ -60,29 +60,13 @@ fn scene() -> ParticleSet {
             }
         }
     }
+    let elements =
+        Elements::Cubes { half_size_m: vec![0.0005; n], orientation: DQuat::from_rotation_y(0.3).as_quat().to_array() };
     ParticleSet {
-        meta: ParticleMeta {
-            scene_name: "bench".into(),
-            source: "box".into(),
-            sampler: "grid".into(),
-            lambda_m: 0.001,
-            horizon_factor: 1.0,
-            delta_m: 0.001,
-            density_kg_m3: 1.0,
-            bulk_modulus_pa: 1.0,
-            mean_critical_stretch: 0.01,
-            threshold_jitter: 0.0,
-            seed: 0,
-        },
-        rest_position_m: positions,
         volume_m3: vec![1e-9; n],
         mass_kg: vec![1e-9; n],
-        elements: Elements::Cubes {
-            half_size_m: vec![0.0005; n],
-            orientation: DQuat::from_rotation_y(0.3).as_quat().to_array(),
-        },
-        bonds: Bonds { offsets: vec![0; n + 1], ..Bonds::default() },
         adjacency,
+        ..ParticleSet::unbonded(positions, elements, 0.001)
     }
 }
 

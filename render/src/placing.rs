@@ -435,31 +435,11 @@ mod tests {
     use crate::primitives::polytope_contains;
     use glam::DQuat;
     use shatter_core::fragments::{AFFINE_RIGID, FragmentMeta};
-    use shatter_core::particles::{Bonds, ParticleMeta};
 
     fn cubes(positions: Vec<[f32; 3]>) -> ParticleSet {
         let n = positions.len();
-        ParticleSet {
-            meta: ParticleMeta {
-                scene_name: "t".into(),
-                source: "box".into(),
-                sampler: "grid".into(),
-                lambda_m: 0.1,
-                horizon_factor: 1.0,
-                delta_m: 0.1,
-                density_kg_m3: 1.0,
-                bulk_modulus_pa: 1.0,
-                mean_critical_stretch: 0.01,
-                threshold_jitter: 0.0,
-                seed: 0,
-            },
-            rest_position_m: positions,
-            volume_m3: vec![1.0; n],
-            mass_kg: vec![1.0; n],
-            elements: Elements::Cubes { half_size_m: vec![0.05; n], orientation: [0.0, 0.0, 0.0, 1.0] },
-            bonds: Bonds { offsets: vec![0; n + 1], ..Bonds::default() },
-            adjacency: Vec::new(),
-        }
+        let elements = Elements::Cubes { half_size_m: vec![0.05; n], orientation: [0.0, 0.0, 0.0, 1.0] };
+        ParticleSet::unbonded(positions, elements, 0.1)
     }
 
     /// A plane's normal from a cube's axes is its plane's, bit for bit, for turned cubes and a

@@ -3,7 +3,7 @@
 //! faces, walks out of a union, and light through a glass slab.
 
 use glam::DVec3;
-use shatter_core::particles::{Bonds, Elements, ParticleMeta, ParticleSet};
+use shatter_core::particles::{Elements, ParticleSet};
 
 use crate::camera::Camera;
 use crate::hit_search::{NONE, closest_hit, element_at, union_exit};
@@ -16,28 +16,7 @@ use crate::scene_geometry::SceneGeometry;
 use crate::shading::refract;
 
 fn set(positions: Vec<[f32; 3]>, elements: Elements) -> ParticleSet {
-    let n = positions.len();
-    ParticleSet {
-        meta: ParticleMeta {
-            scene_name: "t".into(),
-            source: "box".into(),
-            sampler: "grid".into(),
-            lambda_m: 1.0,
-            horizon_factor: 1.0,
-            delta_m: 1.0,
-            density_kg_m3: 1.0,
-            bulk_modulus_pa: 1.0,
-            mean_critical_stretch: 0.01,
-            threshold_jitter: 0.0,
-            seed: 0,
-        },
-        rest_position_m: positions,
-        volume_m3: vec![1.0; n],
-        mass_kg: vec![1.0; n],
-        elements,
-        bonds: Bonds { offsets: vec![0; n + 1], ..Bonds::default() },
-        adjacency: Vec::new(),
-    }
+    ParticleSet::unbonded(positions, elements, 1.0)
 }
 
 fn cubes(centres: Vec<[f32; 3]>) -> SceneGeometry {

@@ -5,7 +5,9 @@ Called by scripts/compare-peers.sh, which installs the peers first.
     python3 compare.py RUNS [GROUPS]
 
 GROUPS, comma-separated, picks comparisons (default all): lattice, irregular, elastoplastic, delaunay,
-render.
+render. The lattice and row-layout (irregular) comparisons run once per SIMD path this CPU has
+(portable, avx2, avx512), each forced through SHATTER_SIMD; set SHATTER_SIMD to run one path only.
+The elastoplastic model, the Delaunay code and the tracer have one path.
 """
 
 import os
@@ -20,10 +22,12 @@ ROOT = Path(__file__).resolve().parents[2]
 PEERS = Path(__file__).resolve().parent
 
 
-def bench(package, name, args, threads=None):
+def bench(package, name, args, threads=None, simd=None):
     env = dict(os.environ)
     if threads is not None:
         env["RAYON_NUM_THREADS"] = str(threads)
+    if simd is not None:
+        env["SHATTER_SIMD"] = simd
     command = ["cargo", "bench", "--locked", "-q", "-p", package, "--bench", name, "--", *args]
     return run(command, env)
 
@@ -49,19 +53,39 @@ def number(pattern, text, what):
 GROUPS = ("lattice", "irregular", "elastoplastic", "delaunay", "render")
 
 
+def simd_paths():
+    """The SIMD paths to compare: SHATTER_SIMD's, else every path this CPU's flags allow."""
+    if os.environ.get("SHATTER_SIMD"):
+        return [os.environ["SHATTER_SIMD"]]
+    try:
+        found = re.search(r"^flags\s*:(.*)$", Path("/proc/cpuinfo").read_text(), re.MULTILINE)
+        flags = set(found.group(1).split()) if found else set()
+    except OSError:
+        flags = set()
+    return ["portable"] + [path for path, flag in (("avx2", "avx2"), ("avx512", "avx512f")) if flag in flags]
+
+
+def simd_bench(name, args, simd):
+    """A simulation bench on one SIMD path; checks that the bench ran it."""
+    text = bench("shatter-sim", name, args, simd=simd)
+    if f", {simd} kernels;" not in text:
+        sys.exit(f"compare-peers: {name} did not run the {simd} kernels:\n{text}")
+    return text
+
+
 def one_run(ratios, cores, groups):
     def add(name, value):
         ratios.setdefault(name, []).append(value)
         print(f"  {name}: {value:.2f}x", flush=True)
 
-    if "lattice" in groups:
-        text = bench("shatter-sim", "bond_updates", ["100"])
-        add("CPU simulation vs LAMMPS peri/pmb, lattice, per core", number(r"per-core ratio, shatter 1 thread / LAMMPS: ([\d.]+)x", text, "LAMMPS ratio"))
-    if "irregular" in groups:
-        text = bench("shatter-sim", "irregular_bond_updates", ["20"])
+    for simd in simd_paths() if "lattice" in groups else []:
+        text = simd_bench("bond_updates", ["100"], simd)
+        add(f"CPU simulation vs LAMMPS peri/pmb, lattice, per core, {simd}", number(r"per-core ratio, shatter 1 thread / LAMMPS: ([\d.]+)x", text, "LAMMPS ratio"))
+    for simd in simd_paths() if "irregular" in groups else []:
+        text = simd_bench("irregular_bond_updates", ["20"], simd)
         for case in ("tet shell (filled core)", "Voronoi cells"):
             pattern = rf"per-core ratio, shatter 1 thread / LAMMPS, {re.escape(case)}: ([\d.]+)x"
-            add(f"CPU simulation vs LAMMPS peri/pmb, {case}, per core", number(pattern, text, f"{case} ratio"))
+            add(f"CPU simulation vs LAMMPS peri/pmb, {case}, per core, {simd}", number(pattern, text, f"{case} ratio"))
     if "elastoplastic" in groups:
         text = bench("shatter-sim", "elastoplastic_updates", ["20"])
         for style in ("lps", "eps"):

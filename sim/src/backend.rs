@@ -14,6 +14,7 @@ use glam::DVec3;
 use shatter_core::frames::BreakEvent;
 
 use crate::model::Model;
+use crate::simd_path::SimdPath;
 use crate::state::{Dynamics, Energy};
 
 /// A backend failed while running (e.g. the GPU reported an error mid-run). It carries the
@@ -97,6 +98,10 @@ pub trait Backend {
     }
     /// The largest stable time step, seconds.
     fn stable_dt_s(&self) -> f64;
+    /// The instruction set of the CPU kernels (`None`: the backend is not the CPU's).
+    fn simd_path(&self) -> Option<SimdPath> {
+        None
+    }
     /// Replaces the state with a checkpoint's; `broken_bonds` (sorted ids) are marked broken.
     fn restore(&mut self, dynamics: Dynamics, broken_bonds: &[u64]) -> Result<(), DeviceError>;
     /// The material model's per-bond state, one value per particle-file bond entry (the

@@ -15,6 +15,8 @@
 //! - [`gpu`]: the GPU backend (wgpu, WGSL kernels in `shaders/`).
 //! - `twins` (built for tests only): the CPU twin of each WGSL kernel, which the GPU's parity
 //!   tests compare it with.
+//! - [`simd_path`]: which instruction set the CPU's spring kernels use (`--simd`,
+//!   `SHATTER_SIMD`).
 //! - [`backend`]: what the frame loop needs of either backend; [`backend_choice`]: which one runs.
 //! - [`art`]: art direction of the cracks (weakened paths, seams, shards).
 //! - [`sim_driver`]: the `shatter sim` driver: frames, checkpoints, resume, stability checks;
@@ -36,6 +38,7 @@ mod model;
 mod previous_run;
 pub mod sim_driver;
 mod sim_error;
+pub mod simd_path;
 mod state;
 #[cfg(test)]
 mod twins;
@@ -47,4 +50,5 @@ pub use cpu_simulation::CpuSimulation;
 pub use gpu::GpuSimulation;
 pub use model::Model;
 pub use sim_error::SimError;
+pub use simd_path::SimdPath;
 pub use state::{Dynamics, Energy};

@@ -25,6 +25,7 @@ use crate::backend::{Backend, DeviceError};
 use crate::backend_choice::{BackendError, create_backend};
 use crate::lead_in_start::{RigidMotion, paths_from_handoff, read_lead_in};
 use crate::previous_run::PreviousRun;
+use crate::simd_path::SimdPath;
 use crate::state::{Dynamics, Energy};
 
 /// How a run starts.
@@ -147,6 +148,8 @@ impl RunError {
 pub struct RunReport {
     /// What ran the steps: "CPU (N threads)" or "GPU: adapter".
     pub backend: String,
+    /// The CPU kernels' instruction set (`None` on the GPU).
+    pub simd: Option<SimdPath>,
     /// Particles simulated.
     pub particles: usize,
     /// The frame the run started from (1 for a fresh run).
@@ -256,6 +259,7 @@ pub fn run_with(
     let (steps, broken_bonds) = (frames.steps, frames.broken_bonds);
     Ok(RunReport {
         backend: simulation.describe(),
+        simd: simulation.simd_path(),
         particles: simulation.len(),
         started_at_frame: start.frame,
         frames: total_frames,

@@ -12,3 +12,4 @@ mod gpu_physics;
 mod gpu_run;
 mod lammps_agreement;
 mod physics;
+mod simd_paths;

@@ -21,13 +21,17 @@ pub fn config(geometry: &str, rules: &str) -> PipelineConfig {
 }
 
 /// Seconds for `steps` steps on `threads` threads (medians of 10-step batches); on one thread
-/// it prints the layout and the bond entries computed per step.
+/// it prints the layout, the SIMD path (`SHATTER_SIMD` forces one) and the bond entries computed
+/// per step.
 pub fn time_ours(config: &PipelineConfig, particles: &ParticleSet, steps: usize, threads: usize) -> f64 {
     time_steps(config, particles, (steps, 10), threads, |sim| {
         if threads == 1 {
             let (internal, external) = sim.bond_entries();
             let layout = if sim.on_lattice() { "lattice" } else { "row" };
-            println!("  {layout} layout; bond entries per step: {internal} internal + {external} external");
+            let simd = sim.simd_path();
+            println!(
+                "  {layout} layout, {simd} kernels; bond entries per step: {internal} internal + {external} external"
+            );
         }
     })
 }

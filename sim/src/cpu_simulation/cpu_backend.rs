@@ -17,6 +17,7 @@ use crate::elastoplastic::FamilyBonds;
 use crate::kernels::{ParticleRecord, PassRules};
 use crate::material_bonds::MaterialBonds;
 use crate::model::{Model, hold_grips};
+use crate::simd_path::SimdPath;
 use crate::state::{Dynamics, Energy, kinetic_energy_j};
 use crate::{SimError, art};
 
@@ -43,6 +44,8 @@ pub struct CpuSimulation {
     pub(super) position_scratch: [Vec<f32>; 3],
     pub(super) records: Vec<ParticleRecord>,
     pub(super) chunk_power: Vec<f64>,
+    /// The spring kernels' instruction set.
+    pub(super) simd: SimdPath,
 }
 
 impl CpuSimulation {
@@ -117,6 +120,7 @@ impl CpuSimulation {
             position_scratch: zeros(),
             records,
             chunk_power: Vec::new(),
+            simd: SimdPath::for_process().map_err(SimError::BadInput)?,
         };
         simulation.chunk_power = vec![0.0; n.div_ceil(simulation.chunk_size)];
         simulation.update_positions();
@@ -267,6 +271,21 @@ impl CpuSimulation {
         self.bonds.stable_dt_s(&self.mass, self.model.density_kg_m3)
     }
 
+    /// The spring kernels' instruction set.
+    pub fn simd_path(&self) -> SimdPath {
+        self.simd
+    }
+
+    /// Runs the spring kernels on `path` from the next step on (every path gives the same bits).
+    /// Fails, naming the path, when this CPU lacks it.
+    pub fn set_simd_path(&mut self, path: SimdPath) -> Result<(), SimError> {
+        if !path.supported() {
+            return Err(SimError::BadInput(format!("this CPU cannot run the {path} kernels")));
+        }
+        self.simd = path;
+        Ok(())
+    }
+
     /// The material model's per-bond state in the particle file's entry order (plastic
     /// extensions; empty for PMB).
     pub fn bond_state(&self) -> Vec<f32> {
@@ -333,6 +352,10 @@ impl Backend for CpuSimulation {
 
     fn stable_dt_s(&self) -> f64 {
         CpuSimulation::stable_dt_s(self)
+    }
+
+    fn simd_path(&self) -> Option<SimdPath> {
+        Some(self.simd)
     }
 
     fn restore(&mut self, dynamics: Dynamics, broken_bonds: &[u64]) -> Result<(), DeviceError> {

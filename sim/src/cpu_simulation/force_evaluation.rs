@@ -13,6 +13,7 @@ use crate::bond_layouts::layout_choice::SpringTable;
 use crate::kernels::{self, BodyForces, ChunkForces, ContactChunk, ParticleRecord, SphereNow};
 use crate::material_bonds::MaterialBonds;
 use crate::model::{MovingSphere, hold_grips};
+use crate::simd_path::SimdPath;
 use crate::state::Dynamics;
 
 impl CpuSimulation {
@@ -41,10 +42,10 @@ impl CpuSimulation {
     /// The bonds' forces into the force arrays, by material model and layout (the row kernel's
     /// smallest stretches into `next_boost`; the lattice kernel's totals stay in its slots).
     fn bond_forces(&mut self) {
-        let CpuSimulation { model, bonds, chunk_size, dynamics, next_boost, records, .. } = self;
+        let CpuSimulation { model, bonds, chunk_size, dynamics, next_boost, records, simd, .. } = self;
         let size = *chunk_size;
         let Dynamics { disp, force, boost, .. } = dynamics;
-        let (rule, pass_rules) = (model.break_rule, model.pass_rules());
+        let (rule, pass_rules, simd) = (model.break_rule, model.pass_rules(), *simd);
         let [fx, fy, fz] = force;
         match bonds {
             MaterialBonds::Elastoplastic(table) => {
@@ -69,11 +70,11 @@ impl CpuSimulation {
                     .into_par_iter()
                     .for_each(|(chunk, fx, fy, fz, min_stretch)| {
                         let mut out = ChunkForces { force: [fx, fy, fz], min_stretch };
-                        kernels::spring_forces(chunk, records, rule, pass_rules, &mut out);
+                        kernels::spring_forces(chunk, records, rule, pass_rules, simd, &mut out);
                     });
             }
             MaterialBonds::Pmb(SpringTable::Lattice(lattice)) => {
-                lattice_forces(lattice, [&disp[0][..], &disp[1][..], &disp[2][..]], boost, rule);
+                lattice_forces(lattice, [&disp[0][..], &disp[1][..], &disp[2][..]], boost, rule, simd);
             }
         }
     }
@@ -213,7 +214,7 @@ fn boosts_from_stretches(min_stretch: &mut [f32], alpha: f32, signed_boost: bool
 
 /// The lattice layout's spring pass: the slots' inputs from the particles' displacements and
 /// boosts, then the kernel over all chunks, into the table's slot totals.
-fn lattice_forces(lattice: &mut LatticeTable, disp: [&[f32]; 3], boost: &[f32], rule: BreakRule) {
+fn lattice_forces(lattice: &mut LatticeTable, disp: [&[f32]; 3], boost: &[f32], rule: BreakRule, simd: SimdPath) {
     let LatticeTable { chunk_slots, chunks, particle_of, slots, .. } = lattice;
     let (size, particle_of) = (*chunk_slots, &*particle_of);
     let SlotViews { inputs: [ux, uy, uz, slot_boost], outputs: [fx, fy, fz, min_stretch] } = slots.split_mut();
@@ -248,6 +249,6 @@ fn lattice_forces(lattice: &mut LatticeTable, disp: [&[f32]; 3], boost: &[f32], 
         .into_par_iter()
         .for_each(|(chunk, fx, fy, fz, min_stretch)| {
             let mut out = ChunkForces { force: [fx, fy, fz], min_stretch };
-            kernels::lattice_spring_forces(chunk, &inputs, particle_of, rule, &mut out);
+            kernels::lattice_spring_forces(chunk, &inputs, particle_of, rule, simd, &mut out);
         });
 }

@@ -10,6 +10,7 @@ use shatter_core::config::sim::BreakRule;
 use super::lanes::{BondLanes, LANES, Lanes, add, any_greater, bond_lanes, load, min, mul, neg, sub};
 use super::springs::{ChunkForces, break_bound, effective_threshold};
 use crate::bond_layouts::lattice_layout::{BlockRest, ChunkShape, LatticeBlock, LatticeChunk, SlotInputs};
+use crate::simd_path::SimdPath;
 
 /// Spring forces (the paper's `springforces`) of one chunk of the lattice layout: for every
 /// intact bond, the stretch, the break test against the effective threshold, and the PMB force.
@@ -17,17 +18,20 @@ use crate::bond_layouts::lattice_layout::{BlockRest, ChunkShape, LatticeBlock, L
 /// are recorded once in `chunk.breaks` (external ones by their lower particle). Each slot sums
 /// its own bonds block by block, in block order, into a running total per lane, then adds that
 /// total to the reactions its slot has received; a fixed order, whatever the thread count and
-/// the instruction set (AVX-512 where the CPU has it, two blocks at a time, else portable code;
-/// the two agree bit for bit).
+/// the instruction set (AVX-512 where `simd` asks for it and the CPU has it, two blocks at a
+/// time, else portable code; the two agree bit for bit).
 pub fn lattice_spring_forces(
     chunk: &mut LatticeChunk,
     inputs: &SlotInputs<'_>,
     particle_of: &[u32],
     rule: BreakRule,
+    simd: SimdPath,
     out: &mut ChunkForces,
 ) {
     #[cfg(target_arch = "x86_64")]
-    if super::lattice_springs_avx512::lattice_spring_forces(chunk, inputs, particle_of, rule, out) {
+    if simd == SimdPath::Avx512
+        && super::lattice_springs_avx512::lattice_spring_forces(chunk, inputs, particle_of, rule, out)
+    {
         return;
     }
     lattice_bricks(chunk, inputs, particle_of, rule, out, brick_forces);
@@ -228,8 +232,8 @@ mod tests {
     /// the chunk after the pass (its blocks and the ids of the bonds it saw break).
     type PassResult = Vec<([Vec<u32>; 3], Vec<u32>, LatticeChunk)>;
 
-    /// One pass over every chunk of `table`, through the dispatched kernel or the portable one.
-    fn run(table: &LatticeTable, disp: &[Vec<f32>; 3], boost: &[f32], rule: BreakRule, dispatched: bool) -> PassResult {
+    /// One pass over every chunk of `table` on the SIMD path `simd`.
+    fn run(table: &LatticeTable, disp: &[Vec<f32>; 3], boost: &[f32], rule: BreakRule, simd: SimdPath) -> PassResult {
         let inputs = SlotInputs { disp: [&disp[0], &disp[1], &disp[2]], boost };
         let bits = |values: &[f32]| values.iter().map(|v| v.to_bits()).collect::<Vec<u32>>();
         table
@@ -241,21 +245,17 @@ mod tests {
                 let (mut fx, mut fy, mut fz, mut least) =
                     (vec![0.0; slots], vec![0.0; slots], vec![0.0; slots], vec![0.0; slots]);
                 let mut out = ChunkForces { force: [&mut fx, &mut fy, &mut fz], min_stretch: &mut least };
-                if dispatched {
-                    lattice_spring_forces(&mut chunk, &inputs, &table.particle_of, rule, &mut out);
-                } else {
-                    lattice_bricks(&mut chunk, &inputs, &table.particle_of, rule, &mut out, brick_forces);
-                }
+                lattice_spring_forces(&mut chunk, &inputs, &table.particle_of, rule, simd, &mut out);
                 ([bits(&fx), bits(&fy), bits(&fz)], bits(&least), chunk)
             })
             .collect()
     }
 
-    /// Where the CPU has AVX-512, the dispatched kernel computes blocks in pairs: on random
-    /// displacements and boosts of a grid block, with bonds breaking, its forces, smallest
+    /// On every SIMD path this CPU runs (the AVX-512 one computes blocks in pairs): on random
+    /// displacements and boosts of a grid block, with bonds breaking, the forces, smallest
     /// stretches, blocks and breaks are the portable kernel's, bit for bit.
     #[test]
-    fn the_dispatched_lattice_kernel_gives_the_portable_kernels_bits() {
+    fn every_simd_path_gives_the_portable_lattice_kernels_bits() {
         let (_, table) = grid_box_table([0.013, 0.009, 0.007]);
         let SpringTable::Lattice(mut table) = table else { panic!("a grid block is on the lattice") };
         assert!(table.chunks.len() > 1, "bonds between chunks too");
@@ -274,14 +274,16 @@ mod tests {
             let disp = [ux.to_vec(), uy.to_vec(), uz.to_vec()];
             let boost = boost.to_vec();
             for rule in [BreakRule::Max, BreakRule::Min] {
-                let portable = run(&table, &disp, &boost, rule, false);
-                let dispatched = run(&table, &disp, &boost, rule, true);
-                for (c, (ours, theirs)) in portable.iter().zip(&dispatched).enumerate() {
-                    assert_eq!(ours.0, theirs.0, "seed {seed} chunk {c}: forces");
-                    assert_eq!(ours.1, theirs.1, "seed {seed} chunk {c}: smallest stretches");
-                    assert_eq!(ours.2, theirs.2, "seed {seed} chunk {c}: blocks and breaks");
-                    breaks += ours.2.breaks.len();
+                let portable = run(&table, &disp, &boost, rule, SimdPath::Portable);
+                for simd in SimdPath::available() {
+                    let dispatched = run(&table, &disp, &boost, rule, simd);
+                    for (c, (ours, theirs)) in portable.iter().zip(&dispatched).enumerate() {
+                        assert_eq!(ours.0, theirs.0, "{simd}, seed {seed} chunk {c}: forces");
+                        assert_eq!(ours.1, theirs.1, "{simd}, seed {seed} chunk {c}: smallest stretches");
+                        assert_eq!(ours.2, theirs.2, "{simd}, seed {seed} chunk {c}: blocks and breaks");
+                    }
                 }
+                breaks += portable.iter().map(|(_, _, chunk)| chunk.breaks.len()).sum::<usize>();
                 assert!(portable.iter().any(|(force, _, _)| force[0].iter().any(|f| f32::from_bits(*f) != 0.0)));
             }
         }

@@ -11,6 +11,7 @@ use shatter_core::config::sim::BreakRule;
 use super::lanes::{BondLanes, bond_lanes};
 use crate::bond_layouts::row_layout::BondChunk;
 pub(super) use crate::bond_layouts::row_layout::LANES;
+use crate::simd_path::SimdPath;
 
 /// One chunk's outputs of the force pass (per particle of the row layout's chunk, per slot of
 /// the lattice layout's).
@@ -101,17 +102,21 @@ pub(super) struct BlockContext<'a> {
 /// Bonds that break are recorded in `chunk.breaks` (external ones by their lower particle only).
 /// Each particle's bonds are summed lane by lane (entry k of its row in lane k mod 8), the lanes
 /// then in order: a fixed order, whatever the thread count and the instruction set (AVX2 where
-/// the CPU has it, else portable code; the two agree bit for bit). Rules other than Levine's run
-/// on the portable kernel.
+/// `simd` is AVX2 or wider and the CPU has it, else portable code; the two agree bit for bit).
+/// Rules other than Levine's run on the portable kernel.
 pub fn spring_forces(
     chunk: &mut BondChunk,
     records: &[ParticleRecord],
     rule: BreakRule,
     rules: PassRules,
+    simd: SimdPath,
     out: &mut ChunkForces,
 ) {
     #[cfg(target_arch = "x86_64")]
-    if rules == PassRules::default() && super::springs_avx2::spring_forces(chunk, records, rule, out) {
+    if simd >= SimdPath::Avx2
+        && rules == PassRules::default()
+        && super::springs_avx2::spring_forces(chunk, records, rule, out)
+    {
         return;
     }
     spring_rows(chunk, records, rule, rules, out, bond_row);
@@ -327,16 +332,12 @@ mod tests {
     /// (with the broken bonds' ids).
     type PassResult = ([Vec<f32>; 3], Vec<f32>, BondChunk);
 
-    fn run(mut chunk: BondChunk, records: &[ParticleRecord], rule: BreakRule, avx2: bool) -> PassResult {
+    fn run(mut chunk: BondChunk, records: &[ParticleRecord], rule: BreakRule, simd: SimdPath) -> PassResult {
         let len = chunk.len;
         let (mut fx, mut fy, mut fz) = (vec![0.0; len], vec![0.0; len], vec![0.0; len]);
         let mut min_stretch = vec![0.0; len];
         let mut out = ChunkForces { force: [&mut fx, &mut fy, &mut fz], min_stretch: &mut min_stretch };
-        if avx2 {
-            spring_forces(&mut chunk, records, rule, PassRules::default(), &mut out);
-        } else {
-            spring_rows(&mut chunk, records, rule, PassRules::default(), &mut out, bond_row);
-        }
+        spring_forces(&mut chunk, records, rule, PassRules::default(), simd, &mut out);
         ([fx, fy, fz], min_stretch, chunk)
     }
 
@@ -360,7 +361,7 @@ mod tests {
         chunk.push_row(&[], &[bond]);
         let (mut fx, mut fy, mut fz, mut least) = (vec![0.0], vec![0.0], vec![0.0], vec![0.0]);
         let mut out = ChunkForces { force: [&mut fx, &mut fy, &mut fz], min_stretch: &mut least };
-        spring_forces(&mut chunk, &records, BreakRule::Min, rules, &mut out);
+        spring_forces(&mut chunk, &records, BreakRule::Min, rules, SimdPath::best(), &mut out);
         (fx[0], least[0], chunk.breaks.len())
     }
 
@@ -384,21 +385,29 @@ mod tests {
         assert!((pull - 1e4 * 2e-3).abs() < 1e-4 && least == 0.0);
     }
 
+    /// On every SIMD path this CPU runs (the AVX2 block kernel from `avx2` on), a pass gives the
+    /// portable kernel's bits.
     #[test]
-    fn the_avx2_block_kernel_gives_the_portable_kernels_bits() {
+    fn every_simd_path_gives_the_portable_kernels_bits() {
         let mut breaks = 0;
         for seed in 0..20 {
             for rule in [BreakRule::Max, BreakRule::Min] {
                 let (chunk, records) = random_chunk(seed);
-                let portable = run(chunk.clone(), &records, rule, false);
-                let dispatched = run(chunk, &records, rule, true);
-                for axis in 0..3 {
-                    let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
-                    assert_eq!(bits(&portable.0[axis]), bits(&dispatched.0[axis]), "seed {seed} axis {axis}");
+                let portable = run(chunk.clone(), &records, rule, SimdPath::Portable);
+                for simd in SimdPath::available() {
+                    let dispatched = run(chunk.clone(), &records, rule, simd);
+                    for axis in 0..3 {
+                        let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+                        assert_eq!(
+                            bits(&portable.0[axis]),
+                            bits(&dispatched.0[axis]),
+                            "{simd}, seed {seed} axis {axis}"
+                        );
+                    }
+                    // Equal as numbers: the two may differ in the sign of a zero smallest stretch.
+                    assert_eq!(portable.1, dispatched.1, "{simd}, seed {seed}");
+                    assert_eq!(portable.2, dispatched.2, "{simd}, seed {seed}");
                 }
-                // Equal as numbers: the two may differ in the sign of a zero smallest stretch.
-                assert_eq!(portable.1, dispatched.1, "seed {seed}");
-                assert_eq!(portable.2, dispatched.2, "seed {seed}");
                 breaks += portable.2.breaks.len();
                 assert!(portable.0[0].iter().any(|f| *f != 0.0), "seed {seed}: no forces");
             }
