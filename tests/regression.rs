@@ -98,7 +98,10 @@ fn render_key_frames(shot: &Shot, output: &Path) -> Vec<(u32, image::RgbImage)> 
     shatter_post::run_post(&config, &NoProgress).expect("post");
     if config.rigid.is_some() {
         let report = shatter_rigid::run_rigid(&config, false, &NoProgress).expect("rigid");
-        eprintln!("{}: every piece asleep from shot frame {:?} of {}", shot.scene, report.asleep_from, report.last_frame);
+        eprintln!(
+            "{}: every piece asleep from shot frame {:?} of {}",
+            shot.scene, report.asleep_from, report.last_frame
+        );
         // at rest by the shot's end: every piece asleep, none more than 1 mm into another or
         // the floor (issue #18's acceptance)
         if shot.settles {

@@ -275,7 +275,11 @@ fn every_simd_path_writes_the_same_frames_and_a_bad_one_is_refused_by_name() {
     let dir = folder_with(&config);
     let output = shatter(&["sim", "--simd", "sse9"], dir.path());
     assert_eq!(output.status.code(), Some(2));
-    assert!(stderr(&output).contains("sse9") && stderr(&output).contains("portable, avx2, avx512"), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("sse9") && stderr(&output).contains("portable, avx2, avx512"),
+        "{}",
+        stderr(&output)
+    );
     let output = Command::new(env!("CARGO_BIN_EXE_shatter"))
         .args(["run", "--until", "sim"])
         .env("SHATTER_SIMD", "sse9")

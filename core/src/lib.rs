@@ -11,7 +11,7 @@
 //!   a stage's frame files written while it computes the next.
 //! - [`fragments`]: the per-frame fragments file written by `shatter post`.
 //! - [`particles`]: the particle file written by `shatter preprocess` (rest state, element
-//!   geometry, bonds, element adjacency).
+//!   geometry, bonds, element adjacency); `particle_summary`: the figures shown for one.
 //! - [`lead_in`]: where the lead-in hands the body over to the simulation.
 //! - [`rigid_checkpoint`]: the follow-through's rapier world (resume) and frame range;
 //!   [`shot`]: which file holds each frame of a shot.
@@ -38,6 +38,7 @@ pub mod layout;
 pub mod lead_in;
 pub mod memory;
 pub mod output_lock;
+mod particle_summary;
 pub mod particles;
 pub mod ply;
 mod progress;

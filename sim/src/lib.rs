@@ -38,7 +38,7 @@ mod model;
 mod previous_run;
 pub mod sim_driver;
 mod sim_error;
-pub mod simd_path;
+mod simd_path;
 mod state;
 #[cfg(test)]
 mod twins;

@@ -7,7 +7,7 @@ use std::fmt;
 use std::sync::OnceLock;
 
 /// The environment variable that forces a path for a process (`portable`, `avx2` or `avx512`).
-pub const SIMD_ENV: &str = "SHATTER_SIMD";
+const SIMD_ENV: &str = "SHATTER_SIMD";
 
 /// The path forced by `--simd`, once per process.
 static FORCED: OnceLock<SimdPath> = OnceLock::new();
