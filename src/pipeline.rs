@@ -40,7 +40,7 @@ struct Run<'a> {
 impl Run<'_> {
     /// How many frames the simulation writes (it follows from the lead-in, when there is one).
     fn sim_frames(&self) -> Result<u32, Failure> {
-        Ok(SimFrames::read(self.config, &self.layout).map_err(|message| anyhow::anyhow!(message))?.count())
+        Ok(SimFrames::read_span(self.config, &self.layout).map_err(|message| anyhow::anyhow!(message))?.1)
     }
 
     /// The backend the simulation runs on (part of its hash: GPU and CPU round apart).

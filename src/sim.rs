@@ -2,7 +2,8 @@
 
 use shatter_core::PipelineConfig;
 use shatter_core::config::sim::BackendChoice;
-use shatter_sim::sim_driver::{RunError, RunOptions, run_sim};
+use shatter_core::time_step;
+use shatter_sim::sim_driver::{RunError, RunOptions, RunReport, run_sim};
 use shatter_sim::{SimError, SimdPath};
 
 use crate::Failure;
@@ -58,6 +59,22 @@ pub fn force_simd(args: &SimArgs) -> Result<(), Failure> {
     }
 }
 
+/// The time step taken, where it came from, and the stable step, e.g. "dt 1.192e-7 s = 2^-23
+/// (unset sim.dt_s: the largest power of two at most 0.5 x the stable dt; stable dt 2.442e-7 s)".
+fn describe_step(report: &RunReport) -> String {
+    let name = time_step::power_of_two_name(report.dt_s).map_or(String::new(), |name| format!(" = {name}"));
+    let fraction = time_step::STABLE_STEP_FRACTION;
+    let source = match report.dt_from_material {
+        false => "sim.dt_s".to_string(),
+        true if report.push_limit_s < report.stable_dt_s => format!(
+            "unset sim.dt_s: the largest power of two at most {fraction} x {:.3e} s, the pushing bodies' limit",
+            report.push_limit_s
+        ),
+        true => format!("unset sim.dt_s: the largest power of two at most {fraction} x the stable dt"),
+    };
+    format!("dt {:.3e} s{name} ({source}; stable dt {:.3e} s)", report.dt_s, report.stable_dt_s)
+}
+
 /// Runs the simulation stage.
 pub fn run(config: &PipelineConfig, args: &SimArgs) -> Result<(), Failure> {
     let backend = args.backend.map_or(config.sim.backend, BackendArg::backend);
@@ -68,7 +85,7 @@ pub fn run(config: &PipelineConfig, args: &SimArgs) -> Result<(), Failure> {
     }
     let steps_per_second = report.steps as f64 / report.wall_s.max(1e-9);
     println!(
-        "sim on {}{}: {} particles, frames {}..{} ({} steps, {:.0} steps/s), {} bonds broken, stable dt {:.3e} s",
+        "sim on {}{}: {} particles, frames {}..{} ({} steps, {:.0} steps/s), {} bonds broken, {}",
         report.backend,
         report.simd.map_or(String::new(), |simd| format!(", {simd} kernels")),
         report.particles,
@@ -77,7 +94,7 @@ pub fn run(config: &PipelineConfig, args: &SimArgs) -> Result<(), Failure> {
         report.steps,
         steps_per_second,
         report.broken_bonds,
-        report.stable_dt_s
+        describe_step(&report)
     );
     println!("wrote {} in {:.1} s", report.frames_dir.display(), report.wall_s);
     Ok(())

@@ -386,7 +386,8 @@ fn a_timeline_puts_every_frame_of_the_shot_where_its_speed_curve_says() {
         assert!((y - analytic).abs() <= 1e-6 * 0.05, "frame {frame}: {y} vs {analytic}");
     }
     // the simulation's frames on the steps nearest the timeline's times, from the impact on
-    let dt = config.sim.dt_s;
+    // the step the simulation took (the scene leaves sim.dt_s unset), as its frames record it
+    let dt = shatter_core::time_step::recorded_s(&shatter_core::OutputLayout::of(&config)).expect("step");
     let mut sim_frames = 0;
     while out.join(format!("frames/points.{:04}.ply", sim_frames + 1)).is_file() {
         sim_frames += 1;

@@ -24,6 +24,10 @@ const GLASS: &str = "density_kg_m3 = 2200.0\nbulk_modulus_pa = 14.9e9";
 const METAL: &str = "model = \"elastoplastic\"\ndensity_kg_m3 = 2700.0\nyoungs_modulus_pa = 7e9\npoisson_ratio = 0.33\n\
                      yield_stress_pa = 2e7\nplastic_cap_ratio = 0.05\ncritical_stretch = 0.004";
 
+/// An elastoplastic steel: stiffer and heavier than glass, so it needs a shorter step.
+const STEEL: &str = "model = \"elastoplastic\"\ndensity_kg_m3 = 7850.0\nyoungs_modulus_pa = 2e11\npoisson_ratio = 0.4\n\
+                     yield_stress_pa = 2.5e8\nplastic_cap_ratio = 0.05\ncritical_stretch = 0.004";
+
 /// [`scene`] of the `[material]` keys `material`.
 fn scene_of(material: &str, side: usize, frames: u32, steps: u32, extra_sim: &str) -> String {
     let size = side as f64 * 0.001;
@@ -288,4 +292,37 @@ fn every_simd_path_writes_the_same_frames_and_a_bad_one_is_refused_by_name() {
         .expect("shatter runs");
     assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
     assert!(stderr(&output).contains("SHATTER_SIMD: unknown SIMD path \"sse9\""), "{}", stderr(&output));
+}
+
+#[test]
+fn a_steel_box_without_a_time_step_runs_at_one_from_its_material_and_says_which() {
+    let dir = folder_with(&scene_of(STEEL, 8, 3, 20, ""));
+    assert!(shatter(&["preprocess"], dir.path()).status.success());
+    let output = shatter(&["sim"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    // its stable step is 9e-8 s: half of it, down to a power of two
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(stdout.contains("dt 2.980e-8 s = 2^-25 (unset sim.dt_s"), "{stdout}");
+    // the frames record it, and post takes it from them
+    let frame = shatter_core::frames::PointFrame::read(&dir.path().join("out/frames/points.0002.ply")).expect("frame");
+    assert_eq!((frame.step, frame.time_s), (20, 20.0 * 2f64.powi(-25)));
+    let output = shatter(&["post"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+
+    // glass's 2^-23 s, set: post refuses the frames of the material's step ...
+    let glass_step = scene_of(STEEL, 8, 3, 20, "dt_s = 1.1920928955078125e-7");
+    std::fs::write(dir.path().join("pipeline.toml"), glass_step).expect("config");
+    let output = shatter(&["post"], dir.path());
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    assert!(stderr(&output).contains("points.0002.ply: simulated at another time step"), "{}", stderr(&output));
+    // ... and the simulation refuses the step, which is over steel's stable step
+    let output = shatter(&["sim"], dir.path());
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    assert!(stderr(&output).contains("exceeds the stable time step"), "{}", stderr(&output));
+
+    // a simulation of one frame takes no step, so none would record the material's
+    std::fs::write(dir.path().join("pipeline.toml"), scene_of(STEEL, 8, 1, 20, "")).expect("config");
+    let output = shatter(&["sim"], dir.path());
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    assert!(stderr(&output).contains("sim.dt_s is unset and the simulation writes one frame"), "{}", stderr(&output));
 }

@@ -16,7 +16,8 @@
 //! - [`rigid_checkpoint`]: the follow-through's rapier world (resume) and frame range;
 //!   [`shot`]: which file holds each frame of a shot.
 //! - [`timeline`]: where a `[timeline]` puts each frame in physical time; [`sim_frames`]: the
-//!   simulation's frames that follow.
+//!   simulation's frames that follow; [`time_step`]: the step taken when `sim.dt_s` is unset,
+//!   and how later stages read it from the frames.
 //! - [`debris_points`]: post's debris emitter point caches; [`surfaces`] and [`usd`]: the
 //!   pieces' surfaces and the USD export of a shot (written by post, and by rigid for a shot
 //!   with a follow-through).
@@ -48,6 +49,7 @@ pub mod shot;
 pub mod sim_frames;
 pub mod stage_file;
 pub mod surfaces;
+pub mod time_step;
 pub mod timeline;
 pub mod usd;
 

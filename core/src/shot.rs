@@ -59,10 +59,9 @@ impl Shot {
             Some(_) => Some(LeadIn::read_for(layout)?),
         };
         let sim_start_s = lead_in.as_ref().map_or(0.0, |lead_in| lead_in.handoff_time_s);
-        let sim_frames = SimFrames::of(config, lead_in.as_ref())?;
-        let lead_in = sim_frames.first_shot_frame - 1;
+        let (first_shot_frame, frames) = SimFrames::span(config, lead_in.as_ref())?;
+        let lead_in = first_shot_frame - 1;
         if config.rigid.is_none() {
-            let frames = sim_frames.count();
             return Ok(Shot { lead_in, sim_start_s, handoff: frames, last: lead_in + frames, rigid: false });
         }
         let path = layout.rigid_checkpoint();

@@ -218,7 +218,7 @@ impl<'a> FrameTracking<'a> {
         let tracked = self.tracker.track(position, config.post.smoothing_frames);
         let fragments = self.fragment_frame(frame, &points, position, &tracked);
         let frame_debris =
-            debris_frame(frame, &events, &particles.bonds, &points, &tracked.fragment_of, config.sim.dt_s);
+            debris_frame(frame, &events, &particles.bonds, &points, &tracked.fragment_of, self.input.sim_frames.dt_s);
         self.sim_times.push(points.time_s);
         let caches = config.post.point_caches.then(|| PointCaches {
             points_path: layout.fragment_points(frame),
@@ -247,6 +247,15 @@ impl<'a> FrameTracking<'a> {
         if points.frame != frame {
             let what = format!("holds frame {}, not {frame} (renamed from another frame's name?)", points.frame);
             return Err(FrameFileError::Invalid { path: layout.frame_points(frame), what }.into());
+        }
+        let dt_s = self.input.sim_frames.dt_s;
+        if points.time_s != points.step as f64 * dt_s {
+            return Err(PostError::MissingInput(format!(
+                "{}: simulated at another time step (step {} at {:e} s, not {dt_s:e} s a step); run `shatter sim` again",
+                layout.frame_points(frame).display(),
+                points.step,
+                points.time_s
+            )));
         }
         if points.damage.len() != particles.len() {
             return Err(PostError::MissingInput(format!(

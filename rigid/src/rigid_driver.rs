@@ -224,7 +224,7 @@ impl Clock {
             None => None,
             Some(_) => Some(LeadIn::read_for(layout).map_err(RigidError::Input)?),
         };
-        let sim_frames = SimFrames::of(config, lead_in.as_ref()).map_err(RigidError::Input)?;
+        let sim_frames = SimFrames::read(config, layout).map_err(RigidError::Input)?;
         let simulated = sim_frames.count();
         let fps = config.scene.frames_per_second;
         Ok(match &config.timeline {

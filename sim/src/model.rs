@@ -6,9 +6,15 @@ use shatter_core::PipelineConfig;
 use shatter_core::config::material::MaterialModel;
 use shatter_core::config::sim::{BreakRule, BreakingStepForce, CompressionBoost, ContactModel, Rules};
 use shatter_core::particles::ParticleSet;
+use shatter_core::time_step;
 
 use crate::SimError;
 use crate::elastoplastic::StateBasedConstants;
+
+/// The lightest particle's mass, kg (what a pushing body throws farthest in one step).
+pub(crate) fn lightest_kg(particles: &ParticleSet) -> f64 {
+    particles.mass_kg.iter().fold(f64::INFINITY, |least, mass| least.min(f64::from(*mass)))
+}
 
 /// A sphere on a straight path at constant velocity.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -64,8 +70,14 @@ pub(crate) fn hold_grips(grips: &[Grip], t: f64, vel: &mut [Vec<f32>; 3]) {
 /// Everything the step needs besides the state.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Model {
-    /// Time step, seconds.
+    /// Time step, seconds: `sim.dt_s`, or with it unset the material's, which the backend
+    /// takes when it has its bond tables ([`Model::take_time_step`]).
     pub dt_s: f64,
+    /// Whether the time step comes from the material (`sim.dt_s` is unset).
+    pub dt_from_material: bool,
+    /// The longest step at which every pushing body holds the lightest particle, seconds
+    /// (infinite without one).
+    pub push_limit_s: f64,
     /// Bond constant c = 18 K / (pi delta^4), N/m^6.
     pub bond_constant: f64,
     /// Compression strengthening alpha.
@@ -114,8 +126,15 @@ impl Model {
             radius_m: radius,
             stiffness,
         };
+        let lightest_kg = lightest_kg(particles);
         let model = Model {
-            dt_s: sim.dt_s,
+            dt_s: sim.dt_s.unwrap_or(0.0),
+            dt_from_material: sim.dt_s.is_none(),
+            push_limit_s: sim
+                .pushing_bodies()
+                .iter()
+                .map(|body| body.max_dt_s(lightest_kg))
+                .fold(f64::INFINITY, f64::min),
             bond_constant: 18.0 * material.bulk_modulus_pa / (std::f64::consts::PI * delta.powi(4)),
             alpha: material.compression_alpha as f32,
             break_rule: sim.break_rule,
@@ -147,6 +166,25 @@ impl Model {
         };
         model.check_start(particles)?;
         Ok(model)
+    }
+
+    /// Takes the time step from the material when `sim.dt_s` is unset: the largest power of two
+    /// at most half the smaller of `stable_dt_s` (the bond tables' stable step, seconds) and the
+    /// pushing bodies' limit ([`shatter_core::time_step`]). Fails, naming the key to set, when
+    /// nothing limits the step.
+    pub(crate) fn take_time_step(&mut self, stable_dt_s: f64) -> Result<(), String> {
+        if !self.dt_from_material {
+            return Ok(());
+        }
+        let limit_s = stable_dt_s.min(self.push_limit_s);
+        self.dt_s = time_step::from_limit_s(limit_s).ok_or_else(|| {
+            format!(
+                "sim.dt_s is unset and nothing sets a step (stable step {stable_dt_s:e} s, pushing bodies' limit \
+                 {:e} s): set sim.dt_s",
+                self.push_limit_s
+            )
+        })?;
+        Ok(())
     }
 
     /// The spring pass's rules.

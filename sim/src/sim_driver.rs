@@ -17,6 +17,7 @@ use shatter_core::memory::{self, MemoryError, SetSize};
 use shatter_core::particles::ParticleSet;
 use shatter_core::sim_frames::SimFrames;
 use shatter_core::stage_file::StageFileError;
+use shatter_core::time_step;
 use shatter_core::{OutputLayout, PipelineConfig, Progress};
 use shatter_gpu::GpuError;
 
@@ -24,6 +25,7 @@ use crate::SimError;
 use crate::backend::{Backend, DeviceError};
 use crate::backend_choice::{BackendError, create_backend};
 use crate::lead_in_start::{RigidMotion, paths_from_handoff, read_lead_in};
+use crate::model::lightest_kg;
 use crate::previous_run::PreviousRun;
 use crate::simd_path::SimdPath;
 use crate::state::{Dynamics, Energy};
@@ -160,6 +162,12 @@ pub struct RunReport {
     pub steps: u64,
     /// Bonds broken in all.
     pub broken_bonds: u64,
+    /// The time step taken, seconds.
+    pub dt_s: f64,
+    /// Whether it was taken from the material (`sim.dt_s` is unset).
+    pub dt_from_material: bool,
+    /// The longest step at which the pushing bodies hold the lightest particle, seconds.
+    pub push_limit_s: f64,
     /// The stable time step, seconds.
     pub stable_dt_s: f64,
     /// Wall time, seconds.
@@ -221,8 +229,17 @@ pub fn run_with(
     let mut warnings: Vec<String> = fallback.into_iter().collect();
     let stable_dt_s = check_time_step(config, options, simulation.as_ref(), &inputs.particles, &mut warnings)?;
     let frames_dir = inputs.layout.frames_dir();
-    let sim_frames = SimFrames::of(config, inputs.lead_in.as_ref()).map_err(RunError::MissingInput)?;
+    let dt_s = simulation.model().dt_s;
+    let sim_frames = SimFrames::of(config, inputs.lead_in.as_ref(), dt_s).map_err(RunError::MissingInput)?;
     let total_frames = sim_frames.count();
+    if config.sim.dt_s.is_none() && total_frames < 2 {
+        // the frames after the first record the step taken, for the stages after this one
+        return Err(SimError::BadInput(format!(
+            "{}: sim.dt_s is unset and the simulation writes one frame, which records no step; set sim.dt_s",
+            config.path.display()
+        ))
+        .into());
+    }
 
     let resumable = options.resume && inputs.layout.checkpoint().exists();
     if options.resume && !resumable {
@@ -265,6 +282,9 @@ pub fn run_with(
         frames: total_frames,
         steps,
         broken_bonds,
+        dt_s,
+        dt_from_material: config.sim.dt_s.is_none(),
+        push_limit_s: simulation.model().push_limit_s,
         stable_dt_s,
         wall_s: started.elapsed().as_secs_f64(),
         warnings,
@@ -306,9 +326,10 @@ impl RunInputs {
     }
 }
 
-/// Checks `sim.dt_s` against the backend's stable time step and the time steps at which the
-/// pushing bodies hold the lightest particle: an error, or with `--allow-unstable-dt` a warning.
-/// Returns the stable time step, seconds.
+/// Checks a set `sim.dt_s` against the backend's stable time step and the time steps at which
+/// the pushing bodies hold the lightest particle: an error, or with `--allow-unstable-dt` a
+/// warning. (A step taken from the material is under both by construction.) Returns the stable
+/// time step, seconds.
 fn check_time_step(
     config: &PipelineConfig,
     options: RunOptions,
@@ -317,15 +338,18 @@ fn check_time_step(
     warnings: &mut Vec<String>,
 ) -> Result<f64, RunError> {
     let stable_dt_s = simulation.stable_dt_s();
-    if config.sim.dt_s > stable_dt_s {
+    let Some(dt_s) = config.sim.dt_s else {
+        return Ok(stable_dt_s);
+    };
+    if dt_s > stable_dt_s {
         if !options.allow_unstable_dt {
-            return Err(RunError::UnstableTimeStep { dt_s: config.sim.dt_s, stable_s: stable_dt_s });
+            return Err(RunError::UnstableTimeStep { dt_s, stable_s: stable_dt_s });
         }
-        warnings.push(format!("sim.dt_s = {:e} s exceeds the stable time step {stable_dt_s:e} s", config.sim.dt_s));
+        warnings.push(format!("sim.dt_s = {dt_s:e} s exceeds the stable time step {stable_dt_s:e} s"));
     }
-    let lightest_kg = particles.mass_kg.iter().fold(f64::INFINITY, |least, mass| least.min(f64::from(*mass)));
+    let lightest_kg = lightest_kg(particles);
     for body in config.sim.pushing_bodies() {
-        let (dt_s, max_dt_s) = (config.sim.dt_s, body.max_dt_s(lightest_kg));
+        let max_dt_s = body.max_dt_s(lightest_kg);
         if dt_s > max_dt_s && options.allow_unstable_dt {
             warnings.push(format!(
                 "sim.dt_s = {dt_s:e} s exceeds the {max_dt_s:e} s at which {} holds particles",
@@ -384,6 +408,18 @@ fn resume(
             meta.backend,
             simulation.describe()
         ));
+    }
+    if meta.frame >= 2 && simulation.model().dt_from_material {
+        // a step from the material follows from the settings, but a backend's stable step may
+        // round apart from another's
+        let recorded_s = time_step::recorded_s(&inputs.layout).map_err(RunError::MissingInput)?;
+        if recorded_s != simulation.model().dt_s {
+            let what = format!(
+                "the frames were simulated at a step of {recorded_s:e} s and this run takes {:e} s",
+                simulation.model().dt_s
+            );
+            return Err(mismatch(&what));
+        }
     }
     let (log, blocks) = BreakLog::open_at(&log_path, meta.break_log_bytes)?;
     if blocks.last().map_or(1, |block| block.frame) != meta.frame {

@@ -20,6 +20,11 @@ fn gpu(config: &PipelineConfig, particles: &ParticleSet) -> Box<dyn Backend> {
 }
 
 #[test]
+fn an_unset_time_step_is_taken_from_the_material_on_the_gpu() {
+    scenarios::an_unset_time_step_is_taken_from_the_material(&gpu);
+}
+
+#[test]
 fn rigid_motions_cause_no_internal_force_on_the_gpu() {
     scenarios::rigid_motions_cause_no_internal_force(&gpu);
 }

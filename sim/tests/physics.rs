@@ -35,6 +35,11 @@ fn rigid_motions_cause_no_internal_force() {
 }
 
 #[test]
+fn an_unset_time_step_is_taken_from_the_material() {
+    scenarios::an_unset_time_step_is_taken_from_the_material(&cpu_rows);
+}
+
+#[test]
 fn momentum_and_energy_are_conserved_in_an_elastic_vibration() {
     scenarios::momentum_and_energy_are_conserved_in_an_elastic_vibration(&cpu);
 }

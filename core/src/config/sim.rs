@@ -10,17 +10,16 @@ use super::checker::Checker;
 /// The most frames a simulation may write.
 pub const MAX_FRAMES: u32 = 1_000_000;
 
-/// The paper's time step, 2^-23 s (the power of two nearest Silling and Askari's 1e-7 s).
-pub const DEFAULT_DT_S: f64 = 1.0 / 8_388_608.0;
-
 /// `[sim]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SimConfig {
     /// Which backend runs the simulation.
     pub backend: BackendChoice,
-    /// Time step, seconds.
-    pub dt_s: f64,
+    /// Time step, seconds. Unset, the simulation takes one from the material
+    /// ([`crate::time_step`]); it serializes then as [`crate::time_step::UNSET_STEP_STAND_IN_S`].
+    #[serde(serialize_with = "crate::time_step::serialize_dt_s")]
+    pub dt_s: Option<f64>,
     /// Steps between written frames.
     pub steps_per_frame: u32,
     /// Frames written; frame 1 is the rest state, frame k the state after (k - 1) frames of steps.
@@ -81,7 +80,7 @@ impl Default for SimConfig {
     fn default() -> Self {
         SimConfig {
             backend: BackendChoice::Auto,
-            dt_s: DEFAULT_DT_S,
+            dt_s: None,
             steps_per_frame: 500,
             frames: 48,
             break_rule: BreakRule::Max,
@@ -461,7 +460,9 @@ impl SimConfig {
 
     /// Checks the time step, the frames, the runaway guard, the body forces, contact and the floor.
     fn validate_stepping(&self, check: &Checker) -> Result<(), ConfigError> {
-        check.positive("sim.dt_s", self.dt_s, "seconds")?;
+        if let Some(dt_s) = self.dt_s {
+            check.positive("sim.dt_s", dt_s, "seconds")?;
+        }
         check.that(self.steps_per_frame > 0, "sim.steps_per_frame", "0", || "must be at least 1".into())?;
         check.that(self.frames > 0, "sim.frames", "0", || "must be at least 1 (frame 1 is the rest state)".into())?;
         check.that(self.frames <= MAX_FRAMES, "sim.frames", &self.frames.to_string(), || {

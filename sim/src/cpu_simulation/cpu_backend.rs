@@ -63,7 +63,7 @@ impl CpuSimulation {
     /// [`CpuSimulation::new`] with a say in the bond layout.
     fn with_layout(
         particles: &ParticleSet,
-        model: Model,
+        mut model: Model,
         factors: Option<&[f32]>,
         correction: StiffnessCorrection,
         layout: LayoutChoice,
@@ -90,6 +90,9 @@ impl CpuSimulation {
         };
         let rest = [0, 1, 2].map(|axis| particles.rest_position_m.iter().map(|p| p[axis]).collect::<Vec<f32>>());
         let mass: Vec<f32> = particles.volume_m3.iter().map(|v| (f64::from(*v) * model.density_kg_m3) as f32).collect();
+        if model.dt_from_material {
+            model.take_time_step(bonds.stable_dt_s(&mass, model.density_kg_m3)).map_err(SimError::BadInput)?;
+        }
         let inverse_mass = mass.iter().map(|m| 1.0 / m).collect();
         let volume = particles.volume_m3.clone();
         let bond_count = (0..n).map(|i| particles.bonds.row(i).len() as u32).collect();

@@ -289,7 +289,7 @@ impl GpuSimulation {
     pub fn new(
         ctx: GpuHandle,
         particles: &ParticleSet,
-        model: Model,
+        mut model: Model,
         factors: Option<&[f32]>,
         correction: StiffnessCorrection,
         options: &GpuOptions,
@@ -311,6 +311,7 @@ impl GpuSimulation {
             Some(table) => table.stable_dt_s(model.density_kg_m3),
             None => stable_dt(&layout, &particles.bonds.rest_length_m, &mass),
         };
+        model.take_time_step(stable_dt_s).map_err(|message| GpuError::Split { message })?;
         let spheres: Vec<MovingSphere> = model.projectiles.iter().chain(&model.indenters).copied().collect();
         let (params, particle_grid) = step_params(&ctx, particles, &model, options, &layout)?;
 

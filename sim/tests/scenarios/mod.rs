@@ -272,3 +272,38 @@ pub fn a_bar_pulled_apart_breaks_first_where_and_when_its_thresholds_say(make: &
         assert!((x(i)[0] - f64::from(c[0])) * (x(j)[0] - f64::from(c[0])) < 0.0, "bond {i}-{j} is not on the seam");
     }
 }
+
+/// Checks the step a backend took with `sim.dt_s` unset: the largest power of two at most half
+/// the smaller of its stable step and the pushing bodies' limit.
+fn takes_the_largest_power_of_two_under_half_the_limit(sim: &dyn Backend, what: &str) -> f64 {
+    let (dt, limit) = (sim.model().dt_s, sim.stable_dt_s().min(sim.model().push_limit_s));
+    assert!(sim.model().dt_from_material, "{what}");
+    assert_eq!(dt, 2f64.powi(dt.log2().round() as i32), "{what}: {dt:e} is a power of two");
+    assert!(dt <= 0.5 * limit && 0.5 * limit < 2.0 * dt, "{what}: {dt:e} against the limit {limit:e}");
+    dt
+}
+
+/// With `sim.dt_s` unset the backend takes its step from the material: the paper's glass on its
+/// 1 mm grid at N = 3 lands on the paper's 2^-23 s; the LAMMPS rules and an elastoplastic steel
+/// take theirs by the same rule from their own stable steps; a stiff projectile's limit binds
+/// when it is the smaller.
+pub fn an_unset_time_step_is_taken_from_the_material(make: &Make) {
+    let (config, particles) = block([8, 8, 4], 3.0, "", "");
+    let glass = make(&config, &particles);
+    assert_eq!(takes_the_largest_power_of_two_under_half_the_limit(glass.as_ref(), "glass"), 2f64.powi(-23));
+    let (config, particles) = block([8, 8, 4], 3.0, "", "rules = \"lammps\"");
+    takes_the_largest_power_of_two_under_half_the_limit(make(&config, &particles).as_ref(), "LAMMPS's rules");
+    let steel = block_text([8, 8, 4], 3.0, "model = \"elastoplastic\"\nshear_modulus_pa = 7.1e10", "")
+        .replace(&format!("density_kg_m3 = {RHO}"), "density_kg_m3 = 7850.0")
+        .replace(&format!("bulk_modulus_pa = {K}"), "bulk_modulus_pa = 3.33e11");
+    let (config, particles) = load(&steel);
+    let steel = make(&config, &particles);
+    let dt = takes_the_largest_power_of_two_under_half_the_limit(steel.as_ref(), "steel");
+    assert!(dt < 2f64.powi(-23), "steel is stiffer and heavier than glass: {dt:e}");
+    let stiff = "[[sim.projectile]]\ncenter_m = [0.0, 0.0, 0.0075]\nvelocity_m_s = [0.0, 0.0, -10.0]\n\
+                 radius_m = 0.003\nstiffness_pa = 1e13";
+    let (config, particles) = block([8, 8, 4], 3.0, "", stiff);
+    let struck = make(&config, &particles);
+    assert!(struck.model().push_limit_s < struck.stable_dt_s(), "the projectile binds");
+    takes_the_largest_power_of_two_under_half_the_limit(struck.as_ref(), "a stiff projectile");
+}
