@@ -34,6 +34,8 @@ pub fn lattice_spring_forces(
     {
         return;
     }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _portable_only = simd; // off x86-64 every path is the portable one
     lattice_bricks(chunk, inputs, particle_of, rule, out, brick_forces);
 }
 

@@ -119,6 +119,8 @@ pub fn spring_forces(
     {
         return;
     }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _portable_only = simd; // off x86-64 every path is the portable one
     spring_rows(chunk, records, rule, rules, out, bond_row);
 }
 
