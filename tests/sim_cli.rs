@@ -235,9 +235,9 @@ fn a_failing_fresh_run_puts_the_previous_results_back() {
 
 #[test]
 fn a_projectile_that_would_throw_particles_through_itself_is_refused_by_its_key() {
-    // 3e12 Pa: its largest force, K_S r^2 = 2.7e7 N, moves a 2.2e-6 kg cube 0.87 m in a step of
-    // 2^-23 s, where it acts over 2.25 mm
-    let text = scene(10, 2, 5, "").replace("stiffness_pa = 3e7", "stiffness_pa = 3e12");
+    // 3e12 Pa: its largest force, K_S r^2 = 2.7e7 N, moves a 2.2e-6 kg cube 0.87 m in a set step
+    // of 2^-23 s, where it acts over 2.25 mm
+    let text = scene(10, 2, 5, "dt_s = 1.1920928955078125e-7").replace("stiffness_pa = 3e7", "stiffness_pa = 3e12");
     let dir = folder_with(&text);
     let output = shatter(&["run", "--until", "sim"], dir.path());
     assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
@@ -250,6 +250,14 @@ fn a_projectile_that_would_throw_particles_through_itself_is_refused_by_its_key(
     let output = shatter(&["sim", "--allow-unstable-dt"], dir.path());
     assert!(output.status.success(), "{}", stderr(&output));
     assert!(stderr(&output).contains("at which sim.projectile[0].stiffness_pa holds particles"), "{}", stderr(&output));
+    // unset, the step is taken under the projectile's bound, sqrt(2.25e-3 m x 2.2e-6 kg / 2.7e7 N)
+    // = 1.354e-8 s: half of it, down to a power of two
+    let dir = folder_with(&scene(10, 2, 5, "").replace("stiffness_pa = 3e7", "stiffness_pa = 3e12"));
+    let output = shatter(&["run", "--until", "sim"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let said = "dt 3.725e-9 s = 2^-28 (unset sim.dt_s: the largest power of two at most 0.5 x 1.354e-8 s, the pushing";
+    assert!(stdout.contains(said), "{stdout}");
 }
 
 /// `--simd` and `SHATTER_SIMD` pick the CPU kernels' instruction set: every path this CPU has
