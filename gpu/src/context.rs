@@ -61,7 +61,7 @@ pub fn describe_adapter(info: &wgpu::AdapterInfo) -> String {
 }
 
 /// The wgpu backends searched for adapters: the `WGPU_BACKEND` environment variable (a comma list such as
-/// `vulkan,gl`) if set, else [`wgpu::Backends::PRIMARY`] (Vulkan, Metal, DX12), restricted to the backends
+/// `vulkan`) if set, else [`wgpu::Backends::PRIMARY`] (Vulkan, Metal, DX12), restricted to the backends
 /// compiled into this build.
 #[must_use]
 pub fn searched_backends() -> wgpu::Backends {

@@ -7,8 +7,8 @@
 //! # Adapter selection
 //!
 //! [`GpuContext::new`] enumerates adapters on the [`searched_backends`]: the `WGPU_BACKEND` environment
-//! variable (comma list, e.g. `vulkan`) if set, else wgpu's primary backends (Vulkan, Metal, DX12; GL is not
-//! searched unless asked for). It rejects the no-op backend, adapters without compute shaders, adapters whose
+//! variable (comma list, e.g. `vulkan`) if set, else wgpu's primary backends (Vulkan, Metal, DX12; wgpu's GL
+//! backend is not built in). It rejects the no-op backend, adapters without compute shaders, adapters whose
 //! name lacks the value of [`ENV_ADAPTER_NAME`] (`SHATTER_GPU_ADAPTER`, if set), and — with
 //! [`AdapterChoice::HardwareOnly`] — software adapters ([`is_software_adapter`]: wgpu's
 //! [`wgpu::DeviceType::Cpu`], or a known software name such as llvmpipe/lavapipe/SwiftShader). Of the rest it
