@@ -328,6 +328,19 @@ fn a_steel_box_without_a_time_step_runs_at_one_from_its_material_and_says_which(
     assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
     assert!(stderr(&output).contains("exceeds the stable time step"), "{}", stderr(&output));
 
+    // frames taken at a set 2^-23 s (past the stable step, with --allow-unstable-dt): resuming
+    // them with the step unset, whose settings digest alike, is refused by the step
+    std::fs::write(dir.path().join("pipeline.toml"), scene_of(STEEL, 8, 3, 2, "dt_s = 1.1920928955078125e-7"))
+        .expect("config");
+    let output = shatter(&["sim", "--allow-unstable-dt"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    std::fs::write(dir.path().join("pipeline.toml"), scene_of(STEEL, 8, 3, 2, "")).expect("config");
+    let output = shatter(&["sim", "--resume"], dir.path());
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    let said =
+        "the frames were simulated at a step of 1.1920928955078125e-7 s and this run takes 2.9802322387695313e-8 s";
+    assert!(stderr(&output).contains(said), "{}", stderr(&output));
+
     // a simulation of one frame takes no step, so none would record the material's
     std::fs::write(dir.path().join("pipeline.toml"), scene_of(STEEL, 8, 1, 20, "")).expect("config");
     let output = shatter(&["sim"], dir.path());
