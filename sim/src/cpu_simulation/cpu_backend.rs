@@ -25,6 +25,9 @@ use crate::{SimError, art};
 #[derive(Debug, Clone)]
 pub struct CpuSimulation {
     pub(super) model: Model,
+    /// The stable time step of the intact bonds, seconds (computed once, as the step from the
+    /// material needs it before the run and the time-step check after).
+    pub(super) stable_dt_s: f64,
     pub(super) rest: [Vec<f32>; 3],
     pub(super) mass: Vec<f32>,
     pub(super) inverse_mass: Vec<f32>,
@@ -90,9 +93,8 @@ impl CpuSimulation {
         };
         let rest = [0, 1, 2].map(|axis| particles.rest_position_m.iter().map(|p| p[axis]).collect::<Vec<f32>>());
         let mass: Vec<f32> = particles.volume_m3.iter().map(|v| (f64::from(*v) * model.density_kg_m3) as f32).collect();
-        if model.dt_from_material {
-            model.take_time_step(bonds.stable_dt_s(&mass, model.density_kg_m3)).map_err(SimError::BadInput)?;
-        }
+        let stable_dt_s = bonds.stable_dt_s(&mass, model.density_kg_m3);
+        model.take_time_step(stable_dt_s).map_err(SimError::BadInput)?;
         let inverse_mass = mass.iter().map(|m| 1.0 / m).collect();
         let volume = particles.volume_m3.clone();
         let bond_count = (0..n).map(|i| particles.bonds.row(i).len() as u32).collect();
@@ -100,6 +102,7 @@ impl CpuSimulation {
         let zeros = || [vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]];
         let mut simulation = CpuSimulation {
             model,
+            stable_dt_s,
             rest,
             mass,
             inverse_mass,
@@ -269,9 +272,10 @@ impl CpuSimulation {
         self.bonds.energy_per_particle(&self.dynamics.disp)
     }
 
-    /// The largest stable time step of the linearised model (Silling and Askari 2005), seconds.
+    /// The largest stable time step of the linearised model (Silling and Askari 2005) with every
+    /// bond intact, seconds.
     pub fn stable_dt_s(&self) -> f64 {
-        self.bonds.stable_dt_s(&self.mass, self.model.density_kg_m3)
+        self.stable_dt_s
     }
 
     /// The spring kernels' instruction set.
