@@ -1,9 +1,12 @@
-"""Opens a shatter EXR frame in Blender (the `bpy` module) and checks what a compositor sees:
-the file reads as a multilayer image; the Image node lists the colour (Combined, Alpha) of the
-file's main layer and every other pass under the ViewLayer layer; the Cryptomatte node finds
-both mattes through the header's metadata.
+"""Opens a shatter EXR frame in Blender (the `bpy` module, or Blender's own Python) and checks
+what a compositor sees: the file reads as a multilayer image; the Image node lists the colour
+(Combined, Alpha) of the file's main layer and every other pass under the ViewLayer layer, the
+denoising passes among them; the Denoise node takes the colour, Denoising Normal and Denoising
+Albedo as its inputs; the Cryptomatte node finds both mattes through the header's metadata.
 
-Run by scripts/check_exr_in_blender.sh; usage: python check_exr_in_blender.py FRAME.exr
+Run by scripts/check_exr_in_blender.sh and by the render tests; usage:
+    python check_exr_in_blender.py FRAME.exr
+    blender -b --factory-startup --python check_exr_in_blender.py -- FRAME.exr
 """
 
 import sys
@@ -15,6 +18,7 @@ VIEW_LAYER_PASSES = {
     "Depth", "Normal", "Vector", "FragmentIndex",
     "CryptoObject00", "CryptoObject01",
     "CryptoMaterial00", "CryptoMaterial01",
+    "Denoising Albedo", "Denoising Normal",
 }
 MATTES = ["ViewLayer.CryptoObject", "ViewLayer.CryptoMaterial"]
 
@@ -57,6 +61,14 @@ def main(path):
     if not VIEW_LAYER_PASSES <= passes:
         problems.append(f"ViewLayer lacks {sorted(VIEW_LAYER_PASSES - passes)}")
 
+    denoise = tree.nodes.new("CompositorNodeDenoise")
+    for output, socket in [("Denoising Normal", "Normal"), ("Denoising Albedo", "Albedo")]:
+        if output in passes:
+            link = tree.links.new(node.outputs[output], denoise.inputs[socket])
+            print(f"  Denoise node: {output} -> {socket}: {'linked' if link.is_valid else 'INVALID'}")
+            if not link.is_valid:
+                problems.append(f"the Denoise node refuses {output} as its {socket}")
+
     matte = tree.nodes.new("CompositorNodeCryptomatteV2")
     matte.source = "IMAGE"
     matte.image = image
@@ -71,7 +83,7 @@ def main(path):
         print("  PROBLEM:", problem)
     if problems:
         sys.exit(1)
-    print("  ok: Blender lists every pass and both Cryptomattes")
+    print("  ok: Blender lists every pass, the Denoise node takes the denoising passes, both Cryptomattes found")
 
 
 if __name__ == "__main__":

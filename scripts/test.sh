@@ -4,6 +4,7 @@
 #   - Mesa's lavapipe (a software Vulkan device) and the Vulkan loader: every GPU kernel runs;
 #   - a C++ compiler: NVIDIA FLIP (the regression images' metric) builds from source;
 #   - Pixar's usd-core (Python): the USD files post and rigid write are parsed by USD itself;
+#   - Blender (Debian's): a rendered frame's passes are read by Blender's compositor;
 #   - a Rust toolchain (rustup), when cargo is missing.
 # It installs with apt-get and pip (Debian or Ubuntu; as root or through sudo). Elsewhere it names
 # what is missing and how to get it, and stops.
@@ -34,6 +35,7 @@ need_package g++ command -v c++
 need_package ca-certificates test -d /etc/ssl/certs
 need_package curl command -v curl
 need_package python3-pip sh -c 'python3 -m pip --version || python3 -c "import pxr"'
+need_package blender command -v blender
 
 if [ ${#missing_packages[@]} -gt 0 ]; then
   if ! command -v apt-get >/dev/null 2>&1; then

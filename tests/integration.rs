@@ -5,6 +5,7 @@
 mod support;
 
 mod bad_input_corpus;
+mod blender_reads_frames;
 mod changed_scene_cli;
 mod cli;
 mod code_size;

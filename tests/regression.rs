@@ -39,28 +39,37 @@ struct Shot {
     /// At least this many pieces over 1% of the mass each, and single-element dust under 10% of
     /// it, at the handoff (0: not checked).
     shards: usize,
+    /// Frames also rendered with the preset's shutter (3D motion blur), against the goldens
+    /// `SCENE.FRAME.blurred.png`; the key frames are rendered still (`render.shutter = 0`).
+    blurred: &'static [u32],
 }
 
-const GLASS_PLATE: Shot = Shot { scene: "glass_plate_small", key_frames: &[1, 12, 24], settles: true, shards: 0 };
-const VASE: Shot = Shot { scene: "vase_small", key_frames: &[1, 6, 12], settles: true, shards: 0 };
-const DRAGON: Shot = Shot { scene: "dragon_small", key_frames: &[1, 16, 32], settles: true, shards: 0 };
+const GLASS_PLATE: Shot =
+    Shot { scene: "glass_plate_small", key_frames: &[1, 12, 24], settles: true, shards: 0, blurred: &[] };
+const VASE: Shot = Shot { scene: "vase_small", key_frames: &[1, 6, 12], settles: true, shards: 0, blurred: &[] };
+const DRAGON: Shot = Shot { scene: "dragon_small", key_frames: &[1, 16, 32], settles: true, shards: 0, blurred: &[] };
 /// The struck plate played on: intact, breaking (the simulation, in slow motion), its shards at
 /// rest on the floor (the follow-through, at real speed by the shot's end).
-const PLATE_SHOT: Shot = Shot { scene: "glass_plate_shot_small", key_frames: &[1, 24, 72], settles: true, shards: 0 };
+const PLATE_SHOT: Shot =
+    Shot { scene: "glass_plate_shot_small", key_frames: &[1, 24, 72], settles: true, shards: 0, blurred: &[] };
 /// The dragon dropped from 60 cm on its timeline: falling intact (the lead-in), just after the
 /// impact (the simulation, in slow motion), its pieces at rest (the follow-through).
-const DRAGON_DROP: Shot = Shot { scene: "dragon_drop_small", key_frames: &[8, 20, 96], settles: true, shards: 0 };
+const DRAGON_DROP: Shot =
+    Shot { scene: "dragon_drop_small", key_frames: &[8, 20, 96], settles: true, shards: 0, blurred: &[] };
 /// The vase dropped from 80 cm: falling intact, at the impact, its shards on the floor (at
 /// least ten over 1% of its mass, dust under 10%: measured 20 and 4.3%), every piece asleep by
 /// the end (measured: from frame 75 of the follow-through's 82).
-const VASE_DROP: Shot = Shot { scene: "vase_drop_small", key_frames: &[7, 18, 96], settles: true, shards: 10 };
+const VASE_DROP: Shot =
+    Shot { scene: "vase_drop_small", key_frames: &[7, 18, 96], settles: true, shards: 10, blurred: &[7, 30] };
 
 fn repository() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-fn golden_path(scene: &str, frame: u32) -> PathBuf {
-    repository().join("tests/golden").join(format!("{scene}.{frame:04}.png"))
+/// The golden of `scene`'s `frame` (`kind` "" for a still frame, ".blurred" for one with the
+/// preset's shutter).
+fn golden_path(scene: &str, frame: u32, kind: &str) -> PathBuf {
+    repository().join("tests/golden").join(format!("{scene}.{frame:04}{kind}.png"))
 }
 
 fn failure_dir() -> PathBuf {
@@ -68,8 +77,8 @@ fn failure_dir() -> PathBuf {
 }
 
 /// Runs the shot's scene up to its last key frame in `output` and returns the key frames'
-/// previews as 8-bit RGB.
-fn render_key_frames(shot: &Shot, output: &Path) -> Vec<(u32, image::RgbImage)> {
+/// previews as 8-bit RGB, still, then its blurred frames', each with its golden's kind.
+fn render_key_frames(shot: &Shot, output: &Path) -> Vec<(u32, &'static str, image::RgbImage)> {
     let mut config =
         PipelineConfig::load(&repository().join("assets/scenes").join(format!("{}.toml", shot.scene))).expect("scene");
     let last = *shot.key_frames.last().expect("key frames");
@@ -85,6 +94,8 @@ fn render_key_frames(shot: &Shot, output: &Path) -> Vec<(u32, image::RgbImage)> 
     config.render.resolution = RESOLUTION;
     config.render.samples_per_pixel = 2;
     config.render.previews = true;
+    let shutter = config.render.shutter;
+    config.render.shutter = 0.0;
     let layout = OutputLayout::of(&config);
 
     let particles = shatter_preprocess::preprocess(&config, &NoProgress).expect("preprocess").particles;
@@ -115,21 +126,26 @@ fn render_key_frames(shot: &Shot, output: &Path) -> Vec<(u32, image::RgbImage)> 
         assert!(shares.over_one_percent >= shot.shards, "{}: {shares:?}", shot.scene);
         assert!(shares.single_elements < 0.1, "{}: {shares:?}", shot.scene);
     }
-    shatter_render::render_driver::run_render(
-        &config,
-        Some(shot.key_frames),
-        Some(BackendChoice::Cpu),
-        &NoProgress,
-        &mut |_| Ok(()),
-    )
-    .expect("render");
-    shot.key_frames
-        .iter()
-        .map(|&frame| {
+    let mut images = Vec::new();
+    for (frames, kind) in [(shot.key_frames, ""), (shot.blurred, ".blurred")] {
+        if frames.is_empty() {
+            continue;
+        }
+        config.render.shutter = if kind.is_empty() { 0.0 } else { shutter };
+        shatter_render::render_driver::run_render(
+            &config,
+            Some(frames),
+            Some(BackendChoice::Cpu),
+            &NoProgress,
+            &mut |_| Ok(()),
+        )
+        .expect("render");
+        for &frame in frames {
             let path = layout.render_frame(frame, "png");
-            (frame, image::open(&path).expect("preview").to_rgb8())
-        })
-        .collect()
+            images.push((frame, kind, image::open(&path).expect("preview").to_rgb8()));
+        }
+    }
+    images
 }
 
 /// Every piece's surface is closed and consistently oriented: after welding corners closer than
@@ -241,8 +257,13 @@ fn flip(reference: &image::RgbImage, test: &image::RgbImage) -> (nv_flip::FlipIm
 /// Compares `image` with the golden of `scene`'s `frame`: `None` when it is within the
 /// thresholds, otherwise what is wrong. A render outside the thresholds is written to
 /// `failure_dir` with its FLIP difference image (magma: black is no difference).
-fn compare_with_golden(scene: &str, frame: u32, image: &image::RgbImage, failure_dir: &Path) -> Option<String> {
-    let golden = golden_path(scene, frame);
+fn compare_with_golden(
+    scene: &str,
+    (frame, kind): (u32, &str),
+    image: &image::RgbImage,
+    failure_dir: &Path,
+) -> Option<String> {
+    let golden = golden_path(scene, frame, kind);
     let Ok(reference) = image::open(&golden).map(|image| image.to_rgb8()) else {
         return Some(format!("{}: no golden image (SHATTER_BLESS=1 makes it)", golden.display()));
     };
@@ -260,8 +281,8 @@ fn compare_with_golden(scene: &str, frame: u32, image: &image::RgbImage, failure
         return None;
     }
     std::fs::create_dir_all(failure_dir).expect("failure folder");
-    let rendered_path = failure_dir.join(format!("{scene}.{frame:04}.png"));
-    let diff_path = failure_dir.join(format!("{scene}.{frame:04}.flip.png"));
+    let rendered_path = failure_dir.join(format!("{scene}.{frame:04}{kind}.png"));
+    let diff_path = failure_dir.join(format!("{scene}.{frame:04}{kind}.flip.png"));
     image.save(&rendered_path).expect("write the render");
     let colored = error.apply_color_lut(&nv_flip::magma_lut());
     let (width, height) = image.dimensions();
@@ -284,13 +305,13 @@ fn check(shot: &Shot) {
     let rendered = render_key_frames(shot, output.path());
     let bless = blessing();
     let mut failures = Vec::new();
-    for (frame, image) in rendered {
+    for (frame, kind, image) in rendered {
         if bless {
-            let golden = golden_path(shot.scene, frame);
+            let golden = golden_path(shot.scene, frame, kind);
             std::fs::create_dir_all(golden.parent().expect("folder")).expect("golden folder");
             image.save(&golden).expect("write golden");
             eprintln!("blessed {}", golden.display());
-        } else if let Some(failure) = compare_with_golden(shot.scene, frame, &image, &failure_dir()) {
+        } else if let Some(failure) = compare_with_golden(shot.scene, (frame, kind), &image, &failure_dir()) {
             failures.push(failure);
         }
     }
@@ -342,7 +363,7 @@ fn the_thresholds_tell_a_broken_body_from_an_intact_one() {
     for shot in [&GLASS_PLATE, &VASE, &DRAGON] {
         let last = *shot.key_frames.last().expect("key frames");
         let (Ok(first), Ok(broken)) =
-            (image::open(golden_path(shot.scene, 1)), image::open(golden_path(shot.scene, last)))
+            (image::open(golden_path(shot.scene, 1, "")), image::open(golden_path(shot.scene, last, "")))
         else {
             panic!("{}: goldens missing (SHATTER_BLESS=1 makes them)", shot.scene);
         };
@@ -359,14 +380,14 @@ fn a_mismatch_writes_the_render_and_its_difference_image() {
     }
     let shot = &GLASS_PLATE;
     let last = *shot.key_frames.last().expect("key frames");
-    let broken = image::open(golden_path(shot.scene, last)).expect("golden").to_rgb8();
+    let broken = image::open(golden_path(shot.scene, last, "")).expect("golden").to_rgb8();
     let folder = tempfile::tempdir().expect("tempdir");
-    let failure = compare_with_golden(shot.scene, 1, &broken, folder.path()).expect("a mismatch");
+    let failure = compare_with_golden(shot.scene, (1, ""), &broken, folder.path()).expect("a mismatch");
     assert!(failure.contains("FLIP mean"), "{failure}");
     let render = folder.path().join(format!("{}.0001.png", shot.scene));
     let difference = folder.path().join(format!("{}.0001.flip.png", shot.scene));
     assert_eq!(image::open(&render).expect("render").to_rgb8(), broken);
     assert_eq!(image::open(&difference).expect("difference").to_rgb8().dimensions(), broken.dimensions());
-    let same = image::open(golden_path(shot.scene, 1)).expect("golden").to_rgb8();
-    assert_eq!(compare_with_golden(shot.scene, 1, &same, folder.path()), None);
+    let same = image::open(golden_path(shot.scene, 1, "")).expect("golden").to_rgb8();
+    assert_eq!(compare_with_golden(shot.scene, (1, ""), &same, folder.path()), None);
 }

@@ -119,7 +119,7 @@ fn main() {
     let single: Vec<_> = (0..height)
         .into_par_iter()
         .flat_map_iter(|y| (0..width).map(move |x| (x, y)))
-        .map(|(x, y)| closest_hit(&geometry, cam.origin, cam.direction(x as f32 + 0.5, y as f32 + 0.5), 0.0))
+        .map(|(x, y)| closest_hit(&geometry, cam.origin, cam.direction(x as f32 + 0.5, y as f32 + 0.5), 0.0, 0.0))
         .collect();
     let seconds_single = started_single.elapsed().as_secs_f64();
     assert!(hits == single, "packets and single rays found other hits");

@@ -32,12 +32,16 @@ struct Params {
     fracture_albedo: vec4<f32>,
     // glass split events, opaque cubes (1) or glass (0), 0, 0
     look_flags: vec4<u32>,
+    // the shutter's open time in frames where the scene moves over it (else 0); y, z, w unused
+    shutter: vec4<f32>,
 }
 
 struct PixelOut {
     color: vec4<f32>,   // rgb, alpha
     normal: vec4<f32>,  // xyz, w = depth
     ids: vec4<u32>,     // fragment + 1, element, surface kind, 0
+    denoising_albedo: vec4<f32>,  // rgb, 0
+    denoising_normal: vec4<f32>,  // xyz, 0
 }
 
 // mattes.rs MatteCounts
@@ -66,6 +70,9 @@ struct MatteOut {
 @group(0) @binding(15) var<storage, read_write> mattes: array<MatteOut>;
 // face_seams.rs face_neighbours: parallel to planes, the element that rested against each plane, or NONE
 @group(0) @binding(16) var<storage, read> face_neighbours: array<u32>;
+// shutter.rs SceneMotion: each element's group, and each group's GroupMotion as five vec4
+@group(0) @binding(17) var<storage, read> motion_groups: array<u32>;
+@group(0) @binding(18) var<storage, read> group_motions: array<vec4<f32>>;
 
 fn infinity() -> f32 {
     return bitcast<f32>(0x7f800000u);

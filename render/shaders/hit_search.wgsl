@@ -38,8 +38,24 @@ fn resolve(e: u32, entry: Entry) -> Hit {
     return miss();
 }
 
-// hit_search.rs closest_hit through element_kdtree.rs traverse (short stack, push-down, kd-restart)
-fn closest_hit(origin: vec3<f32>, direction: vec3<f32>, t_min_ray: f32) -> Hit {
+// hit_search.rs AtCentre::back: a hit found at the centre turned back to the ray's time
+fn hit_back(hit: Hit, time: f32) -> Hit {
+    if (hit.element == NONE) {
+        return hit;
+    }
+    var back = hit;
+    back.normal = vector_back(to_centre(hit.element, time), hit.normal);
+    return back;
+}
+
+// hit_search.rs closest_hit through element_kdtree.rs traverse (short stack, push-down, kd-restart),
+// at `time` (frames from the frame's centre)
+fn closest_hit(origin: vec3<f32>, direction: vec3<f32>, t_min_ray: f32, time: f32) -> Hit {
+    // hit_search.rs AtCentre: the ray in the last group's placement at the centre
+    var last_group = NONE;
+    var centre_origin = origin;
+    var centre_direction = direction;
+    let moving = time != 0.0 && params.shutter.x != 0.0;
     // hit_search.rs Nearest: the nearest entry so far, resolved into a hit at the end
     var best = no_entry();
     var best_element = NONE;
@@ -110,14 +126,20 @@ fn closest_hit(origin: vec3<f32>, direction: vec3<f32>, t_min_ray: f32) -> Hit {
         let first = entry.x >> 2u;
         for (var k = first; k < first + entry.y; k++) {
             let e = items[k];
-            let entry = element_entry(e, origin, direction, t_min_ray);
+            if (moving && motion_groups[e] != last_group) {
+                last_group = motion_groups[e];
+                let map = to_centre(e, time);
+                centre_origin = centre_point(map, origin);
+                centre_direction = centre_vector(map, direction);
+            }
+            let entry = element_entry(e, centre_origin, centre_direction, t_min_ray);
             if (entry.t < best.t || (entry.t == best.t && e < best_element)) {
                 best = entry;
                 best_element = e;
             }
         }
         if (best.t <= t_max) {
-            return resolve(best_element, best);
+            return hit_back(resolve(best_element, best), time);
         }
         if (stack_len > 0u) {
             stack_len -= 1u;
@@ -126,7 +148,7 @@ fn closest_hit(origin: vec3<f32>, direction: vec3<f32>, t_min_ray: f32) -> Hit {
             t_max = stack_max[stack_len];
             push_down = false;
         } else if (t_max >= scene_max) {
-            return resolve(best_element, best);
+            return hit_back(resolve(best_element, best), time);
         } else {
             t_min = t_max;
             t_max = scene_max;
@@ -134,7 +156,7 @@ fn closest_hit(origin: vec3<f32>, direction: vec3<f32>, t_min_ray: f32) -> Hit {
             push_down = true;
         }
     }
-    return resolve(best_element, best);
+    return hit_back(resolve(best_element, best), time);
 }
 
 // hit_search.rs element_at through element_kdtree.rs for_each_at
@@ -183,8 +205,17 @@ struct Exit {
 // hit_search.rs STALLED_STEPS
 const STALLED_STEPS: u32 = 8u;
 
-// hit_search.rs union_exit
-fn union_exit(element: u32, origin: vec3<f32>, direction: vec3<f32>) -> Exit {
+// hit_search.rs union_exit, at `time`: the walk goes through the centre's placement of the
+// element's group
+fn union_exit(element: u32, origin: vec3<f32>, direction: vec3<f32>, time: f32) -> Exit {
+    let map = to_centre(element, time);
+    var exit = union_walk(element, centre_point(map, origin), centre_vector(map, direction));
+    exit.normal = vector_back(map, exit.normal);
+    return exit;
+}
+
+// hit_search.rs union_walk
+fn union_walk(element: u32, origin: vec3<f32>, direction: vec3<f32>) -> Exit {
     let slack = params.scene_min.w;
     let step = 4.0 * slack;
     var current = element;

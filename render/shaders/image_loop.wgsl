@@ -20,21 +20,35 @@ fn trace(
     let samples = params.size.z;
     var sum = vec3<f32>(0.0);
     var alpha = 0.0;
+    var albedo = vec3<f32>(0.0);
+    var guide_normal = vec3<f32>(0.0);
     var out: PixelOut;
     var matte: MatteOut;
     for (var sample = 0u; sample < samples; sample++) {
         let offset = sample_offset(pixel, sample, samples);
         let d = camera_direction(f32(x) + offset.x, f32(y) + offset.y);
-        let traced = trace_ray(params.camera_origin.xyz, d, pixel, sample);
-        if (sample == 0u) {
-            out.normal = vec4<f32>(traced.normal, traced.depth);
-            out.ids = vec4<u32>(traced.fragment, traced.element, traced.surface, 0u);
+        let origin = params.camera_origin.xyz;
+        // with motion over the shutter, the colour at the sample's time and the layers at the centre's
+        let moving = params.shutter.x != 0.0;
+        let time = select(0.0, sample_time(pixel, sample, params.shutter.x), moving);
+        let traced = trace_ray(origin, d, pixel, sample, time);
+        var layers = traced;
+        if (moving) {
+            layers = first_layers(origin, d, closest_hit(origin, d, 0.0, 0.0));
         }
-        add_matte_sample(&matte, traced.fragment, traced.surface);
+        if (sample == 0u) {
+            out.normal = vec4<f32>(layers.normal, layers.depth);
+            out.ids = vec4<u32>(layers.fragment, layers.element, layers.surface, 0u);
+        }
+        add_matte_sample(&matte, layers.fragment, layers.surface);
         sum += traced.color;
         alpha += traced.alpha;
+        albedo += traced.denoising_albedo;
+        guide_normal += traced.denoising_normal;
     }
     out.color = vec4<f32>(sum / f32(samples), alpha / f32(samples));
+    out.denoising_albedo = vec4<f32>(albedo / f32(samples), 0.0);
+    out.denoising_normal = vec4<f32>(guide_normal / f32(samples), 0.0);
     pixels[local] = out;
     mattes[local] = matte;
 }

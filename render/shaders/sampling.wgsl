@@ -33,3 +33,13 @@ fn sample_offset(pixel: u32, sample: u32, samples: u32) -> vec2<f32> {
     }
     return vec2<f32>((f32(k % n) + jx) / f32(n), (f32(k / n) + jy) / f32(n));
 }
+
+// sampling.rs sample_time
+fn sample_time(pixel: u32, sample: u32, shutter: f32) -> f32 {
+    let base = f32(reverseBits(sample)) * (1.0 / 4294967296.0);
+    var u = base + random(pixel, 0u, 1002u);
+    if (u >= 1.0) {
+        u -= 1.0;
+    }
+    return shutter * (u - 0.5);
+}

@@ -14,14 +14,16 @@ use crate::materials::Look;
 use crate::mattes::MatteCounts;
 use crate::primitives::TRIANGLE_GROUP;
 use crate::scene_geometry::SceneGeometry;
+use crate::shutter::GroupMotion;
 
 /// The tracer's WGSL parts (`render/shaders/`): the bindings, then each the twin of the CPU module
 /// of its name, joined into one program whose entry point is the image loop's.
-const PARTS: [&str; 12] = [
+const PARTS: [&str; 13] = [
     include_str!("../shaders/bindings.wgsl"),
     include_str!("../shaders/primitives.wgsl"),
     include_str!("../shaders/scene_geometry.wgsl"),
     include_str!("../shaders/element_kdtree.wgsl"),
+    include_str!("../shaders/shutter.wgsl"),
     include_str!("../shaders/hit_search.wgsl"),
     include_str!("../shaders/sampling.wgsl"),
     include_str!("../shaders/camera.wgsl"),
@@ -55,6 +57,7 @@ struct Params {
     sh: [[f32; 4]; 9],
     fracture_albedo: [f32; 4],
     look_flags: [u32; 4],
+    shutter: [f32; 4],
 }
 
 /// The shader's `PixelOut`.
@@ -64,6 +67,8 @@ struct PixelOut {
     color: [f32; 4],
     normal: [f32; 4],
     ids: [u32; 4],
+    denoising_albedo: [f32; 4],
+    denoising_normal: [f32; 4],
 }
 
 fn vec4(v: [f32; 3], w: f32) -> [f32; 4] {
@@ -162,6 +167,7 @@ impl Params {
             sh: look.sh.map(|c| vec4(c, 0.0)),
             fracture_albedo: vec4(look.fracture_albedo, 0.0),
             look_flags: [look.glass_split_events, u32::from(look.opaque_cubes), 0, 0],
+            shutter: [scene.motion.as_ref().map_or(0.0, |motion| motion.shutter), 0.0, 0.0, 0.0],
         }
     }
 }
@@ -181,6 +187,9 @@ struct TraceBuffers {
     sites: wgpu::Buffer,
     interior_faces: wgpu::Buffer,
     face_neighbours: wgpu::Buffer,
+    /// [`crate::shutter::SceneMotion`]'s groups of the elements, and the groups' motions.
+    motion_groups: wgpu::Buffer,
+    group_motions: wgpu::Buffer,
     fragments: wgpu::Buffer,
     environment: wgpu::Buffer,
     floor_texels: wgpu::Buffer,
@@ -224,6 +233,16 @@ impl TraceBuffers {
         let interior_faces = ctx.create_storage_buffer("interior faces", non_empty_u32(&scene.interior_faces))?;
         let face_neighbours = ctx.create_storage_buffer("face neighbours", non_empty_u32(&scene.face_neighbours))?;
         let fragments = ctx.create_storage_buffer("fragments", non_empty_u32(&scene.fragment))?;
+        let (motion_groups, group_motions) = match &scene.motion {
+            Some(motion) => (
+                ctx.create_storage_buffer("motion groups", non_empty_u32(&motion.group_of))?,
+                ctx.create_storage_buffer("group motions", &motion.groups)?,
+            ),
+            None => (
+                ctx.create_storage_buffer("motion groups", &[0u32])?,
+                ctx.create_storage_buffer("group motions", &[GroupMotion::zeroed()])?,
+            ),
+        };
         let environment: Vec<[f32; 4]> = look.environment.texels.iter().map(|t| vec4(*t, 0.0)).collect();
         let environment = ctx.create_storage_buffer("environment", &environment)?;
         let floor_texels = match &look.floor {
@@ -247,6 +266,8 @@ impl TraceBuffers {
             sites,
             interior_faces,
             face_neighbours,
+            motion_groups,
+            group_motions,
             fragments,
             environment,
             floor_texels,
@@ -257,7 +278,7 @@ impl TraceBuffers {
 
     /// The bindings of the batch of `count` pixels from pixel `first`, in the order of
     /// shaders/bindings.wgsl: the outputs are the batch's slices.
-    fn batch_bindings(&self, first: u32, count: u32) -> [wgpu::BindingResource<'_>; 17] {
+    fn batch_bindings(&self, first: u32, count: u32) -> [wgpu::BindingResource<'_>; 19] {
         let slice = |buffer, bytes: u64| {
             wgpu::BindingResource::Buffer(wgpu::BufferBinding {
                 buffer,
@@ -283,6 +304,8 @@ impl TraceBuffers {
             self.interior_faces.as_entire_binding(),
             slice(&self.mattes, MATTE_BYTES),
             self.face_neighbours.as_entire_binding(),
+            self.motion_groups.as_entire_binding(),
+            self.group_motions.as_entire_binding(),
         ]
     }
 
@@ -300,6 +323,8 @@ impl TraceBuffers {
                 fragment: p.ids[0],
                 element: p.ids[1],
                 surface: p.ids[2],
+                denoising_albedo: [p.denoising_albedo[0], p.denoising_albedo[1], p.denoising_albedo[2]],
+                denoising_normal: [p.denoising_normal[0], p.denoising_normal[1], p.denoising_normal[2]],
             })
             .collect();
         Ok(Rendered { pixels, mattes })

@@ -114,37 +114,114 @@ impl Nearest {
     }
 }
 
-/// The nearest element surface along the ray from `t_min` on (ties go to the lower element).
-pub fn closest_hit(scene: &SceneGeometry, origin: [f32; 3], direction: [f32; 3], t_min: f32) -> Hit {
+/// A ray at its time carried to the frame's centre for each element it tests (see
+/// [`crate::shutter`]): the identity for a still scene or a ray at the centre's time; the last
+/// group's map is kept.
+struct AtCentre<'a> {
+    scene: &'a SceneGeometry,
+    origin: [f32; 3],
+    direction: [f32; 3],
+    time: f32,
+    /// The group last mapped, and the ray in its placement.
+    last: Option<(u32, [f32; 3], [f32; 3])>,
+}
+
+impl<'a> AtCentre<'a> {
+    fn new(scene: &'a SceneGeometry, origin: [f32; 3], direction: [f32; 3], time: f32) -> AtCentre<'a> {
+        AtCentre { scene, origin, direction, time, last: None }
+    }
+
+    /// The ray as element `e` sees it at the centre: (origin, direction).
+    fn ray(&mut self, e: u32) -> ([f32; 3], [f32; 3]) {
+        let Some(motion) = self.scene.motion.as_ref().filter(|_| self.time != 0.0) else {
+            return (self.origin, self.direction);
+        };
+        let group = motion.group_of[e as usize];
+        if let Some((last, o, d)) = self.last
+            && last == group
+        {
+            return (o, d);
+        }
+        let (o, d) = match motion.to_centre(e as usize, self.time) {
+            Some(map) => (map.point(self.origin), map.vector(self.direction)),
+            None => (self.origin, self.direction),
+        };
+        self.last = Some((group, o, d));
+        (o, d)
+    }
+
+    /// `hit`, found at the centre, turned back to the ray's time.
+    fn back(&self, hit: Hit) -> Hit {
+        match (&self.scene.motion, hit.element) {
+            (Some(motion), e) if e != NONE => match motion.to_centre(e as usize, self.time) {
+                Some(map) => Hit { normal: map.vector_back(hit.normal), ..hit },
+                None => hit,
+            },
+            _ => hit,
+        }
+    }
+}
+
+/// The nearest element surface along the ray from `t_min` on (ties go to the lower element), at
+/// `time` (frames from the frame's centre, see [`crate::shutter`]).
+pub fn closest_hit(scene: &SceneGeometry, origin: [f32; 3], direction: [f32; 3], t_min: f32, time: f32) -> Hit {
     let mut nearest = Nearest::NONE;
+    let mut centre = AtCentre::new(scene, origin, direction, time);
     scene.index.traverse(&scene.fragment, origin, direction, t_min, |e| {
-        nearest.offer(e, element_entry(scene, e as usize, origin, direction, t_min));
+        let (o, d) = centre.ray(e);
+        nearest.offer(e, element_entry(scene, e as usize, o, d, t_min));
         nearest.t
     });
-    resolve(scene, nearest.element, nearest.entry)
+    centre.back(resolve(scene, nearest.element, nearest.entry))
 }
 
 /// The nearest element surfaces along a packet of rays from one `origin` (at most
-/// [`PACKET`] `directions`, t from 0 on), into `hits`: each exactly what [`closest_hit`] gives
-/// its ray, found in one traversal of the k-d tree for them all (see
+/// [`PACKET`] `directions`, t from 0 on, each at its time in `times`, or all at the centre's
+/// when None), into `hits`: each exactly what [`closest_hit`] gives its ray, found in one
+/// traversal of the k-d tree for them all (see
 /// [`crate::element_kdtree::KdTree::traverse_packet`]).
-pub fn closest_hits(scene: &SceneGeometry, origin: [f32; 3], directions: &[[f32; 3]], hits: &mut [Hit]) {
+pub fn closest_hits(
+    scene: &SceneGeometry,
+    origin: [f32; 3],
+    directions: &[[f32; 3]],
+    times: Option<&[f32]>,
+    hits: &mut [Hit],
+) {
     let mut nearest = [Nearest::NONE; PACKET];
+    let moving = scene.motion.is_some() && times.is_some();
+    let time = |r: usize| times.map_or(0.0, |times| times[r]);
+    let mut centres: Option<[AtCentre; PACKET]> = moving.then(|| {
+        std::array::from_fn(|r| AtCentre::new(scene, origin, directions.get(r).copied().unwrap_or([0.0; 3]), time(r)))
+    });
     let traversed = scene.index.traverse_packet(&scene.fragment, origin, directions, 0.0, |e, rays| {
-        if let Some((axes, distances)) = scene.cube(e as usize) {
-            let cube = CubeFromOrigin::new(axes, distances, origin);
-            for r in each_ray(rays) {
-                nearest[r].offer(e, face_entry(cube.entry(scene.slack, directions[r], 0.0)));
+        match (&mut centres, scene.cube(e as usize)) {
+            (Some(centres), _) => {
+                for r in each_ray(rays) {
+                    let (o, d) = centres[r].ray(e);
+                    nearest[r].offer(e, element_entry(scene, e as usize, o, d, 0.0));
+                }
             }
-        } else {
-            for r in each_ray(rays) {
-                nearest[r].offer(e, element_entry(scene, e as usize, origin, directions[r], 0.0));
+            (None, Some((axes, distances))) => {
+                let cube = CubeFromOrigin::new(axes, distances, origin);
+                for r in each_ray(rays) {
+                    nearest[r].offer(e, face_entry(cube.entry(scene.slack, directions[r], 0.0)));
+                }
+            }
+            (None, None) => {
+                for r in each_ray(rays) {
+                    nearest[r].offer(e, element_entry(scene, e as usize, origin, directions[r], 0.0));
+                }
             }
         }
         nearest.map(|n| n.t)
     });
-    for ((hit, &direction), n) in hits.iter_mut().zip(directions).zip(nearest) {
-        *hit = if traversed { resolve(scene, n.element, n.entry) } else { closest_hit(scene, origin, direction, 0.0) };
+    for (r, ((hit, &direction), n)) in hits.iter_mut().zip(directions).zip(nearest).enumerate() {
+        *hit = if traversed {
+            let hit = resolve(scene, n.element, n.entry);
+            centres.as_ref().map_or(hit, |centres| centres[r].back(hit))
+        } else {
+            closest_hit(scene, origin, direction, 0.0, time(r))
+        };
     }
 }
 
@@ -180,9 +257,25 @@ fn next_element(scene: &SceneGeometry, current: u32, plane: u32, point: [f32; 3]
 /// without moving until its step guard ran out (100,000 steps, a zero normal).
 const STALLED_STEPS: u32 = 8;
 
-/// Where a ray inside the union containing `element` leaves it: (distance, unit outward normal of
-/// the last element's exit face, last element).
-pub fn union_exit(scene: &SceneGeometry, element: u32, origin: [f32; 3], direction: [f32; 3]) -> (f32, [f32; 3], u32) {
+/// Where a ray inside the union containing `element` leaves it, at `time` (frames from the
+/// frame's centre: the walk goes through the centre's placement of `element`'s group): (distance,
+/// unit outward normal of the last element's exit face, last element).
+pub fn union_exit(
+    scene: &SceneGeometry,
+    element: u32,
+    origin: [f32; 3],
+    direction: [f32; 3],
+    time: f32,
+) -> (f32, [f32; 3], u32) {
+    let mut centre = AtCentre::new(scene, origin, direction, time);
+    let (origin, direction) = centre.ray(element);
+    let (t, normal, last) = union_walk(scene, element, origin, direction);
+    let back = centre.back(Hit { t, element, normal, fracture: false });
+    (t, back.normal, last)
+}
+
+/// [`union_exit`] at the centre's time.
+fn union_walk(scene: &SceneGeometry, element: u32, origin: [f32; 3], direction: [f32; 3]) -> (f32, [f32; 3], u32) {
     let step = 4.0 * scene.slack;
     let mut current = element;
     let mut travelled = 0.0f32;

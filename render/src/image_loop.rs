@@ -8,11 +8,11 @@ use rayon::prelude::*;
 use crate::camera::Camera;
 use crate::element_kdtree::PACKET;
 use crate::hit_search::{Hit, closest_hits};
-use crate::integrator::{CameraRay, FirstSurface, Pixel, trace_ray};
+use crate::integrator::{CameraRay, FirstSurface, Pixel, first_layers, trace_ray};
 use crate::materials::Look;
 use crate::mattes::MatteCounts;
 use crate::primitives::along;
-use crate::sampling::sample_offset;
+use crate::sampling::{sample_offset, sample_time};
 use crate::scene_geometry::SceneGeometry;
 use crate::shading::{floor_albedo, floor_t};
 
@@ -42,6 +42,10 @@ fn first_floor_albedos(look: &Look, origin: [f32; 3], directions: &[[f32; 3]], h
 /// surface in the pixel's mattes. Bands of [`TILE_ROWS`] rows in parallel; each sample's camera
 /// rays of a tile find their first surfaces as one packet. Deterministic: each
 /// pixel's samples are summed in order, whatever the bands and threads.
+///
+/// With the scene's motion over an open shutter, each sample's ray is traced at its own time
+/// ([`sample_time`]) for the colour and coverage; the layers and mattes are those of the same
+/// rays at the frame's centre.
 pub fn render(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32) -> Rendered {
     let (width, height) = (camera.width as usize, camera.height as usize);
     let mut pixels = vec![Pixel::EMPTY; width * height];
@@ -49,44 +53,118 @@ pub fn render(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32)
     let band = width * TILE_ROWS;
     pixels.par_chunks_mut(band).zip(mattes.par_chunks_mut(band)).enumerate().for_each(|(b, (rows, matte_rows))| {
         let top = b * TILE_ROWS;
-        let mut sums = [[0.0f32; 3]; PACKET];
-        let mut alphas = [0.0f32; PACKET];
-        let mut directions = [[0.0f32; 3]; PACKET];
-        let mut hits = [Hit::MISS; PACKET];
-        let mut floor_albedos = [[0.0f32; 3]; PACKET];
+        let mut packet = Packet::default();
         for tile in Tile::across(width, top, rows.len() / width) {
             let count = tile.len();
-            sums[..count].fill([0.0; 3]);
-            alphas[..count].fill(0.0);
+            packet.sums[..count].fill(Sums::default());
             for sample in 0..samples {
-                tile.first_hits(scene, camera, (sample, samples), &mut directions, &mut hits);
-                first_floor_albedos(look, camera.origin, &directions[..count], &hits[..count], &mut floor_albedos);
+                packet.trace(scene, look, camera, tile, (sample, samples));
                 for k in 0..count {
                     let (x, y) = tile.pixel(k);
-                    let pixel = (y * width + x) as u32;
-                    let (direction, hit, floor) = (directions[k], hits[k], floor_albedos[k]);
-                    let ray = CameraRay { origin: camera.origin, direction, pixel, sample };
-                    let traced = trace_ray(scene, look, ray, FirstSurface { hit, floor_albedo: floor });
                     let local = (y - top) * width + x;
                     if sample == 0 {
-                        rows[local] = traced;
+                        rows[local] = packet.layers[k];
                     }
-                    matte_rows[local].add(traced.fragment, traced.surface);
-                    for (sum, colour) in sums[k].iter_mut().zip(traced.color) {
-                        *sum += colour;
-                    }
-                    alphas[k] += traced.alpha;
+                    matte_rows[local].add(packet.layers[k].fragment, packet.layers[k].surface);
                 }
             }
             for k in 0..count {
                 let (x, y) = tile.pixel(k);
-                let out = &mut rows[(y - top) * width + x];
-                out.color = sums[k].map(|v| v / samples as f32);
-                out.alpha = alphas[k] / samples as f32;
+                packet.sums[k].average_into(&mut rows[(y - top) * width + x], samples);
             }
         }
     });
     Rendered { pixels, mattes }
+}
+
+/// A tile's camera rays of one sample, and its pixels' sums so far.
+struct Packet {
+    directions: [[f32; 3]; PACKET],
+    /// Each ray's nearest hit at the frame's centre.
+    hits: [Hit; PACKET],
+    /// With motion over the shutter: each ray's time, and its nearest hit then.
+    times: [f32; PACKET],
+    moved_hits: [Hit; PACKET],
+    floor_albedos: [[f32; 3]; PACKET],
+    /// Each ray's first-surface layers (at the frame's centre).
+    layers: [Pixel; PACKET],
+    sums: [Sums; PACKET],
+}
+
+/// A pixel's sums over its samples of what is averaged: colour, alpha and the denoising guides.
+#[derive(Debug, Default, Clone, Copy)]
+struct Sums {
+    color: [f32; 3],
+    alpha: f32,
+    albedo: [f32; 3],
+    normal: [f32; 3],
+}
+
+impl Sums {
+    /// Adds one sample.
+    fn add(&mut self, traced: &Pixel) {
+        for k in 0..3 {
+            self.color[k] += traced.color[k];
+            self.albedo[k] += traced.denoising_albedo[k];
+            self.normal[k] += traced.denoising_normal[k];
+        }
+        self.alpha += traced.alpha;
+    }
+
+    /// Writes the averages of `samples` samples into `out`.
+    fn average_into(&self, out: &mut Pixel, samples: u32) {
+        let n = samples as f32;
+        out.color = self.color.map(|v| v / n);
+        out.alpha = self.alpha / n;
+        out.denoising_albedo = self.albedo.map(|v| v / n);
+        out.denoising_normal = self.normal.map(|v| v / n);
+    }
+}
+
+impl Default for Packet {
+    fn default() -> Packet {
+        Packet {
+            directions: [[0.0; 3]; PACKET],
+            hits: [Hit::MISS; PACKET],
+            times: [0.0; PACKET],
+            moved_hits: [Hit::MISS; PACKET],
+            floor_albedos: [[0.0; 3]; PACKET],
+            layers: [Pixel::EMPTY; PACKET],
+            sums: [Sums::default(); PACKET],
+        }
+    }
+}
+
+impl Packet {
+    /// Traces sample `sample` (of `samples`) of `tile`'s rays: adds each one's colour, coverage
+    /// and denoising guides to the sums and leaves its layers.
+    fn trace(&mut self, scene: &SceneGeometry, look: &Look, camera: &Camera, tile: Tile, sample: (u32, u32)) {
+        let count = tile.len();
+        let origin = camera.origin;
+        tile.first_hits(scene, camera, sample, &mut self.directions, &mut self.hits);
+        let moving = scene.motion.as_ref().map(|motion| {
+            for (k, time) in self.times[..count].iter_mut().enumerate() {
+                let (x, y) = tile.pixel(k);
+                *time = sample_time((y * camera.width as usize + x) as u32, sample.0, motion.shutter);
+            }
+            let times = Some(&self.times[..count]);
+            closest_hits(scene, origin, &self.directions[..count], times, &mut self.moved_hits[..count]);
+            &self.moved_hits
+        });
+        let hits = moving.unwrap_or(&self.hits);
+        first_floor_albedos(look, origin, &self.directions[..count], &hits[..count], &mut self.floor_albedos);
+        for (k, &hit) in hits[..count].iter().enumerate() {
+            let (x, y) = tile.pixel(k);
+            let pixel = (y * camera.width as usize + x) as u32;
+            let (direction, floor_albedo) = (self.directions[k], self.floor_albedos[k]);
+            let time = if moving.is_some() { self.times[k] } else { 0.0 };
+            let ray = CameraRay { origin, direction, pixel, sample: sample.0, time };
+            let traced = trace_ray(scene, look, ray, FirstSurface { hit, floor_albedo });
+            self.layers[k] =
+                if moving.is_some() { first_layers(scene, look, origin, direction, self.hits[k]) } else { traced };
+            self.sums[k].add(&traced);
+        }
+    }
 }
 
 /// A tile of image pixels: `width` columns from `left`, `height` rows from `top`; its rays are
@@ -136,7 +214,7 @@ impl Tile {
             let (jx, jy) = sample_offset((y * camera.width as usize + x) as u32, sample, samples);
             *direction = camera.direction(x as f32 + jx, y as f32 + jy);
         }
-        closest_hits(scene, camera.origin, &directions[..count], &mut hits[..count]);
+        closest_hits(scene, camera.origin, &directions[..count], None, &mut hits[..count]);
     }
 }
 

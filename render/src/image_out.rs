@@ -51,6 +51,17 @@ pub const EXR_CHANNELS: [&str; 13] = [
     "ViewLayer.Vector.Z",
 ];
 
+/// The denoising passes' channels, as Blender names its Denoising Data passes (its Denoise node
+/// and OIDN take them as guides), in EXR's sorted order; written with `render.denoising_passes`.
+pub const DENOISING_CHANNELS: [&str; 6] = [
+    "ViewLayer.Denoising Albedo.B",
+    "ViewLayer.Denoising Albedo.G",
+    "ViewLayer.Denoising Albedo.R",
+    "ViewLayer.Denoising Normal.X",
+    "ViewLayer.Denoising Normal.Y",
+    "ViewLayer.Denoising Normal.Z",
+];
+
 /// What an EXR's header says of its frame besides the pixels: the camera (OpenEXR's standard
 /// `worldToCamera` and `worldToNDC`, see [`crate::camera::Camera::world_to_ndc`]), the playback rate
 /// (`framesPerSecond`), and the frame's simulated time (`shatterSimulationTime`, seconds).
@@ -77,6 +88,8 @@ pub struct FrameLayers<'a> {
     pub motion: &'a [[f32; 4]],
     /// The Cryptomattes.
     pub mattes: &'a [Matte],
+    /// Also write the denoising passes ([`DENOISING_CHANNELS`]).
+    pub denoising: bool,
 }
 
 /// A frame rate as OpenEXR's rational: whole rates exactly, NTSC's 24000/1001 family by their
@@ -96,7 +109,9 @@ fn rational(rate: f64) -> (i32, u32) {
 /// the camera ray to the first surface; infinity where there is none); ViewLayer.Normal.X, .Y,
 /// .Z (float: world-space unit normal there); ViewLayer.Vector.X, .Y, .Z, .W (float: the motion
 /// pass); ViewLayer.FragmentIndex.X (uint: fragment id + 1 of the first element seen, 0 for none);
-/// and each Cryptomatte's ranks (float) with its header entries. `header` goes into the header.
+/// each Cryptomatte's ranks (float) with its header entries; and, asked for, the denoising passes
+/// ViewLayer.Denoising Albedo.R, .G, .B and ViewLayer.Denoising Normal.X, .Y, .Z (half). `header`
+/// goes into the header.
 pub fn write_exr(
     path: &Path,
     width: usize,
@@ -123,6 +138,14 @@ pub fn write_exr(
         AnyChannel::new("ViewLayer.Vector.W", motion(3)),
         AnyChannel::new("ViewLayer.FragmentIndex.X", FlatSamples::U32(pixels.iter().map(|p| p.fragment).collect())),
     ];
+    if layers.denoising {
+        for k in 0..3 {
+            let albedo = format!("ViewLayer.Denoising Albedo.{}", ["R", "G", "B"][k]);
+            list.push(AnyChannel::new(albedo.as_str(), half(&|p| p.denoising_albedo[k])));
+            let normal = format!("ViewLayer.Denoising Normal.{}", ["X", "Y", "Z"][k]);
+            list.push(AnyChannel::new(normal.as_str(), half(&|p| p.denoising_normal[k])));
+        }
+    }
     let mut attributes = LayerAttributes {
         comments: Some(Text::from(header.comment.as_str())),
         software_name: Some(Text::from("shatter")),
@@ -306,7 +329,7 @@ mod tests {
     }
 
     fn layers<'a>(pixels: &'a [Pixel], motion: &'a [[f32; 4]], mattes: &'a [Matte]) -> FrameLayers<'a> {
-        FrameLayers { pixels, motion, mattes }
+        FrameLayers { pixels, motion, mattes, denoising: false }
     }
 
     #[test]
@@ -329,6 +352,20 @@ mod tests {
         assert_eq!((width, height), (4, 3));
         let names: Vec<&str> = channels.iter().map(|c| c.name.as_str()).collect();
         assert_eq!(names, EXR_CHANNELS);
+        let guided = dir.path().join("shot.0002.exr");
+        let with_guides: Vec<Pixel> = pixels
+            .iter()
+            .map(|p| Pixel { denoising_albedo: [0.25, 0.5, 0.75], denoising_normal: [0.0, 0.6, -0.8], ..*p })
+            .collect();
+        let denoising = FrameLayers { denoising: true, ..layers(&with_guides, &motion, &[]) };
+        write_exr(&guided, 4, 3, &denoising, &test_header()).expect("write");
+        let (_, _, guides) = read_exr(&guided).expect("read");
+        let mut expected: Vec<&str> = EXR_CHANNELS.iter().chain(&DENOISING_CHANNELS).copied().collect();
+        expected.sort_unstable();
+        assert_eq!(guides.iter().map(|c| c.name.as_str()).collect::<Vec<_>>(), expected);
+        let guide = |name: &str| guides.iter().find(|c| c.name == name).expect("channel").values[5];
+        assert_eq!(guide("ViewLayer.Denoising Albedo.B"), 0.75);
+        assert_eq!(guide("ViewLayer.Denoising Normal.Z"), f16::from_f32(-0.8).to_f32(), "half precision");
         let channel = |name: &str| channels.iter().find(|c| c.name == name).expect("channel");
         assert_eq!(channel("R").sample_type, "f16");
         let (depth, fragment) = ("ViewLayer.Depth.Z", "ViewLayer.FragmentIndex.X");

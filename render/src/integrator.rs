@@ -36,6 +36,12 @@ pub struct Pixel {
     pub element: u32,
     /// What kind of surface was seen first ([`crate::mattes::SURFACE_NONE`] and so on).
     pub surface: u32,
+    /// The denoisers' albedo guide: the albedo of the first diffuse surface along the path (the
+    /// opaque material or the floor; 1 for the environment), times the glass's tint on the way.
+    pub denoising_albedo: [f32; 3],
+    /// The denoisers' normal guide: the world-space normal of that surface (for the environment,
+    /// of the first glass surface on the way, else zero).
+    pub denoising_normal: [f32; 3],
 }
 
 impl Pixel {
@@ -48,6 +54,8 @@ impl Pixel {
         fragment: 0,
         element: NONE,
         surface: SURFACE_NONE,
+        denoising_albedo: [0.0; 3],
+        denoising_normal: [0.0; 3],
     };
 }
 
@@ -80,6 +88,8 @@ pub(crate) struct CameraRay {
     pub pixel: u32,
     /// Sample number within the pixel.
     pub sample: u32,
+    /// Its time, frames from the frame's centre (see [`crate::shutter`]).
+    pub time: f32,
 }
 
 /// A camera ray's first surface, as the image loop finds it for a packet of rays: its nearest hit
@@ -91,6 +101,34 @@ pub(crate) struct FirstSurface {
     pub hit: Hit,
     /// The floor's albedo where the ray meets it, if it meets the floor before `hit`.
     pub floor_albedo: [f32; 3],
+}
+
+/// The layers of a camera ray from `origin` along `direction` whose nearest element surface is
+/// `hit`: what it sees first (the floor, an element or nothing), its depth, normal, element,
+/// fragment and surface kind, and coverage (alpha); no colour.
+pub(crate) fn first_layers(
+    scene: &SceneGeometry,
+    look: &Look,
+    origin: [f32; 3],
+    direction: [f32; 3],
+    hit: Hit,
+) -> Pixel {
+    let t_floor = floor_t(look, origin, direction);
+    if t_floor < hit.t {
+        return Pixel { alpha: 1.0, depth: t_floor, normal: [0.0, 1.0, 0.0], surface: SURFACE_FLOOR, ..Pixel::EMPTY };
+    }
+    if hit.element == NONE {
+        return Pixel::EMPTY;
+    }
+    Pixel {
+        alpha: 1.0,
+        depth: hit.t,
+        normal: hit.normal,
+        fragment: scene.fragment[hit.element as usize] + 1,
+        element: hit.element,
+        surface: if hit.fracture { SURFACE_FRACTURE } else { SURFACE_OUTER },
+        ..Pixel::EMPTY
+    }
 }
 
 /// Radiance along one camera ray, and its first-surface layers.
@@ -105,10 +143,12 @@ pub(crate) fn trace_ray(scene: &SceneGeometry, look: &Look, ray: CameraRay, firs
         stack: [Branch { origin, direction, throughput: [0.0; 3], inside: NONE, event: 0 }; SPLIT_STACK],
         pending: 0,
         result: Pixel::EMPTY,
+        guide: Guide::default(),
     };
     let mut path = Branch { origin, direction, throughput: [1.0; 3], inside: NONE, event: 0 };
     let mut branch = 0u32;
     loop {
+        tracer.guide.open = branch == 0;
         tracer.follow(&mut path, branch, &first);
         if tracer.pending == 0 {
             return tracer.result;
@@ -131,6 +171,16 @@ struct PathTracer<'a> {
     stack: [Branch; SPLIT_STACK],
     pending: usize,
     result: Pixel,
+    guide: Guide,
+}
+
+/// Where the denoising guides stand: set once, by the first branch's first diffuse surface.
+#[derive(Debug, Default, Clone, Copy)]
+struct Guide {
+    /// The branch being followed is the first, and no diffuse surface has set the guides yet.
+    open: bool,
+    /// The first glass surface's normal, for a path that ends in the environment.
+    glass_normal: Option<[f32; 3]>,
 }
 
 impl PathTracer<'_> {
@@ -154,7 +204,7 @@ impl PathTracer<'_> {
     /// Through the glass to where the union ends; reflect inside or refract out.
     fn leave_glass(&mut self, path: &mut Branch, chance: f32) {
         let (o, d) = (path.origin, path.direction);
-        let (t, m, last) = union_exit(self.scene, path.inside, o, d);
+        let (t, m, last) = union_exit(self.scene, path.inside, o, d, self.ray.time);
         let exit = along(o, d, t);
         for (weight, absorption) in path.throughput.iter_mut().zip(self.look.absorption) {
             *weight *= (-absorption * t).exp();
@@ -179,54 +229,40 @@ impl PathTracer<'_> {
         let (o, d) = (path.origin, path.direction);
         let hit = match first {
             Some(surface) => surface.hit,
-            None => closest_hit(self.scene, o, d, 0.0),
+            None => closest_hit(self.scene, o, d, 0.0, self.ray.time),
         };
+        if first.is_some() {
+            self.result = Pixel { color: self.result.color, ..first_layers(self.scene, self.look, o, d, hit) };
+        }
         let t_floor = floor_t(self.look, o, d);
         if t_floor < hit.t {
-            if first.is_some() {
-                let floor = Pixel {
-                    alpha: 1.0,
-                    depth: t_floor,
-                    normal: [0.0, 1.0, 0.0],
-                    surface: SURFACE_FLOOR,
-                    ..self.result
-                };
-                self.result = floor;
-            }
             let albedo = match first {
                 Some(surface) => surface.floor_albedo,
                 None => floor_albedo(self.look, along(o, d, t_floor)),
             };
+            self.set_guides(path.throughput, albedo, [0.0, 1.0, 0.0]);
             self.add(path.throughput, floor_radiance(self.look, albedo, d));
             return true;
         }
         if hit.element == NONE {
+            self.set_guides(path.throughput, [1.0; 3], self.guide.glass_normal.unwrap_or([0.0; 3]));
             if first.is_none() || self.look.show_environment {
                 self.add(path.throughput, self.look.environment.radiance(d));
             }
             return true;
         }
-        if first.is_some() {
-            self.record_first(hit);
-        }
         let p = along(o, d, hit.t);
         if !self.glass {
             let albedo = if hit.fracture { self.look.fracture_albedo } else { self.look.albedo };
+            self.set_guides(path.throughput, albedo, hit.normal);
             self.add(path.throughput, shade_opaque(self.look, albedo, hit.normal, d, self.look.specular));
             return true;
         }
+        if self.guide.open && self.guide.glass_normal.is_none() {
+            self.guide.glass_normal = Some(hit.normal);
+        }
         self.enter_glass(path, hit, p, chance);
         false
-    }
-
-    /// The first surface's layers: depth, normal, element, fragment and surface kind.
-    fn record_first(&mut self, hit: Hit) {
-        self.result.alpha = 1.0;
-        self.result.depth = hit.t;
-        self.result.normal = hit.normal;
-        self.result.element = hit.element;
-        self.result.fragment = self.scene.fragment[hit.element as usize] + 1;
-        self.result.surface = if hit.fracture { SURFACE_FRACTURE } else { SURFACE_OUTER };
     }
 
     /// Glass met at `p` from outside: reflect, or refract into the union.
@@ -257,11 +293,22 @@ impl PathTracer<'_> {
         let t_floor = floor_t(self.look, path.origin, path.direction);
         let escape = if t_floor.is_finite() {
             let albedo = floor_albedo(self.look, along(path.origin, path.direction, t_floor));
+            self.set_guides(path.throughput, albedo, [0.0, 1.0, 0.0]);
             floor_radiance(self.look, albedo, path.direction)
         } else {
+            self.set_guides(path.throughput, [1.0; 3], self.guide.glass_normal.unwrap_or([0.0; 3]));
             self.look.environment.radiance(path.direction)
         };
         self.add(path.throughput, escape);
+    }
+
+    /// Sets the denoising guides, if still open: `albedo` seen through `throughput`, and `normal`.
+    fn set_guides(&mut self, throughput: [f32; 3], albedo: [f32; 3], normal: [f32; 3]) {
+        if self.guide.open {
+            self.result.denoising_albedo = std::array::from_fn(|k| throughput[k] * albedo[k]);
+            self.result.denoising_normal = normal;
+            self.guide.open = false;
+        }
     }
 
     /// Adds `radiance` weighted by `throughput` to the pixel's colour.

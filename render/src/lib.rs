@@ -11,6 +11,8 @@
 //! - [`element_index`]: the CPU tracer's two-level index: one rest-frame tree for a render, and
 //!   per frame a tree over the fragments' boxes.
 //! - [`primitives`]: ray hits of cubes, tetrahedra and trimtopes, and their CSG unions.
+//! - [`shutter`]: how the pieces move while the shutter is open, and rays carried to the frame's
+//!   centre (3D motion blur).
 //!
 //! The tracer:
 //! - [`camera`]: the pinhole camera and its OpenEXR matrices.
@@ -50,6 +52,7 @@ pub mod render_driver;
 mod sampling;
 pub mod scene_geometry;
 mod shading;
+pub mod shutter;
 
 #[cfg(test)]
 mod trace_tests;

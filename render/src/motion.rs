@@ -19,7 +19,7 @@ use crate::integrator::Pixel;
 pub type Motions<'a> = Option<&'a FragmentFrame>;
 
 /// Element `element`'s rigid motion (rotation, translation) at a frame.
-fn motion_of(frame: Motions, element: usize) -> (DQuat, DVec3) {
+pub(crate) fn motion_of(frame: Motions, element: usize) -> (DQuat, DVec3) {
     match frame {
         Some(frame) => {
             let f = frame.fragment_of[element] as usize;

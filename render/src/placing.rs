@@ -17,6 +17,7 @@ use crate::primitives::{
     Plane, WIDEN, cube_planes, in_opposite_pairs, sort_triangles_spatially, tet_planes, triangle_groups,
 };
 use crate::scene_geometry::{CubeSlabs, SceneGeometry};
+use crate::shutter::{FramePoses, SceneMotion};
 
 /// One element's planes, triangles, site and bounds.
 type ElementParts = (Vec<Plane>, Vec<[[f32; 3]; 3]>, [f32; 3], Aabb);
@@ -24,13 +25,29 @@ type ElementParts = (Vec<Plane>, Vec<[[f32; 3]; 3]>, [f32; 3], Aabb);
 impl SceneGeometry {
     /// The scene of `particles` moved by `fragments` (the rest state when None).
     pub fn build(particles: &ParticleSet, fragments: Option<&FragmentFrame>) -> SceneGeometry {
-        SceneGeometry::build_with(particles, fragments, &SceneBasis::new(particles, fragments.is_some()))
+        SceneGeometry::build_with(particles, fragments, &SceneBasis::new(particles, fragments.is_some()), None)
+    }
+
+    /// The scene of `particles` at the frame `poses` holds, with their motion over a shutter
+    /// open `shutter` frames (see [`crate::shutter`]); still when the shutter is closed or
+    /// nothing moves.
+    pub fn build_over_shutter(particles: &ParticleSet, poses: FramePoses, shutter: f64) -> SceneGeometry {
+        let motion = SceneMotion::new(&particles.rest_position_m, poses, shutter);
+        let basis = SceneBasis::new(particles, poses.current.is_some() && motion.is_none());
+        SceneGeometry::build_with(particles, poses.current, &basis, motion)
     }
 
     /// [`SceneGeometry::build`] on a render's [`SceneBasis`] (of these particles): what does not
     /// change from frame to frame is taken from it, and with its rest tree, rigidly moved
-    /// fragments are found through that, without a k-d tree built for the frame.
-    pub fn build_with(particles: &ParticleSet, fragments: Option<&FragmentFrame>, basis: &SceneBasis) -> SceneGeometry {
+    /// fragments are found through that, without a k-d tree built for the frame. With `motion`
+    /// (an open shutter), the elements' bounds hold them at every time of the shutter, and the
+    /// index is one world tree over those.
+    pub fn build_with(
+        particles: &ParticleSet,
+        fragments: Option<&FragmentFrame>,
+        basis: &SceneBasis,
+        motion: Option<SceneMotion>,
+    ) -> SceneGeometry {
         let n = particles.len();
         // Each fragment's rigid motion x = q X + t, as the elements are placed (f32).
         let motions: Vec<(Quat, Vec3)> = fragments.map_or_else(Vec::new, |frame| {
@@ -62,6 +79,7 @@ impl SceneGeometry {
             slack,
             cube_slabs: Vec::new(),
             cube_axes: Vec::new(),
+            motion: None,
         };
         match &particles.elements {
             Elements::Cubes { half_size_m, orientation } if !deformed => {
@@ -92,6 +110,14 @@ impl SceneGeometry {
         };
         for (cube, faces) in scene.cube_slabs.iter_mut().zip(&scene.interior_faces) {
             cube.interior_faces = *faces;
+        }
+        if let Some(motion) = motion {
+            let slack = scene.slack;
+            scene.element_bounds =
+                scene.element_bounds.par_iter().enumerate().map(|(e, b)| motion.swept(e, *b, slack)).collect();
+            scene.index = ElementIndex::world(&scene.element_bounds);
+            scene.motion = Some(motion);
+            return scene;
         }
         let moved = match (fragments, &basis.rest) {
             (Some(frame), Some(rest)) if !deformed => {
@@ -614,7 +640,7 @@ mod tests {
         let unit = |k: u64| random(k as u32, 0, 0);
         let (particles, frame) = broken_block();
         let scene = SceneGeometry::build(&particles, Some(&frame));
-        let world = SceneGeometry::build_with(&particles, Some(&frame), &SceneBasis::new(&particles, false));
+        let world = SceneGeometry::build_with(&particles, Some(&frame), &SceneBasis::new(&particles, false), None);
         assert!(scene.index.world_tree().is_none(), "the fragments are found through the rest tree");
         assert!(world.index.world_tree().is_some());
         // the cubes are tested from their slabs, one set of axes for each fragment's turn
@@ -631,8 +657,8 @@ mod tests {
                     d.as_vec3().to_array()
                 })
                 .collect();
-            let mut packet = vec![closest_hit(&scene, origin, directions[0], 0.0); 16];
-            closest_hits(&scene, origin, &directions, &mut packet);
+            let mut packet = vec![closest_hit(&scene, origin, directions[0], 0.0, 0.0); 16];
+            closest_hits(&scene, origin, &directions, None, &mut packet);
             for (r, &direction) in directions.iter().enumerate() {
                 // every element tested: the nearest entry, ties to the lower element
                 let mut nearest = (f32::INFINITY, NONE);
@@ -645,10 +671,10 @@ mod tests {
                         nearest = (span.t_in, e as u32);
                     }
                 }
-                let hit = closest_hit(&scene, origin, direction, 0.0);
+                let hit = closest_hit(&scene, origin, direction, 0.0, 0.0);
                 assert_eq!((hit.t, hit.element), nearest, "ray {k}.{r}");
                 assert_eq!((packet[r].t, packet[r].element), nearest, "packet {k}, ray {r}");
-                let in_world = closest_hit(&world, origin, direction, 0.0);
+                let in_world = closest_hit(&world, origin, direction, 0.0, 0.0);
                 assert_eq!((in_world.t, in_world.element), nearest, "world tree, ray {k}.{r}");
                 hits += usize::from(nearest.1 != NONE);
             }

@@ -32,6 +32,7 @@ use crate::materials::{FloorLook, FloorTexels, Look};
 use crate::motion::{Motions, motion_vectors};
 use crate::placing::SceneBasis;
 use crate::scene_geometry::SceneGeometry;
+use crate::shutter::{FramePoses, SceneMotion};
 
 /// Why rendering failed.
 #[derive(Debug, thiserror::Error)]
@@ -277,6 +278,8 @@ struct FrameFiles {
     pixels: Vec<Pixel>,
     motion: Vec<[f32; 4]>,
     mattes: [Matte; 2],
+    /// Write the denoising passes.
+    denoising: bool,
     header: FrameHeader,
     /// The EXR's path.
     exr: PathBuf,
@@ -288,7 +291,8 @@ impl FrameFiles {
     /// Writes the EXR, then the preview.
     fn write(self) -> Result<(), ImageError> {
         let [width, height] = self.size;
-        let layers = FrameLayers { pixels: &self.pixels, motion: &self.motion, mattes: &self.mattes };
+        let layers =
+            FrameLayers { pixels: &self.pixels, motion: &self.motion, mattes: &self.mattes, denoising: self.denoising };
         write_exr(&self.exr, width, height, &layers, &self.header)?;
         if let Some((path, exposure)) = &self.preview {
             write_png(path, width, height, &self.pixels, *exposure)?;
@@ -432,7 +436,9 @@ impl<'a> RenderJob<'a> {
         next: Option<Motions>,
     ) -> Result<FrameFiles, RenderError> {
         let (config, render_config, camera) = (self.config, &self.config.render, &self.camera);
-        let scene = SceneGeometry::build_with(&self.particles, fragments, basis);
+        let poses = FramePoses { current: fragments, previous, next };
+        let motion = SceneMotion::new(&self.particles.rest_position_m, poses, render_config.shutter);
+        let scene = SceneGeometry::build_with(&self.particles, fragments, basis, motion);
         let rendered = self.tracer.render(&scene, &self.look, camera, render_config.samples_per_pixel)?;
         let motion = motion_vectors(camera, &rendered.pixels, fragments, previous, next);
         let ids: Vec<u32> = (0..fragments.map_or(1, |f| f.fragment_count() as u32)).collect();
@@ -454,6 +460,7 @@ impl<'a> RenderJob<'a> {
             pixels: rendered.pixels,
             motion,
             mattes,
+            denoising: render_config.denoising_passes,
             header,
             exr,
             preview,

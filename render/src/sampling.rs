@@ -38,3 +38,15 @@ pub fn sample_offset(pixel: u32, sample: u32, samples: u32) -> (f32, f32) {
     }
     (((k % n) as f32 + jx) / n as f32, ((k / n) as f32 + jy) / n as f32)
 }
+
+/// The time of sample `sample` in pixel `pixel` under a shutter open `shutter` frames, in frames
+/// from the frame's centre: the samples' base-2 radical inverses (stratified for any count),
+/// turned by one random shift per pixel, spread over the open interval.
+pub fn sample_time(pixel: u32, sample: u32, shutter: f32) -> f32 {
+    let base = sample.reverse_bits() as f32 * (1.0 / 4_294_967_296.0);
+    let mut u = base + random(pixel, 0, 1002);
+    if u >= 1.0 {
+        u -= 1.0;
+    }
+    shutter * (u - 0.5)
+}

@@ -8,6 +8,7 @@ use shatter_core::particles::ElementType;
 use crate::element_index::ElementIndex;
 use crate::element_kdtree::Aabb;
 use crate::primitives::{CubeFromOrigin, Plane, paired_contains, polytope_contains, polytope_span};
+use crate::shutter::SceneMotion;
 
 /// The elements of one frame, flattened for tracing (and for upload to the GPU as is).
 #[derive(Debug, Clone, PartialEq)]
@@ -52,6 +53,9 @@ pub struct SceneGeometry {
     pub cube_slabs: Vec<CubeSlabs>,
     /// The distinct axes of the cubes in `cube_slabs` (one set for each fragment's turn).
     pub cube_axes: Vec<[[f32; 3]; 3]>,
+    /// How the elements move while the shutter is open (None: still); the elements are placed
+    /// at the frame's centre, and `element_bounds` hold them over the whole shutter.
+    pub motion: Option<SceneMotion>,
 }
 
 /// A cube's six plane distances and the index of its axes (the normals of planes 0, 2 and 4) in

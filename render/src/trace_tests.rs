@@ -135,7 +135,7 @@ fn packets_of_camera_rays_find_what_single_rays_find() {
             for y in 0..47 {
                 for x in 0..61 {
                     let d = camera.direction(x as f32 + 0.5, y as f32 + 0.5);
-                    let alone = closest_hit(scene, camera.origin, d, 0.0);
+                    let alone = closest_hit(scene, camera.origin, d, 0.0, 0.0);
                     assert_eq!(hits[y * 61 + x], alone, "scene {s}, eye {eye}, pixel ({x}, {y})");
                     seen += usize::from(alone.element != NONE);
                 }
@@ -212,7 +212,7 @@ fn touching_cubes_show_no_seam_and_no_inner_face() {
         }
     }
     // Inside the glass a ray walks on to the far side of the union, not to the inner face.
-    let (t, normal, last) = union_exit(&scene, 0, [-0.4, 0.1, 0.0], [1.0, 0.0, 0.0]);
+    let (t, normal, last) = union_exit(&scene, 0, [-0.4, 0.1, 0.0], [1.0, 0.0, 0.0], 0.0);
     assert!((t - 1.9).abs() < 1e-4, "exit at x = 1.5, not 0.5: t = {t}");
     assert_eq!(normal, [1.0, 0.0, 0.0]);
     assert_eq!(last, 1);
@@ -230,7 +230,7 @@ fn a_walk_out_through_a_face_two_cubes_share_near_their_edge_ends_there() {
     let edge = [-0.5, -0.5 + 0.3 * slack, 0.0];
     let s = 0.3;
     let origin = along(edge, direction, -s);
-    let (t, normal, last) = union_exit(&scene, 0, origin, direction);
+    let (t, normal, last) = union_exit(&scene, 0, origin, direction, 0.0);
     assert_eq!(normal, [-1.0, 0.0, 0.0], "leaves through the shared -x plane (ended in element {last})");
     assert!((t - s).abs() < 1e-5, "at the face, t = {t} against {s}");
 }
@@ -271,8 +271,8 @@ fn the_walk_across_face_neighbours_leaves_where_the_tree_walk_does() {
             v.as_vec3().to_array()
         };
         let start = element_at(&scene, origin, NONE);
-        let (t, normal, _) = union_exit(&scene, start, origin, direction);
-        let (t_tree, normal_tree, _) = union_exit(&tree_only, start, origin, direction);
+        let (t, normal, _) = union_exit(&scene, start, origin, direction, 0.0);
+        let (t_tree, normal_tree, _) = union_exit(&tree_only, start, origin, direction, 0.0);
         assert!((t - t_tree).abs() < 1e-5, "ray {k}: {t} vs {t_tree}");
         assert_eq!(normal, normal_tree, "ray {k}");
         // and it is where the ray leaves the block [-0.5, 3.5]^3
@@ -287,7 +287,7 @@ fn the_walk_across_face_neighbours_leaves_where_the_tree_walk_does() {
     // a neighbour that has moved away is no shortcut: the walk ends at the face it left by
     let mut apart = cubes(vec![[0.0; 3], [5.0, 0.0, 0.0]]);
     apart.face_neighbours[0] = 1;
-    let (t, normal, last) = union_exit(&apart, 0, [0.0; 3], [1.0, 0.0, 0.0]);
+    let (t, normal, last) = union_exit(&apart, 0, [0.0; 3], [1.0, 0.0, 0.0], 0.0);
     assert_eq!((t, normal, last), (0.5, [1.0, 0.0, 0.0], 0));
 }
 
@@ -306,11 +306,11 @@ fn a_ray_through_a_glass_slab_of_touching_cubes_leaves_parallel() {
         v.as_vec3().to_array()
     };
     let o = [-0.7, 2.0, -0.4];
-    let entry = closest_hit(&scene, o, d, 0.0);
+    let entry = closest_hit(&scene, o, d, 0.0, 0.0);
     assert_eq!(entry.normal, [0.0, 1.0, 0.0], "enters through the top");
     let inside_d = refract(d, entry.normal, 1.0 / look.ior).expect("refracts in");
     let p = along(o, d, entry.t);
-    let (t, m, _) = union_exit(&scene, entry.element, along(p, entry.normal, -1e-4), inside_d);
+    let (t, m, _) = union_exit(&scene, entry.element, along(p, entry.normal, -1e-4), inside_d, 0.0);
     assert_eq!(m, [0.0, -1.0, 0.0], "leaves through the bottom face of the slab");
     assert!(t > 1.0, "crosses the slab's full thickness: {t}");
     let out = refract(inside_d, m.map(|v| -v), look.ior).expect("refracts out");

@@ -134,7 +134,7 @@ fn cryptomattes_decode_to_the_covered_areas() {
         frames_per_second: 24.0,
         simulation_time_s: 0.0,
     };
-    let layers = FrameLayers { pixels: &rendered.pixels, motion: &motion, mattes: &mattes };
+    let layers = FrameLayers { pixels: &rendered.pixels, motion: &motion, mattes: &mattes, denoising: false };
     write_exr(&path, width as usize, height as usize, &layers, &header).expect("write");
 
     let fragments = decode(&path, "ViewLayer.CryptoObject");
@@ -153,7 +153,7 @@ fn cryptomattes_decode_to_the_covered_areas() {
             for j in 0..16 {
                 for i in 0..16 {
                     let d = camera.direction(x as f32 + (i as f32 + 0.5) / 16.0, y as f32 + (j as f32 + 0.5) / 16.0);
-                    let hit = closest_hit(&scene, camera.origin, d, 0.0);
+                    let hit = closest_hit(&scene, camera.origin, d, 0.0, 0.0);
                     let floor_t = if d[1] < 0.0 { (FLOOR_Y - camera.origin[1]) / d[1] } else { f32::INFINITY };
                     let (fragment, material) = if hit.element != NONE && hit.t < floor_t {
                         (Some(format!("piece_{:05}", scene.fragment[hit.element as usize])), "outer")

@@ -172,10 +172,16 @@ fn compare(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32) ->
             }
         }
         for k in 0..3 {
-            // colour: same paths almost everywhere; a rare Fresnel coin landing differently changes a sample
-            let tolerance = 1e-3 * (1.0 + c.color[k].abs());
-            if (g.color[k] - c.color[k]).abs() > tolerance {
-                assert!(samples > 1, "pixel {index}: colour {:?} vs {:?}", g.color, c.color);
+            // colour and the denoising guides: same paths almost everywhere; a rare Fresnel coin
+            // landing differently changes a sample
+            for (what, g, c) in [
+                ("colour", g.color, c.color),
+                ("albedo guide", g.denoising_albedo, c.denoising_albedo),
+                ("normal guide", g.denoising_normal, c.denoising_normal),
+            ] {
+                if (g[k] - c[k]).abs() > 1e-3 * (1.0 + c[k].abs()) {
+                    assert!(samples > 1, "pixel {index}: {what} {g:?} vs {c:?}");
+                }
             }
         }
     }

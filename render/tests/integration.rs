@@ -5,5 +5,7 @@
 mod support;
 
 mod cryptomatte;
+mod denoising_guides;
 mod glass_convergence;
 mod gpu_trace;
+mod motion_blur;

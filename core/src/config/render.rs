@@ -30,6 +30,13 @@ pub struct RenderConfig {
     /// and the refracted branch weighted by Fresnel (later events pick one at random): 0 is plain
     /// random choice; each split costs a branch, at most 4 pending per sample.
     pub glass_split_events: u32,
+    /// The shutter's open time as a fraction of a frame, centred on the frame's time: each
+    /// camera ray sees the pieces where their motion puts them at its own time in that interval
+    /// (3D motion blur). 0.5 is a 180-degree shutter; 0 gives still frames.
+    pub shutter: f64,
+    /// Also write the denoising passes (Blender's Denoising Albedo and Denoising Normal), the
+    /// guides a comp's denoiser takes with the colour.
+    pub denoising_passes: bool,
     /// Equirectangular HDR environment (.hdr or .exr), relative to the config file's folder;
     /// absent, a uniform sky of radiance 1.
     pub environment: Option<PathBuf>,
@@ -57,6 +64,8 @@ impl Default for RenderConfig {
             samples_per_pixel: 4,
             max_bounces: 8,
             glass_split_events: 0,
+            shutter: 0.5,
+            denoising_passes: true,
             environment: None,
             environment_intensity: 1.0,
             show_environment: true,
@@ -201,6 +210,9 @@ impl RenderConfig {
             &self.glass_split_events.to_string(),
             || "must be between 0 and 8".into(),
         )?;
+        check.that((0.0..=1.0).contains(&self.shutter), "render.shutter", &self.shutter.to_string(), || {
+            "must be a fraction of a frame from 0 (still frames) to 1".into()
+        })?;
         for (key, path) in [
             ("render.environment", &self.environment),
             ("render.floor.texture", &self.floor.as_ref().and_then(|f| f.texture.clone())),
