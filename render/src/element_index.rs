@@ -18,6 +18,7 @@ use std::sync::Arc;
 use glam::{DQuat, DVec3, Quat, Vec3};
 
 use crate::element_kdtree::{Aabb, KdTree, PACKET, each_ray};
+use crate::shutter::SceneMotion;
 
 /// The instance that holds every element (a world tree, or the unmoved rest state).
 const EVERY: u32 = u32::MAX;
@@ -166,13 +167,14 @@ impl ElementIndex {
     /// far (or infinity). The nearest hit is the one a single tree over the elements would find.
     /// Each fragment is walked over the interval of each leaf of the top tree that lists it, so
     /// the walks go front to back and stop at the nearest hit, however the fragments' boxes
-    /// overlap.
+    /// overlap. With `shutter` (the scene's motion and the ray's time), the instances are the
+    /// motion's groups, and the ray is carried to the frame's centre for each before its walk.
     pub fn traverse(
         &self,
         fragment_of: &[u32],
-        origin: [f32; 3],
-        direction: [f32; 3],
+        (origin, direction): ([f32; 3], [f32; 3]),
         t_start: f32,
+        shutter: Option<(&SceneMotion, f32)>,
         mut hit: impl FnMut(u32) -> f32,
     ) {
         if let Some(tree) = self.world_tree() {
@@ -182,6 +184,11 @@ impl ElementIndex {
         let mut best = f32::INFINITY;
         self.top.traverse(origin, direction, t_start, f32::INFINITY, |i, t_min, t_max| {
             let instance = &self.instances[i as usize];
+            let (origin, direction) =
+                match shutter.and_then(|(motion, time)| motion.group_to_centre(instance.fragment, time)) {
+                    Some(map) => (map.point(origin), map.vector(direction)),
+                    None => (origin, direction),
+                };
             let (o, d) = (instance.point(origin), instance.vector(direction));
             self.tree.traverse_within(&instance.tree_box, o, d, t_min, t_max, |e, _, _| {
                 if instance.holds(fragment_of, e) {

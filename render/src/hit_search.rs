@@ -167,7 +167,8 @@ impl<'a> AtCentre<'a> {
 pub fn closest_hit(scene: &SceneGeometry, origin: [f32; 3], direction: [f32; 3], t_min: f32, time: f32) -> Hit {
     let mut nearest = Nearest::NONE;
     let mut centre = AtCentre::new(scene, origin, direction, time);
-    scene.index.traverse(&scene.fragment, origin, direction, t_min, |e| {
+    let shutter = scene.motion.as_ref().map(|motion| (motion, time));
+    scene.index.traverse(scene.members(), (origin, direction), t_min, shutter, |e| {
         let (o, d) = centre.ray(e);
         nearest.offer(e, element_entry(scene, e as usize, o, d, t_min));
         nearest.t
@@ -189,11 +190,18 @@ pub fn closest_hits(
 ) {
     let mut nearest = [Nearest::NONE; PACKET];
     let moving = scene.motion.is_some() && times.is_some();
+    if moving && scene.index.world_tree().is_none() {
+        // rays at their own times are carried to each group's centre apart: one walk each
+        for (r, (hit, &direction)) in hits.iter_mut().zip(directions).enumerate() {
+            *hit = closest_hit(scene, origin, direction, 0.0, times.map_or(0.0, |times| times[r]));
+        }
+        return;
+    }
     let time = |r: usize| times.map_or(0.0, |times| times[r]);
     let mut centres: Option<[AtCentre; PACKET]> = moving.then(|| {
         std::array::from_fn(|r| AtCentre::new(scene, origin, directions.get(r).copied().unwrap_or([0.0; 3]), time(r)))
     });
-    let traversed = scene.index.traverse_packet(&scene.fragment, origin, directions, 0.0, |e, rays| {
+    let traversed = scene.index.traverse_packet(scene.members(), origin, directions, 0.0, |e, rays| {
         match (&mut centres, scene.cube(e as usize)) {
             (Some(centres), _) => {
                 for r in each_ray(rays) {
@@ -228,7 +236,7 @@ pub fn closest_hits(
 /// The lowest element (other than `except`) holding `point`, if any.
 pub fn element_at(scene: &SceneGeometry, point: [f32; 3], except: u32) -> u32 {
     let mut found = NONE;
-    scene.index.for_each_at(&scene.fragment, point, |e| {
+    scene.index.for_each_at(scene.members(), point, |e| {
         if e < found && e != except && scene.contains(e as usize, point) {
             found = e;
         }

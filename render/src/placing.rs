@@ -33,7 +33,7 @@ impl SceneGeometry {
     /// nothing moves.
     pub fn build_over_shutter(particles: &ParticleSet, poses: FramePoses, shutter: f64) -> SceneGeometry {
         let motion = SceneMotion::new(&particles.rest_position_m, poses, shutter);
-        let basis = SceneBasis::new(particles, poses.current.is_some() && motion.is_none());
+        let basis = SceneBasis::new(particles, poses.current.is_some());
         SceneGeometry::build_with(particles, poses.current, &basis, motion)
     }
 
@@ -111,20 +111,31 @@ impl SceneGeometry {
         for (cube, faces) in scene.cube_slabs.iter_mut().zip(&scene.interior_faces) {
             cube.interior_faces = *faces;
         }
-        if let Some(motion) = motion {
+        if let Some(motion) = &motion {
             let slack = scene.slack;
             scene.element_bounds =
                 scene.element_bounds.par_iter().enumerate().map(|(e, b)| motion.swept(e, *b, slack)).collect();
-            scene.index = ElementIndex::world(&scene.element_bounds);
-            scene.motion = Some(motion);
-            return scene;
         }
+        // the rest tree's instances: the fragments, or under an open shutter the motion's groups
+        // (each group's elements share this frame's fragment, so its motion)
+        let members = motion.as_ref().map_or(&scene.fragment, |motion| &motion.group_of);
+        let member_motions: Vec<(Quat, Vec3)> = match &motion {
+            Some(motion) if !motions.is_empty() => {
+                let mut first = vec![u32::MAX; motion.groups.len()];
+                for (e, &g) in motion.group_of.iter().enumerate().rev() {
+                    first[g as usize] = e as u32;
+                }
+                first.iter().map(|&e| motions[scene.fragment[e as usize] as usize]).collect()
+            }
+            _ => motions.clone(),
+        };
         let moved = match (fragments, &basis.rest) {
-            (Some(frame), Some(rest)) if !deformed => {
-                ElementIndex::of_fragments(rest, &frame.fragment_of, &motions, &scene.element_bounds)
+            (Some(_), Some(rest)) if !deformed => {
+                ElementIndex::of_fragments(rest, members, &member_motions, &scene.element_bounds)
             }
             _ => None,
         };
+        scene.motion = motion;
         scene.index = moved.unwrap_or_else(|| ElementIndex::world(&scene.element_bounds));
         scene
     }
@@ -687,6 +698,80 @@ mod tests {
             inside += usize::from(holding.is_some());
         }
         assert!(hits > 3000 && inside > 100, "{hits} hits, {inside} points inside");
+    }
+
+    /// Under an open shutter the rest tree's instances are the motion's groups, each ray carried
+    /// to the frame's centre per group: its hits are those of a world tree over the swept boxes
+    /// and of a search of every element, each ray at its own time; alone or in a packet.
+    #[test]
+    fn a_moving_frames_index_finds_what_a_search_of_every_element_finds() {
+        use crate::hit_search::{Hit, NONE, closest_hit, closest_hits};
+        use crate::primitives::polytope_span;
+        use crate::sampling::random;
+        let unit = |k: u64| random(k as u32, 7, 0);
+        let (particles, now) = broken_block();
+        let moved = |s: f64| {
+            let mut frame = now.clone();
+            for f in 0..4 {
+                let turn = DQuat::from_axis_angle(DVec3::new(f as f64, 1.0, 0.3).normalize(), s * 0.2 * f as f64);
+                frame.rotation[f] = (turn * DQuat::from_array(now.rotation[f].map(f64::from))).as_quat().to_array();
+                frame.translation_m[f] = [s * 0.05 * f as f64, -s * 0.03, s * 0.02 * f as f64];
+            }
+            frame
+        };
+        // fragment 3 splits in the next frame: its elements fall in two groups
+        let mut after = moved(1.0);
+        for (e, f) in after.fragment_of.iter_mut().enumerate() {
+            if *f == 3 && e % 2 == 0 {
+                *f = 4;
+            }
+        }
+        after.rotation.push(after.rotation[1]);
+        after.translation_m.push([0.0, -0.2, 0.0]);
+        let before = moved(-1.0);
+        let poses = FramePoses { current: Some(&now), previous: Some(Some(&before)), next: Some(Some(&after)) };
+        let motion = || SceneMotion::new(&particles.rest_position_m, poses, 0.5);
+        assert_eq!(motion().expect("moving").groups.len(), 5);
+        let scene = SceneGeometry::build_with(&particles, Some(&now), &SceneBasis::new(&particles, true), motion());
+        let world = SceneGeometry::build_with(&particles, Some(&now), &SceneBasis::new(&particles, false), motion());
+        assert!(scene.index.world_tree().is_none() && world.index.world_tree().is_some());
+        let moving = scene.motion.as_ref().expect("moving");
+        let mut hits = 0;
+        for k in 0..200u64 {
+            let origin = [unit(5 * k) * 3.0 - 1.0, unit(5 * k + 1) * 3.0 - 0.5, unit(5 * k + 2) * 3.0 + 0.6];
+            let times: Vec<f32> = (0..16u64).map(|r| 0.5 * unit(900 + 16 * k + r) - 0.25).collect();
+            let directions: Vec<[f32; 3]> = (0..16u64)
+                .map(|r| {
+                    let target = [unit(3000 + 3 * (16 * k + r)) * 0.8, unit(3001 + 3 * (16 * k + r)) * 0.8 + 0.3, 0.1];
+                    let d = DVec3::from_array([0, 1, 2].map(|a| f64::from(target[a] - origin[a]))).normalize();
+                    d.as_vec3().to_array()
+                })
+                .collect();
+            let mut packet = vec![Hit::MISS; 16];
+            closest_hits(&scene, origin, &directions, Some(&times), &mut packet);
+            for (r, (&direction, &time)) in directions.iter().zip(&times).enumerate() {
+                let mut nearest = (f32::INFINITY, NONE);
+                for e in 0..scene.len() {
+                    let (o, d) = match moving.to_centre(e, time) {
+                        Some(map) => (map.point(origin), map.vector(direction)),
+                        None => (origin, direction),
+                    };
+                    if let Some(span) = polytope_span(scene.planes_of(e), scene.slack, o, d)
+                        && span.t_in >= 0.0
+                        && span.plane_in != NONE
+                        && (span.t_in, e as u32) < nearest
+                    {
+                        nearest = (span.t_in, e as u32);
+                    }
+                }
+                let hit = closest_hit(&scene, origin, direction, 0.0, time);
+                assert_eq!((hit.t, hit.element), nearest, "ray {k}.{r}");
+                assert_eq!(hit, closest_hit(&world, origin, direction, 0.0, time), "world tree, ray {k}.{r}");
+                assert_eq!(packet[r], hit, "packet {k}, ray {r}");
+                hits += usize::from(nearest.1 != NONE);
+            }
+        }
+        assert!(hits > 1000, "{hits} hits");
     }
 
     #[test]

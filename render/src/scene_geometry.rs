@@ -76,6 +76,12 @@ pub struct CubeSlabs {
 }
 
 impl SceneGeometry {
+    /// What the index's instances hold each element by: its motion group under an open
+    /// shutter, else its fragment.
+    pub fn members(&self) -> &[u32] {
+        self.motion.as_ref().map_or(&self.fragment, |motion| &motion.group_of)
+    }
+
     /// Number of elements.
     pub fn len(&self) -> usize {
         self.sites.len()

@@ -149,7 +149,12 @@ impl SceneMotion {
     /// The map of a ray at `time` (frames from the centre) into the centre's placement of
     /// element `e`'s group; None for the identity (the centre's time, or a group at rest).
     pub fn to_centre(&self, e: usize, time: f32) -> Option<ToCentre> {
-        ToCentre::of(&self.groups[self.group_of[e] as usize], time)
+        self.group_to_centre(self.group_of[e], time)
+    }
+
+    /// [`SceneMotion::to_centre`] for the elements of group `group`.
+    pub fn group_to_centre(&self, group: u32, time: f32) -> Option<ToCentre> {
+        ToCentre::of(&self.groups[group as usize], time)
     }
 }
 
