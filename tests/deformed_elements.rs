@@ -92,6 +92,7 @@ fn camera_along_z(eye: [f64; 3], tan_half: f64, width: u32, height: u32) -> Came
         up: [0.0, tan_half as f32, 0.0],
         width,
         height,
+        lens: None,
     }
 }
 

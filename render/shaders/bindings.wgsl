@@ -6,7 +6,9 @@ const NONE: u32 = 0xffffffffu;
 const PI: f32 = 3.14159265358979;
 const WG: u32 = 8u;
 struct Params {
+    // eye; w = the lens's radius (0: a pinhole)
     camera_origin: vec4<f32>,
+    // unit view direction; w = the lens's focus distance
     camera_forward: vec4<f32>,
     camera_right: vec4<f32>,
     camera_up: vec4<f32>,

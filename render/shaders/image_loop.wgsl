@@ -26,8 +26,12 @@ fn trace(
     var matte: MatteOut;
     for (var sample = 0u; sample < samples; sample++) {
         let offset = sample_offset(pixel, sample, samples);
-        let d = camera_direction(f32(x) + offset.x, f32(y) + offset.y);
-        let origin = params.camera_origin.xyz;
+        // through a lens each sample from its own point of it; the pinhole's ray otherwise
+        let has_lens = params.camera_origin.w != 0.0;
+        let lens = lens_sample(pixel, sample);
+        let ray = lens_ray(f32(x) + offset.x, f32(y) + offset.y, concentric_disk(lens.x, lens.y));
+        let origin = ray.origin;
+        let d = ray.direction;
         // with motion over the shutter, the colour at the sample's time and the layers at the centre's
         let moving = params.shutter.x != 0.0;
         let time = select(0.0, sample_time(pixel, sample, params.shutter.x), moving);
@@ -37,8 +41,15 @@ fn trace(
             layers = first_layers(origin, d, closest_hit(origin, d, 0.0, 0.0));
         }
         if (sample == 0u) {
-            out.normal = vec4<f32>(layers.normal, layers.depth);
-            out.ids = vec4<u32>(layers.fragment, layers.element, layers.surface, 0u);
+            // through a lens, the layers are the pinhole's through the pixel centre
+            var first = layers;
+            if (has_lens) {
+                let o = params.camera_origin.xyz;
+                let pinhole = camera_direction(f32(x) + 0.5, f32(y) + 0.5);
+                first = first_layers(o, pinhole, closest_hit(o, pinhole, 0.0, 0.0));
+            }
+            out.normal = vec4<f32>(first.normal, first.depth);
+            out.ids = vec4<u32>(first.fragment, first.element, first.surface, 0u);
         }
         add_matte_sample(&matte, layers.fragment, layers.surface);
         sum += traced.color;

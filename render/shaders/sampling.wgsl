@@ -43,3 +43,30 @@ fn sample_time(pixel: u32, sample: u32, shutter: f32) -> f32 {
     }
     return shutter * (u - 0.5);
 }
+
+// sampling.rs radical_inverse
+fn radical_inverse(index: u32, base: u32) -> f32 {
+    var i = index;
+    var value = 0.0;
+    var scale = 1.0;
+    let inverse = 1.0 / f32(base);
+    while (i > 0u) {
+        scale *= inverse;
+        value += f32(i % base) * scale;
+        i /= base;
+    }
+    return value;
+}
+
+// sampling.rs lens_sample
+fn lens_sample(pixel: u32, sample: u32) -> vec2<f32> {
+    var u = radical_inverse(sample, 5u) + random(pixel, 0u, 1003u);
+    var v = radical_inverse(sample, 3u) + random(pixel, 0u, 1004u);
+    if (u >= 1.0) {
+        u -= 1.0;
+    }
+    if (v >= 1.0) {
+        v -= 1.0;
+    }
+    return vec2<f32>(u, v);
+}

@@ -1,11 +1,50 @@
-//! The camera: a pinhole's rays through image points, where world points land on the image, and
-//! OpenEXR's camera matrices. The twin of `shaders/camera.wgsl`.
+//! The camera: a pinhole's rays through image points, or a thin lens's (depth of field), where
+//! world points land on the image, and OpenEXR's camera matrices. The twin of
+//! `shaders/camera.wgsl`.
 
 use glam::{DQuat, DVec3};
 
 use crate::element_kdtree::Aabb;
 
-/// A pinhole camera.
+/// A thin lens: its aperture and the plane it focuses on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Lens {
+    /// Radius of the aperture, metres.
+    pub radius_m: f32,
+    /// Distance of the plane in focus along the view, metres.
+    pub focus_distance_m: f32,
+}
+
+impl Lens {
+    /// The thin lens of f-number `f_stop` focused at `focus_distance_m`, on a camera whose
+    /// vertical field of view `fov_deg` spans a sensor `sensor_height_mm` high: the sensor sits
+    /// where the focused plane images (v = h / (2 tan(fov / 2))), so the focal length is
+    /// 1 / (1 / v + 1 / s) and the aperture's diameter the focal length over the f-number.
+    pub fn of(f_stop: f64, focus_distance_m: f64, fov_deg: f64, sensor_height_mm: f64) -> Lens {
+        let focal_length_m = Lens::focal_length_m(focus_distance_m, fov_deg, sensor_height_mm);
+        Lens { radius_m: (0.5 * focal_length_m / f_stop) as f32, focus_distance_m: focus_distance_m as f32 }
+    }
+
+    /// The focal length, metres, of [`Lens::of`]'s lens.
+    pub fn focal_length_m(focus_distance_m: f64, fov_deg: f64, sensor_height_mm: f64) -> f64 {
+        let image_distance_m = 0.5e-3 * sensor_height_mm / (0.5 * fov_deg.to_radians()).tan();
+        1.0 / (1.0 / image_distance_m + 1.0 / focus_distance_m)
+    }
+}
+
+/// A point of the unit disk for (u, v) in [0, 1)^2, by Shirley and Chiu's concentric map (equal
+/// areas to equal areas, so stratified samples stay stratified).
+pub fn concentric_disk(u: f32, v: f32) -> [f32; 2] {
+    let (a, b) = (2.0 * u - 1.0, 2.0 * v - 1.0);
+    if a == 0.0 && b == 0.0 {
+        return [0.0, 0.0];
+    }
+    let quarter = std::f32::consts::FRAC_PI_4;
+    let (r, theta) = if a.abs() > b.abs() { (a, quarter * (b / a)) } else { (b, 2.0 * quarter - quarter * (a / b)) };
+    [r * theta.cos(), r * theta.sin()]
+}
+
+/// A camera: a pinhole, or a thin lens about the pinhole's eye.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Camera {
     /// Eye position.
@@ -20,6 +59,8 @@ pub struct Camera {
     pub width: u32,
     /// Image height in pixels.
     pub height: u32,
+    /// The thin lens, or None for a pinhole.
+    pub lens: Option<Lens>,
 }
 
 impl Camera {
@@ -41,6 +82,7 @@ impl Camera {
             up: (true_up * tan).as_vec3().to_array(),
             width,
             height,
+            lens: None,
         }
     }
 
@@ -104,6 +146,25 @@ impl Camera {
         let sx = d.dot(right) / (z * right.length_squared());
         let sy = d.dot(up) / (z * up.length_squared());
         Some([(sx + 1.0) * 0.5 * f64::from(self.width), (1.0 - sy) * 0.5 * f64::from(self.height)])
+    }
+
+    /// The ray through image point (px, py) in pixels (y down) from the point of the lens that
+    /// `disk` (in the unit disk, see [`concentric_disk`]) names: (origin, unit direction). The
+    /// ray meets the pinhole's ray through the same image point on the plane in focus; a
+    /// pinhole's is that ray itself.
+    pub fn lens_ray(&self, px: f32, py: f32, disk: [f32; 2]) -> ([f32; 3], [f32; 3]) {
+        let pinhole = self.direction(px, py);
+        let Some(lens) = self.lens else { return (self.origin, pinhole) };
+        let unit = |v: [f32; 3]| {
+            let length = crate::primitives::dot(v, v).sqrt();
+            v.map(|c| c / length)
+        };
+        let (right, up) = (unit(self.right), unit(self.up));
+        let along = crate::primitives::dot(pinhole, self.forward);
+        let focus: [f32; 3] = std::array::from_fn(|k| self.origin[k] + pinhole[k] * (lens.focus_distance_m / along));
+        let origin: [f32; 3] =
+            std::array::from_fn(|k| self.origin[k] + lens.radius_m * (disk[0] * right[k] + disk[1] * up[k]));
+        (origin, unit(std::array::from_fn(|k| focus[k] - origin[k])))
     }
 
     /// The unit direction through image point (px, py) in pixels (y down).

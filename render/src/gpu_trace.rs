@@ -140,8 +140,8 @@ impl Params {
             ElementType::Trimtope => 2,
         };
         Params {
-            camera_origin: vec4(camera.origin, 0.0),
-            camera_forward: vec4(camera.forward, 0.0),
+            camera_origin: vec4(camera.origin, camera.lens.map_or(0.0, |lens| lens.radius_m)),
+            camera_forward: vec4(camera.forward, camera.lens.map_or(0.0, |lens| lens.focus_distance_m)),
             camera_right: vec4(camera.right, 0.0),
             camera_up: vec4(camera.up, 0.0),
             size: [camera.width, camera.height, samples, look.max_bounces],

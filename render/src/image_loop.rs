@@ -5,14 +5,14 @@
 
 use rayon::prelude::*;
 
-use crate::camera::Camera;
+use crate::camera::{Camera, concentric_disk};
 use crate::element_kdtree::PACKET;
-use crate::hit_search::{Hit, closest_hits};
+use crate::hit_search::{Hit, closest_hit, closest_hits};
 use crate::integrator::{CameraRay, FirstSurface, Pixel, first_layers, trace_ray};
 use crate::materials::Look;
 use crate::mattes::MatteCounts;
 use crate::primitives::along;
-use crate::sampling::{sample_offset, sample_time};
+use crate::sampling::{lens_sample, sample_offset, sample_time};
 use crate::scene_geometry::SceneGeometry;
 use crate::shading::{floor_albedo, floor_t};
 
@@ -45,7 +45,9 @@ fn first_floor_albedos(look: &Look, origin: [f32; 3], directions: &[[f32; 3]], h
 ///
 /// With the scene's motion over an open shutter, each sample's ray is traced at its own time
 /// ([`sample_time`]) for the colour and coverage; the layers and mattes are those of the same
-/// rays at the frame's centre.
+/// rays at the frame's centre. Through a thin lens, each sample's ray leaves its own point of
+/// the lens ([`lens_sample`]), one at a time; the mattes count those rays, and the layers are
+/// the pinhole's ray's through the pixel centre.
 pub fn render(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32) -> Rendered {
     let (width, height) = (camera.width as usize, camera.height as usize);
     let mut pixels = vec![Pixel::EMPTY; width * height];
@@ -63,7 +65,7 @@ pub fn render(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32)
                     let (x, y) = tile.pixel(k);
                     let local = (y - top) * width + x;
                     if sample == 0 {
-                        rows[local] = packet.layers[k];
+                        rows[local] = if camera.lens.is_some() { packet.pinhole[k] } else { packet.layers[k] };
                     }
                     matte_rows[local].add(packet.layers[k].fragment, packet.layers[k].surface);
                 }
@@ -88,6 +90,8 @@ struct Packet {
     floor_albedos: [[f32; 3]; PACKET],
     /// Each ray's first-surface layers (at the frame's centre).
     layers: [Pixel; PACKET],
+    /// Through a lens, the layers of the pinhole's rays through the pixel centres.
+    pinhole: [Pixel; PACKET],
     sums: [Sums; PACKET],
 }
 
@@ -130,6 +134,7 @@ impl Default for Packet {
             moved_hits: [Hit::MISS; PACKET],
             floor_albedos: [[0.0; 3]; PACKET],
             layers: [Pixel::EMPTY; PACKET],
+            pinhole: [Pixel::EMPTY; PACKET],
             sums: [Sums::default(); PACKET],
         }
     }
@@ -139,6 +144,10 @@ impl Packet {
     /// Traces sample `sample` (of `samples`) of `tile`'s rays: adds each one's colour, coverage
     /// and denoising guides to the sums and leaves its layers.
     fn trace(&mut self, scene: &SceneGeometry, look: &Look, camera: &Camera, tile: Tile, sample: (u32, u32)) {
+        if camera.lens.is_some() {
+            self.trace_through_lens(scene, look, camera, tile, sample);
+            return;
+        }
         let count = tile.len();
         let origin = camera.origin;
         tile.first_hits(scene, camera, sample, &mut self.directions, &mut self.hits);
@@ -163,6 +172,41 @@ impl Packet {
             self.layers[k] =
                 if moving.is_some() { first_layers(scene, look, origin, direction, self.hits[k]) } else { traced };
             self.sums[k].add(&traced);
+        }
+    }
+}
+
+impl Packet {
+    /// [`Packet::trace`] through a thin lens: each ray from its own point of the lens, alone.
+    fn trace_through_lens(
+        &mut self,
+        scene: &SceneGeometry,
+        look: &Look,
+        camera: &Camera,
+        tile: Tile,
+        sample: (u32, u32),
+    ) {
+        let shutter = scene.motion.as_ref().map(|motion| motion.shutter);
+        for k in 0..tile.len() {
+            let (x, y) = tile.pixel(k);
+            let pixel = (y * camera.width as usize + x) as u32;
+            let (jx, jy) = sample_offset(pixel, sample.0, sample.1);
+            let (u, v) = lens_sample(pixel, sample.0);
+            let (origin, direction) = camera.lens_ray(x as f32 + jx, y as f32 + jy, concentric_disk(u, v));
+            let centre = closest_hit(scene, origin, direction, 0.0, 0.0);
+            self.layers[k] = first_layers(scene, look, origin, direction, centre);
+            let time = shutter.map_or(0.0, |shutter| sample_time(pixel, sample.0, shutter));
+            let hit = if time == 0.0 { centre } else { closest_hit(scene, origin, direction, 0.0, time) };
+            let mut floor_albedo = [0.0; 3];
+            first_floor_albedos(look, origin, &[direction], &[hit], std::slice::from_mut(&mut floor_albedo));
+            let ray = CameraRay { origin, direction, pixel, sample: sample.0, time };
+            self.sums[k].add(&trace_ray(scene, look, ray, FirstSurface { hit, floor_albedo }));
+        }
+        if sample.0 == 0 {
+            tile.first_hits(scene, camera, (0, 1), &mut self.directions, &mut self.hits);
+            for k in 0..tile.len() {
+                self.pinhole[k] = first_layers(scene, look, camera.origin, self.directions[k], self.hits[k]);
+            }
         }
     }
 }

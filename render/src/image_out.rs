@@ -77,6 +77,24 @@ pub struct FrameHeader {
     pub frames_per_second: f64,
     /// Simulated time at the frame, seconds.
     pub simulation_time_s: f64,
+    /// How long the shutter is open, seconds of playback (OpenEXR's `exposure`; 0: still).
+    pub shutter_s: f64,
+    /// The thin lens, if any (OpenEXR's `aperture` and `focus`, and shatter's focal length and
+    /// sensor height).
+    pub lens: Option<HeaderLens>,
+}
+
+/// The lens as a frame's header names it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeaderLens {
+    /// f-number.
+    pub f_stop: f64,
+    /// Distance of the plane in focus, metres.
+    pub focus_m: f64,
+    /// Focal length, millimetres.
+    pub focal_length_mm: f64,
+    /// Sensor height, millimetres.
+    pub sensor_height_mm: f64,
 }
 
 /// A frame's layers: the traced pixels, their motion pass and their Cryptomattes.
@@ -155,6 +173,15 @@ pub fn write_exr(
         ..LayerAttributes::default()
     };
     attributes.other.insert(Text::from("shatterSimulationTime"), AttributeValue::F64(header.simulation_time_s));
+    if header.shutter_s > 0.0 {
+        attributes.exposure = Some(header.shutter_s as f32);
+    }
+    if let Some(lens) = header.lens {
+        attributes.aperture = Some(lens.f_stop as f32);
+        attributes.focus = Some(lens.focus_m as f32);
+        attributes.other.insert(Text::from("shatterFocalLength"), AttributeValue::F64(lens.focal_length_mm));
+        attributes.other.insert(Text::from("shatterSensorHeight"), AttributeValue::F64(lens.sensor_height_mm));
+    }
     for matte in layers.mattes {
         for (name, values) in matte.channels() {
             list.push(AnyChannel::new(name.as_str(), FlatSamples::F32(values)));
@@ -306,6 +333,8 @@ mod tests {
             world_to_ndc: camera.world_to_ndc(),
             frames_per_second: 24.0,
             simulation_time_s: 1.25e-4,
+            shutter_s: 0.0,
+            lens: None,
         }
     }
 
@@ -323,6 +352,19 @@ mod tests {
         assert_eq!(attributes.frames_per_second, Some((24, 1)));
         let time = attributes.other.get(&Text::from("shatterSimulationTime"));
         assert_eq!(time, Some(&AttributeValue::F64(1.25e-4)));
+        assert_eq!((attributes.exposure, attributes.aperture, attributes.focus), (None, None, None), "still, pinhole");
+        // a blurred frame through a lens names its shutter and its lens
+        let lens = HeaderLens { f_stop: 2.8, focus_m: 1.5, focal_length_mm: 35.0, sensor_height_mm: 24.0 };
+        let shot = FrameHeader { shutter_s: 0.5 / 24.0, lens: Some(lens), ..header };
+        write_exr(&path, 4, 3, &layers(&pixels, &[[0.0; 4]; 12], &[]), &shot).expect("write");
+        let meta = exr::meta::MetaData::read_from_file(&path, false).expect("header");
+        let attributes = &meta.headers[0].own_attributes;
+        assert_eq!(
+            (attributes.exposure, attributes.aperture, attributes.focus),
+            (Some(0.5 / 24.0), Some(2.8), Some(1.5))
+        );
+        let focal = attributes.other.get(&Text::from("shatterFocalLength"));
+        assert_eq!(focal, Some(&AttributeValue::F64(35.0)));
         assert_eq!(rational(23.976023976023978), (24000, 1001));
         assert_eq!(rational(29.97002997002997), (30000, 1001));
         assert_eq!(rational(12.5), (12500, 1000));

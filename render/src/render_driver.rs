@@ -19,13 +19,13 @@ use shatter_core::stage_file::StageFileError;
 use shatter_core::{OutputLayout, PipelineConfig, Progress};
 use shatter_gpu::{AdapterChoice, GpuContext, GpuError};
 
-use crate::camera::Camera;
+use crate::camera::{Camera, Lens};
 use crate::cryptomatte::{Matte, fragment_matte, material_matte};
 use crate::element_index::REST_TREE_MIN_ELEMENTS;
 use crate::element_kdtree::Aabb;
 use crate::gpu_trace::GpuTracer;
 use crate::image_loop::{Rendered, render};
-use crate::image_out::{FrameHeader, FrameLayers, ImageError, write_exr, write_png};
+use crate::image_out::{FrameHeader, FrameLayers, HeaderLens, ImageError, write_exr, write_png};
 use crate::integrator::Pixel;
 use crate::lighting::{EnvironmentMap, LightingError, key_light, sh_project};
 use crate::materials::{FloorLook, FloorTexels, Look};
@@ -202,13 +202,15 @@ fn load_texture(path: &Path) -> Result<([usize; 2], FloorTexels), RenderError> {
     Ok(([image.width() as usize, image.height() as usize], FloorTexels::srgb8(texels)))
 }
 
-/// The camera of a scene: configured, or framing the body's rest bounds.
+/// The camera of a scene: configured, or framing the body's rest bounds; with
+/// `render.camera.f_stop`, a thin lens focused at `focus_distance_m`, or on the body's rest
+/// centre.
 pub fn camera(render: &RenderConfig, particles: &ParticleSet) -> Camera {
     let [width, height] = render.resolution;
     let bounds = particles.rest_position_m.iter().fold(Aabb::EMPTY, |b, p| b.union(&Aabb { min: *p, max: *p }));
     let config = &render.camera;
     let centre = DVec3::from_array([0, 1, 2].map(|a| f64::from(bounds.min[a] + bounds.max[a]) * 0.5));
-    match config.position_m {
+    let mut camera = match config.position_m {
         Some(position) => Camera::look_at(
             DVec3::from_array(position),
             config.look_at_m.map_or(centre, DVec3::from_array),
@@ -218,7 +220,27 @@ pub fn camera(render: &RenderConfig, particles: &ParticleSet) -> Camera {
             height,
         ),
         None => Camera::framing(&bounds, config.fov_deg, width, height),
-    }
+    };
+    camera.lens = config.f_stop.map(|f_stop| {
+        let focus_m = config.focus_distance_m.unwrap_or_else(|| body_distance_m(&camera, centre));
+        Lens::of(f_stop, focus_m, config.fov_deg, config.sensor_height_mm)
+    });
+    camera
+}
+
+/// The distance of `point` along `camera`'s view (at least a millimetre).
+fn body_distance_m(camera: &Camera, point: DVec3) -> f64 {
+    let v = |a: [f32; 3]| DVec3::from_array(a.map(f64::from));
+    (point - v(camera.origin)).dot(v(camera.forward)).max(1e-3)
+}
+
+/// The lens a frame's header names: f-number, focus distance (metres), focal length and sensor
+/// height (millimetres).
+fn header_lens(render: &RenderConfig, camera: &Camera) -> Option<HeaderLens> {
+    let (f_stop, lens) = (render.camera.f_stop?, camera.lens?);
+    let focus_m = f64::from(lens.focus_distance_m);
+    let focal_length_mm = 1e3 * Lens::focal_length_m(focus_m, render.camera.fov_deg, render.camera.sensor_height_mm);
+    Some(HeaderLens { f_stop, focus_m, focal_length_mm, sensor_height_mm: render.camera.sensor_height_mm })
 }
 
 /// Shot frame `frame`'s fragments (the lead-in's, post's, or the follow-through's: see
@@ -449,6 +471,8 @@ impl<'a> RenderJob<'a> {
             world_to_ndc: camera.world_to_ndc(),
             frames_per_second: config.scene.frames_per_second,
             simulation_time_s: self.shot.time_s(frame, fragments.map_or(0.0, |f| f.meta.time_s)),
+            shutter_s: render_config.shutter / config.scene.frames_per_second,
+            lens: header_lens(render_config, camera),
         };
         let preview = render_config
             .previews

@@ -50,3 +50,27 @@ pub fn sample_time(pixel: u32, sample: u32, shutter: f32) -> f32 {
     }
     shutter * (u - 0.5)
 }
+
+/// The radical inverse of `index` in base `base`: its digits mirrored about the point.
+fn radical_inverse(mut index: u32, base: u32) -> f32 {
+    let (mut value, mut scale) = (0.0f32, 1.0f32);
+    let inverse = 1.0 / base as f32;
+    while index > 0 {
+        scale *= inverse;
+        value += (index % base) as f32 * scale;
+        index /= base;
+    }
+    value
+}
+
+/// Where sample `sample` in pixel `pixel` passes through the lens, as a point of [0, 1)^2 for
+/// [`crate::camera::concentric_disk`]: the sample's base-5 and base-3 radical inverses (a Halton
+/// set, apart from the pixel's strata and the times' base 2), turned by one random shift per
+/// pixel.
+pub fn lens_sample(pixel: u32, sample: u32) -> (f32, f32) {
+    let turn = |value: f32, event: u32| {
+        let u = value + random(pixel, 0, event);
+        if u >= 1.0 { u - 1.0 } else { u }
+    };
+    (turn(radical_inverse(sample, 5), 1003), turn(radical_inverse(sample, 3), 1004))
+}

@@ -133,6 +133,8 @@ fn cryptomattes_decode_to_the_covered_areas() {
         world_to_ndc: camera.world_to_ndc(),
         frames_per_second: 24.0,
         simulation_time_s: 0.0,
+        shutter_s: 0.0,
+        lens: None,
     };
     let layers = FrameLayers { pixels: &rendered.pixels, motion: &motion, mattes: &mattes, denoising: false };
     write_exr(&path, width as usize, height as usize, &layers, &header).expect("write");

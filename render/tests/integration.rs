@@ -6,6 +6,7 @@ mod support;
 
 mod cryptomatte;
 mod denoising_guides;
+mod depth_of_field;
 mod glass_convergence;
 mod gpu_trace;
 mod motion_blur;

@@ -78,8 +78,8 @@ impl Default for RenderConfig {
     }
 }
 
-/// `[render.camera]`: a pinhole camera. Without a position it frames the body's rest bounds from
-/// the front and a little above.
+/// `[render.camera]`: a pinhole camera, or with `f_stop` a thin lens (depth of field). Without a
+/// position it frames the body's rest bounds from the front and a little above.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CameraConfig {
@@ -91,11 +91,27 @@ pub struct CameraConfig {
     pub up: [f64; 3],
     /// Vertical field of view, degrees.
     pub fov_deg: f64,
+    /// The lens's f-number (focal length over aperture diameter); absent, a pinhole (everything
+    /// sharp).
+    pub f_stop: Option<f64>,
+    /// Distance of the plane in focus along the view, metres; absent, the body's rest centre's.
+    pub focus_distance_m: Option<f64>,
+    /// Height of the sensor that the vertical field of view spans, millimetres (a full-frame
+    /// 35 mm camera's: 24); with `f_stop` it sets the focal length, so the aperture.
+    pub sensor_height_mm: f64,
 }
 
 impl Default for CameraConfig {
     fn default() -> Self {
-        CameraConfig { position_m: None, look_at_m: None, up: [0.0, 1.0, 0.0], fov_deg: 40.0 }
+        CameraConfig {
+            position_m: None,
+            look_at_m: None,
+            up: [0.0, 1.0, 0.0],
+            fov_deg: 40.0,
+            f_stop: None,
+            focus_distance_m: None,
+            sensor_height_mm: 24.0,
+        }
     }
 }
 
@@ -257,6 +273,24 @@ impl RenderConfig {
         check.that(fov > 0.0 && fov < 179.0, "render.camera.fov_deg", &fov.to_string(), || {
             "must be between 0 and 179 degrees".into()
         })?;
+        if let Some(f_stop) = camera.f_stop {
+            check.that(
+                f_stop.is_finite() && (0.5..=256.0).contains(&f_stop),
+                "render.camera.f_stop",
+                &f_stop.to_string(),
+                || "must be an f-number from 0.5 to 256 (leave it out for a pinhole)".into(),
+            )?;
+        }
+        if let Some(focus) = camera.focus_distance_m {
+            check.positive("render.camera.focus_distance_m", focus, "metres")?;
+        }
+        let sensor = camera.sensor_height_mm;
+        check.that(
+            sensor.is_finite() && (1.0..=1000.0).contains(&sensor),
+            "render.camera.sensor_height_mm",
+            &sensor.to_string(),
+            || "must be from 1 to 1000 millimetres".into(),
+        )?;
         let look = &self.material;
         check.that(
             look.glass_ior >= 1.0 && look.glass_ior <= 4.0,
