@@ -126,6 +126,9 @@ fn render_key_frames(shot: &Shot, output: &Path) -> Vec<(u32, &'static str, imag
         assert!(shares.over_one_percent >= shot.shards, "{}: {shares:?}", shot.scene);
         assert!(shares.single_elements < 0.1, "{}: {shares:?}", shot.scene);
     }
+    if phases {
+        check_framing(shot, &config, &particles, &layout);
+    }
     let mut images = Vec::new();
     for (frames, kind) in [(shot.key_frames, ""), (shot.blurred, ".blurred")] {
         if frames.is_empty() {
@@ -146,6 +149,70 @@ fn render_key_frames(shot: &Shot, output: &Path) -> Vec<(u32, &'static str, imag
         }
     }
     images
+}
+
+/// A shot frames its action (issue #59): at the impact (the middle key frame) the body fills at
+/// least a third of the frame's height, and at the end (the last key frame) every piece of at
+/// least 1% of the mass has its centre in the frame.
+fn check_framing(
+    shot: &Shot,
+    config: &PipelineConfig,
+    particles: &shatter_core::particles::ParticleSet,
+    layout: &OutputLayout,
+) {
+    use glam::{DQuat, DVec3};
+    let camera = shatter_render::render_driver::camera(&config.render, particles);
+    let timeline = shatter_core::shot::Shot::of(config, layout).expect("the shot");
+    let placed = |frame: u32| {
+        let fragments =
+            shatter_core::fragments::FragmentFrame::read(&timeline.fragments(layout, frame)).expect("fragments");
+        let points: Vec<DVec3> = (0..particles.len())
+            .map(|e| {
+                let f = fragments.fragment_of[e] as usize;
+                let q = DQuat::from_array(fragments.rotation[f].map(f64::from));
+                q * DVec3::from_array(particles.rest_position_m[e].map(f64::from))
+                    + DVec3::from_array(fragments.translation_m[f])
+            })
+            .collect();
+        (fragments, points)
+    };
+    let height = f64::from(camera.height);
+    let impact = shot.key_frames[shot.key_frames.len() / 2];
+    let (_, points) = placed(impact);
+    let rows: Vec<f64> = points.iter().filter_map(|p| camera.pixel_of(*p)).map(|p| p[1]).collect();
+    let span =
+        rows.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - rows.iter().cloned().fold(f64::INFINITY, f64::min);
+    let last = *shot.key_frames.last().expect("key frames");
+    let (fragments, points) = placed(last);
+    let total: f64 = fragments.mass_kg.iter().sum();
+    let mut outside = Vec::new();
+    for (f, mass) in fragments.mass_kg.iter().enumerate() {
+        if *mass < 0.01 * total {
+            continue;
+        }
+        let members: Vec<DVec3> =
+            points.iter().zip(&fragments.fragment_of).filter(|(_, g)| **g as usize == f).map(|(p, _)| *p).collect();
+        let centre = members.iter().sum::<DVec3>() / members.len() as f64;
+        let at = camera.pixel_of(centre);
+        let inside =
+            at.is_some_and(|[x, y]| (0.0..=f64::from(camera.width)).contains(&x) && (0.0..=height).contains(&y));
+        if !inside {
+            outside.push((f, centre.to_array().map(|v| (v * 1e3).round() / 1e3), at.map(|p| p.map(|v| v.round()))));
+        }
+    }
+    eprintln!(
+        "{}: the body spans {:.2} of the frame's height at frame {impact}; {} pieces over 1% out of frame at frame {last}",
+        shot.scene,
+        span / height,
+        outside.len()
+    );
+    assert!(
+        span >= height / 3.0,
+        "{}: the body spans {:.2} of the frame's height at the impact",
+        shot.scene,
+        span / height
+    );
+    assert!(outside.is_empty(), "{}: pieces {outside:?} rest out of frame", shot.scene);
 }
 
 /// Every piece's surface is closed and consistently oriented: after welding corners closer than

@@ -32,9 +32,11 @@ struct Params {
     sh: array<vec4<f32>, 9>,
     // opaque albedo of fracture faces; w unused
     fracture_albedo: vec4<f32>,
-    // glass split events, opaque cubes (1) or glass (0), 0, 0
+    // glass split events, opaque cubes (1) or glass (0), floor texture filtered (1) or point
+    // sampled (0), its mip levels
     look_flags: vec4<u32>,
-    // the shutter's open time in frames where the scene moves over it (else 0); y, z, w unused
+    // the shutter's open time in frames where the scene moves over it (else 0); a pixel's spread,
+    // radians; z, w unused
     shutter: vec4<f32>,
 }
 

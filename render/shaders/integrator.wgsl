@@ -47,6 +47,8 @@ struct Branch {
     throughput: vec3<f32>,
     inside: u32,
     event: u32,
+    // integrator.rs Branch::travelled
+    travelled: f32,
 }
 
 var<private> stack: array<Branch, SPLIT_STACK>;
@@ -96,7 +98,8 @@ fn trace_ray(origin: vec3<f32>, direction: vec3<f32>, pixel: u32, sample: u32, t
     let ior = params.scene_max.w;
     let glass = params.counts.y == 0u && params.look_flags.y == 0u;
     pending = 0u;
-    var path = Branch(origin, direction, vec3<f32>(1.0), NONE, 0u);
+    var path = Branch(origin, direction, vec3<f32>(1.0), NONE, 0u, 0.0);
+    let spread = params.shutter.y;
     var branch = 0u;
     loop {
         guide_open = branch == 0u;
@@ -112,6 +115,7 @@ fn trace_ray(origin: vec3<f32>, direction: vec3<f32>, pixel: u32, sample: u32, t
                 let exit = union_exit(path.inside, o, d, time);
                 let p = o + exit.t * d;
                 path.throughput *= exp(-params.absorption.xyz * exit.t);
+                path.travelled += exit.t;
                 var reflected = path;
                 reflected.origin = p - eps * exit.normal;
                 reflected.direction = reflect3(d, exit.normal);
@@ -140,10 +144,9 @@ fn trace_ray(origin: vec3<f32>, direction: vec3<f32>, pixel: u32, sample: u32, t
             let t_floor = floor_t(o, d);
             if (t_floor < hit.t) {
                 let p = o + t_floor * d;
-                if (guide_open) {
-                    set_guides(&result, path.throughput, floor_albedo(p), vec3<f32>(0.0, 1.0, 0.0));
-                }
-                result.color += path.throughput * floor_radiance(p, d);
+                let albedo = floor_albedo(p, d, spread * (path.travelled + t_floor));
+                set_guides(&result, path.throughput, albedo, vec3<f32>(0.0, 1.0, 0.0));
+                result.color += path.throughput * floor_radiance(albedo, d);
                 ended = true;
                 break;
             }
@@ -167,6 +170,7 @@ fn trace_ray(origin: vec3<f32>, direction: vec3<f32>, pixel: u32, sample: u32, t
                 glass_normal = hit.normal;
                 has_glass_normal = true;
             }
+            path.travelled += hit.t;
             let reflectance = fresnel(-dot3(d, hit.normal), 1.0 / ior);
             var reflected = path;
             reflected.origin = p + eps * hit.normal;
@@ -190,10 +194,9 @@ fn trace_ray(origin: vec3<f32>, direction: vec3<f32>, pixel: u32, sample: u32, t
             let t_floor = floor_t(path.origin, path.direction);
             if (t_floor < infinity()) {
                 let p = path.origin + t_floor * path.direction;
-                if (guide_open) {
-                    set_guides(&result, path.throughput, floor_albedo(p), vec3<f32>(0.0, 1.0, 0.0));
-                }
-                result.color += path.throughput * floor_radiance(p, path.direction);
+                let albedo = floor_albedo(p, path.direction, spread * (path.travelled + t_floor));
+                set_guides(&result, path.throughput, albedo, vec3<f32>(0.0, 1.0, 0.0));
+                result.color += path.throughput * floor_radiance(albedo, path.direction);
             } else {
                 set_guides(&result, path.throughput, vec3<f32>(1.0), environment_guide_normal());
                 result.color += path.throughput * environment_radiance(path.direction);

@@ -42,8 +42,12 @@ fn shade_opaque(albedo: vec3<f32>, normal: vec3<f32>, view: vec3<f32>, specular:
     return albedo / PI * irradiance + highlight * params.key_irradiance.xyz;
 }
 
-// materials.rs FloorLook::albedo
-fn floor_albedo(p: vec3<f32>) -> vec3<f32> {
+// shading.rs floor_albedo: filtered over the ray's footprint (direction, cone width in metres)
+// where the texture is, else materials.rs FloorLook::albedo
+fn floor_albedo(p: vec3<f32>, direction: vec3<f32>, width_m: f32) -> vec3<f32> {
+    if (params.look_flags.z != 0u) {
+        return filtered_albedo(p, direction, width_m);
+    }
     let tile = params.floor.y;
     let u = p.x / tile - floor(p.x / tile);
     let v = p.z / tile - floor(p.z / tile);
@@ -62,7 +66,7 @@ fn floor_t(o: vec3<f32>, d: vec3<f32>) -> f32 {
     return infinity();
 }
 
-// shading.rs floor_radiance
-fn floor_radiance(p: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
-    return shade_opaque(floor_albedo(p), vec3<f32>(0.0, 1.0, 0.0), d, 0.0);
+// shading.rs floor_radiance, of the floor's albedo where it is seen
+fn floor_radiance(albedo: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
+    return shade_opaque(albedo, vec3<f32>(0.0, 1.0, 0.0), d, 0.0);
 }

@@ -167,6 +167,11 @@ impl Camera {
         (origin, unit(std::array::from_fn(|k| focus[k] - origin[k])))
     }
 
+    /// The angle a pixel spans at the image's centre, radians: a camera ray's cone's spread.
+    pub fn pixel_spread_rad(&self) -> f32 {
+        2.0 * crate::primitives::dot(self.up, self.up).sqrt() / self.height as f32
+    }
+
     /// The unit direction through image point (px, py) in pixels (y down).
     pub fn direction(&self, px: f32, py: f32) -> [f32; 3] {
         let sx = 2.0 * px / self.width as f32 - 1.0;

@@ -10,7 +10,7 @@ use crate::camera::Camera;
 use crate::element_kdtree::KdTree;
 use crate::image_loop::Rendered;
 use crate::integrator::Pixel;
-use crate::materials::Look;
+use crate::materials::{FloorLook, Look};
 use crate::mattes::MatteCounts;
 use crate::primitives::TRIANGLE_GROUP;
 use crate::scene_geometry::SceneGeometry;
@@ -18,7 +18,7 @@ use crate::shutter::GroupMotion;
 
 /// The tracer's WGSL parts (`render/shaders/`): the bindings, then each the twin of the CPU module
 /// of its name, joined into one program whose entry point is the image loop's.
-const PARTS: [&str; 13] = [
+const PARTS: [&str; 14] = [
     include_str!("../shaders/bindings.wgsl"),
     include_str!("../shaders/primitives.wgsl"),
     include_str!("../shaders/scene_geometry.wgsl"),
@@ -28,6 +28,7 @@ const PARTS: [&str; 13] = [
     include_str!("../shaders/sampling.wgsl"),
     include_str!("../shaders/camera.wgsl"),
     include_str!("../shaders/lighting.wgsl"),
+    include_str!("../shaders/texture_filter.wgsl"),
     include_str!("../shaders/shading.wgsl"),
     include_str!("../shaders/mattes.wgsl"),
     include_str!("../shaders/integrator.wgsl"),
@@ -134,6 +135,7 @@ impl Params {
     /// `samples` samples a pixel; the batch's pixels (`floor`'s last two lanes) still unset.
     fn new(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32, tree: &KdTree) -> Params {
         let floor_size = look.floor.as_ref().map_or([1, 1], |floor| floor.size);
+        let mips = look.floor.as_ref().and_then(|floor| floor.mips.as_ref());
         let element_type = match scene.element_type {
             ElementType::Cube => 0,
             ElementType::Tet => 1,
@@ -166,8 +168,13 @@ impl Params {
             key_irradiance: vec4(look.key.irradiance, 0.0),
             sh: look.sh.map(|c| vec4(c, 0.0)),
             fracture_albedo: vec4(look.fracture_albedo, 0.0),
-            look_flags: [look.glass_split_events, u32::from(look.opaque_cubes), 0, 0],
-            shutter: [scene.motion.as_ref().map_or(0.0, |motion| motion.shutter), 0.0, 0.0, 0.0],
+            look_flags: [
+                look.glass_split_events,
+                u32::from(look.opaque_cubes),
+                u32::from(mips.is_some()),
+                mips.map_or(0, |mips| mips.levels.len() as u32),
+            ],
+            shutter: [scene.motion.as_ref().map_or(0.0, |motion| motion.shutter), camera.pixel_spread_rad(), 0.0, 0.0],
         }
     }
 }
@@ -246,6 +253,7 @@ impl TraceBuffers {
         let environment: Vec<[f32; 4]> = look.environment.texels.iter().map(|t| vec4(*t, 0.0)).collect();
         let environment = ctx.create_storage_buffer("environment", &environment)?;
         let floor_texels = match &look.floor {
+            Some(FloorLook { mips: Some(mips), .. }) => mips.texels.iter().map(|t| vec4(*t, 0.0)).collect(),
             Some(floor) => (0..floor.texels.len()).map(|i| vec4(floor.texels.linear_at(i), 0.0)).collect(),
             None => vec![[0.0; 4]],
         };

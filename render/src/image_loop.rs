@@ -15,6 +15,7 @@ use crate::primitives::along;
 use crate::sampling::{lens_sample, sample_offset, sample_time};
 use crate::scene_geometry::SceneGeometry;
 use crate::shading::{floor_albedo, floor_t};
+use crate::texture_filter::Footprint;
 
 /// A rendered image: its pixels (row-major, top row first) and their matte counts.
 #[derive(Debug, Clone, PartialEq)]
@@ -27,12 +28,20 @@ pub struct Rendered {
 
 /// The floor's albedo where each camera ray of a packet meets it, for those that meet it before
 /// their nearest hit (`hits`); the others' are left as they are. Looked up in one pass, the
-/// texel loads of a packet overlap, where each ray's trace would otherwise wait on its own.
-fn first_floor_albedos(look: &Look, origin: [f32; 3], directions: &[[f32; 3]], hits: &[Hit], out: &mut [[f32; 3]]) {
+/// texel loads of a packet overlap, where each ray's trace would otherwise wait on its own. The
+/// rays' cones spread `spread_rad` (the pixel's angle).
+fn first_floor_albedos(
+    look: &Look,
+    (origin, spread_rad): ([f32; 3], f32),
+    directions: &[[f32; 3]],
+    hits: &[Hit],
+    out: &mut [[f32; 3]],
+) {
     for ((d, hit), albedo) in directions.iter().zip(hits).zip(out) {
         let t_floor = floor_t(look, origin, *d);
         if t_floor < hit.t {
-            *albedo = floor_albedo(look, along(origin, *d, t_floor));
+            let footprint = Footprint { direction: *d, width_m: spread_rad * t_floor };
+            *albedo = floor_albedo(look, along(origin, *d, t_floor), footprint);
         }
     }
 }
@@ -161,13 +170,14 @@ impl Packet {
             &self.moved_hits
         });
         let hits = moving.unwrap_or(&self.hits);
-        first_floor_albedos(look, origin, &self.directions[..count], &hits[..count], &mut self.floor_albedos);
+        let cone = (origin, camera.pixel_spread_rad());
+        first_floor_albedos(look, cone, &self.directions[..count], &hits[..count], &mut self.floor_albedos);
         for (k, &hit) in hits[..count].iter().enumerate() {
             let (x, y) = tile.pixel(k);
             let pixel = (y * camera.width as usize + x) as u32;
             let (direction, floor_albedo) = (self.directions[k], self.floor_albedos[k]);
             let time = if moving.is_some() { self.times[k] } else { 0.0 };
-            let ray = CameraRay { origin, direction, pixel, sample: sample.0, time };
+            let ray = CameraRay { origin, direction, pixel, sample: sample.0, time, spread_rad: cone.1 };
             let traced = trace_ray(scene, look, ray, FirstSurface { hit, floor_albedo });
             self.layers[k] =
                 if moving.is_some() { first_layers(scene, look, origin, direction, self.hits[k]) } else { traced };
@@ -198,8 +208,9 @@ impl Packet {
             let time = shutter.map_or(0.0, |shutter| sample_time(pixel, sample.0, shutter));
             let hit = if time == 0.0 { centre } else { closest_hit(scene, origin, direction, 0.0, time) };
             let mut floor_albedo = [0.0; 3];
-            first_floor_albedos(look, origin, &[direction], &[hit], std::slice::from_mut(&mut floor_albedo));
-            let ray = CameraRay { origin, direction, pixel, sample: sample.0, time };
+            let cone = (origin, camera.pixel_spread_rad());
+            first_floor_albedos(look, cone, &[direction], &[hit], std::slice::from_mut(&mut floor_albedo));
+            let ray = CameraRay { origin, direction, pixel, sample: sample.0, time, spread_rad: cone.1 };
             self.sums[k].add(&trace_ray(scene, look, ray, FirstSurface { hit, floor_albedo }));
         }
         if sample.0 == 0 {

@@ -18,6 +18,7 @@ use crate::primitives::{along, dot};
 use crate::sampling::random;
 use crate::scene_geometry::SceneGeometry;
 use crate::shading::{floor_albedo, floor_radiance, floor_t, fresnel, reflect, refract, shade_opaque};
+use crate::texture_filter::Footprint;
 
 /// One pixel's layers.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -74,6 +75,9 @@ struct Branch {
     inside: u32,
     /// Interface and surface events so far.
     event: u32,
+    /// How far the path has come from the camera, metres (its cone's width there is this times
+    /// the ray's spread).
+    travelled: f32,
 }
 
 /// One camera ray: where it starts and goes, and which pixel and sample it is (they seed its
@@ -90,6 +94,8 @@ pub(crate) struct CameraRay {
     pub sample: u32,
     /// Its time, frames from the frame's centre (see [`crate::shutter`]).
     pub time: f32,
+    /// Its cone's spread, radians: the pixel's angle (the floor texture's footprint).
+    pub spread_rad: f32,
 }
 
 /// A camera ray's first surface, as the image loop finds it for a packet of rays: its nearest hit
@@ -140,12 +146,13 @@ pub(crate) fn trace_ray(scene: &SceneGeometry, look: &Look, ray: CameraRay, firs
         ray,
         eps: 4.0 * scene.slack,
         glass: scene.element_type == ElementType::Cube && !look.opaque_cubes,
-        stack: [Branch { origin, direction, throughput: [0.0; 3], inside: NONE, event: 0 }; SPLIT_STACK],
+        stack: [Branch { origin, direction, throughput: [0.0; 3], inside: NONE, event: 0, travelled: 0.0 };
+            SPLIT_STACK],
         pending: 0,
         result: Pixel::EMPTY,
         guide: Guide::default(),
     };
-    let mut path = Branch { origin, direction, throughput: [1.0; 3], inside: NONE, event: 0 };
+    let mut path = Branch { origin, direction, throughput: [1.0; 3], inside: NONE, event: 0, travelled: 0.0 };
     let mut branch = 0u32;
     loop {
         tracer.guide.open = branch == 0;
@@ -209,6 +216,7 @@ impl PathTracer<'_> {
         for (weight, absorption) in path.throughput.iter_mut().zip(self.look.absorption) {
             *weight *= (-absorption * t).exp();
         }
+        path.travelled += t;
         let reflected = Branch { origin: along(exit, m, -self.eps), direction: reflect(d, m), inside: last, ..*path };
         match refract(d, m.map(|v| -v), self.look.ior) {
             Some(refracted) => {
@@ -238,7 +246,7 @@ impl PathTracer<'_> {
         if t_floor < hit.t {
             let albedo = match first {
                 Some(surface) => surface.floor_albedo,
-                None => floor_albedo(self.look, along(o, d, t_floor)),
+                None => floor_albedo(self.look, along(o, d, t_floor), self.footprint(path, t_floor)),
             };
             self.set_guides(path.throughput, albedo, [0.0, 1.0, 0.0]);
             self.add(path.throughput, floor_radiance(self.look, albedo, d));
@@ -268,6 +276,7 @@ impl PathTracer<'_> {
     /// Glass met at `p` from outside: reflect, or refract into the union.
     fn enter_glass(&mut self, path: &mut Branch, hit: Hit, p: [f32; 3], chance: f32) {
         let d = path.direction;
+        path.travelled += hit.t;
         let reflectance = fresnel(-dot(d, hit.normal), 1.0 / self.look.ior);
         let reflected =
             Branch { origin: along(p, hit.normal, self.eps), direction: reflect(d, hit.normal), inside: NONE, ..*path };
@@ -292,7 +301,8 @@ impl PathTracer<'_> {
     fn escape(&mut self, path: &Branch) {
         let t_floor = floor_t(self.look, path.origin, path.direction);
         let escape = if t_floor.is_finite() {
-            let albedo = floor_albedo(self.look, along(path.origin, path.direction, t_floor));
+            let albedo =
+                floor_albedo(self.look, along(path.origin, path.direction, t_floor), self.footprint(path, t_floor));
             self.set_guides(path.throughput, albedo, [0.0, 1.0, 0.0]);
             floor_radiance(self.look, albedo, path.direction)
         } else {
@@ -300,6 +310,11 @@ impl PathTracer<'_> {
             self.look.environment.radiance(path.direction)
         };
         self.add(path.throughput, escape);
+    }
+
+    /// The footprint of `path`'s ray `t` further on.
+    fn footprint(&self, path: &Branch, t: f32) -> Footprint {
+        Footprint { direction: path.direction, width_m: self.ray.spread_rad * (path.travelled + t) }
     }
 
     /// Sets the denoising guides, if still open: `albedo` seen through `throughput`, and `normal`.

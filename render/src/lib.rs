@@ -19,6 +19,7 @@
 //! - [`sampling`]: random numbers and pixel samples.
 //! - [`hit_search`]: the nearest hit over unions of elements, and walks out of a union.
 //! - [`materials`]: the look: glass, opaque and floor materials, the floor texture.
+//! - [`texture_filter`]: the floor texture's mip chain and lookups over a ray's footprint.
 //! - [`lighting`]: SH environment light, the key light, the environment map.
 //! - [`shading`]: reflection, refraction, Fresnel, opaque surfaces and the floor.
 //! - [`integrator`]: radiance along one camera ray, and its first-surface layers.
@@ -53,6 +54,7 @@ mod sampling;
 pub mod scene_geometry;
 mod shading;
 pub mod shutter;
+pub mod texture_filter;
 
 #[cfg(test)]
 mod trace_tests;

@@ -2,6 +2,7 @@
 //! light, glass and opaque materials, the floor and its texture).
 
 use crate::lighting::{EnvironmentMap, KeyLight};
+use crate::texture_filter::MipChain;
 
 /// What the renderer needs besides the geometry.
 #[derive(Debug, Clone)]
@@ -49,6 +50,9 @@ pub struct FloorLook {
     pub size: [usize; 2],
     /// Albedo texels, row-major.
     pub texels: FloorTexels,
+    /// The texture's mip chain when it is filtered over each ray's footprint
+    /// (`render.texture_filter`); None: point sampled, the texel under the point.
+    pub mips: Option<MipChain>,
 }
 
 impl FloorLook {
@@ -137,7 +141,7 @@ mod tests {
         assert_eq!(texels.linear_at(0)[0], 0.0);
         assert_eq!(texels.linear_at(255)[0], 1.0);
         // the floor looks the texel up where the point falls in its tile
-        let floor = FloorLook { height: 0.0, tile: 1.0, size: [16, 16], texels };
+        let floor = FloorLook { height: 0.0, tile: 1.0, size: [16, 16], texels, mips: None };
         assert_eq!(floor.albedo([0.5 / 16.0, 0.0, 1.5 / 16.0]), floor.texels.linear_at(16));
         assert_eq!(floor.albedo([-0.5 / 16.0, 0.0, 0.0]), floor.texels.linear_at(15));
     }

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use glam::DVec3;
-use shatter_core::config::render::{CubeSurface, RenderConfig};
+use shatter_core::config::render::{CubeSurface, RenderConfig, TextureFilter};
 use shatter_core::config::sim::BackendChoice;
 use shatter_core::digest;
 use shatter_core::fragments::FragmentFrame;
@@ -33,6 +33,7 @@ use crate::motion::{Motions, motion_vectors};
 use crate::placing::SceneBasis;
 use crate::scene_geometry::SceneGeometry;
 use crate::shutter::{FramePoses, SceneMotion};
+use crate::texture_filter::MipChain;
 
 /// Why rendering failed.
 #[derive(Debug, thiserror::Error)]
@@ -171,7 +172,12 @@ pub fn look(render: &RenderConfig) -> Result<Look, RenderError> {
                 Some(path) => load_texture(path)?,
                 None => ([1, 1], FloorTexels::Linear(vec![floor.albedo.map(|v| v as f32)])),
             };
-            Some(FloorLook { height: floor.height_m as f32, tile: floor.tile_size_m as f32, size, texels })
+            let mut look =
+                FloorLook { height: floor.height_m as f32, tile: floor.tile_size_m as f32, size, texels, mips: None };
+            if render.texture_filter == TextureFilter::Anisotropic && floor.texture.is_some() {
+                look.mips = Some(MipChain::of(&look));
+            }
+            Some(look)
         }
     };
     let material = &render.material;

@@ -5,6 +5,7 @@
 use crate::lighting::sh_irradiance;
 use crate::materials::Look;
 use crate::primitives::dot;
+use crate::texture_filter::{Footprint, filtered_albedo};
 
 pub(crate) fn reflect(d: [f32; 3], n: [f32; 3]) -> [f32; 3] {
     let k = 2.0 * dot(d, n);
@@ -37,9 +38,15 @@ pub(crate) fn floor_t(look: &Look, origin: [f32; 3], direction: [f32; 3]) -> f32
     }
 }
 
-/// Albedo of the floor at `p`.
-pub(crate) fn floor_albedo(look: &Look, p: [f32; 3]) -> [f32; 3] {
-    look.floor.as_ref().map_or([0.5; 3], |f| f.albedo(p))
+/// Albedo of the floor at `p`, filtered over `footprint` where the floor's texture is.
+pub(crate) fn floor_albedo(look: &Look, p: [f32; 3], footprint: Footprint) -> [f32; 3] {
+    match &look.floor {
+        Some(floor) => match &floor.mips {
+            Some(mips) => filtered_albedo(floor, mips, p, footprint),
+            None => floor.albedo(p),
+        },
+        None => [0.5; 3],
+    }
 }
 
 /// Radiance of the floor, of albedo `albedo` where it is seen, along `d`.

@@ -50,6 +50,7 @@ fn look() -> Look {
             tile: 1.0,
             size: [1, 1],
             texels: FloorTexels::Linear(vec![[0.5; 3]]),
+            mips: None,
         }),
         max_bounces: 2,
         glass_split_events: 0,

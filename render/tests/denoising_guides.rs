@@ -29,6 +29,7 @@ fn look(opaque_cubes: bool) -> Look {
             tile: 100.0,
             size: [1, 1],
             texels: FloorTexels::Linear(vec![[0.25, 0.5, 0.125]]),
+            mips: None,
         }),
         max_bounces: 8,
         glass_split_events: 0,

@@ -58,6 +58,7 @@ fn look(bounces: u32, split: u32) -> Look {
             tile: 0.2,
             size: [2, 2],
             texels: FloorTexels::Linear(vec![[0.9, 0.6, 0.3], [0.05; 3], [0.05; 3], [0.9, 0.6, 0.3]]),
+            mips: None,
         }),
         max_bounces: bounces,
         glass_split_events: split,

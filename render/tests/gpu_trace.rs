@@ -17,6 +17,7 @@ use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
 use shatter_render::materials::{FloorLook, FloorTexels, Look};
 use shatter_render::mattes::SURFACE_FRACTURE;
 use shatter_render::scene_geometry::SceneGeometry;
+use shatter_render::texture_filter::MipChain;
 
 fn set(positions: Vec<[f32; 3]>, elements: Elements) -> ParticleSet {
     let adjacency =
@@ -61,6 +62,7 @@ fn look(floor: bool) -> Look {
             tile: 0.5,
             size: [2, 2],
             texels: FloorTexels::Linear(vec![[0.9; 3], [0.1; 3], [0.1; 3], [0.9; 3]]),
+            mips: None,
         }),
         max_bounces: 6,
         glass_split_events: 2,
@@ -215,6 +217,12 @@ fn gpu_and_cpu_agree_on_random_opaque_cube_scenes() {
     let camera = Camera::look_at(DVec3::new(0.4, 0.5, 1.3), DVec3::ZERO, DVec3::Y, 45.0, 48, 36);
     let look = Look { opaque_cubes: true, ..look(true) };
     assert!(compare(&scene, &look, &camera, 2) > 0, "faces resting on neighbours show as fracture faces");
+    // the floor's texture filtered over each ray's footprint (render.texture_filter)
+    let mut filtered = look.clone();
+    if let Some(floor) = filtered.floor.as_mut() {
+        floor.mips = Some(MipChain::of(floor));
+    }
+    compare(&scene, &filtered, &camera, 2);
 }
 
 /// Deformed elements: each element mapped by its own affine map (sheared, stretched cubes and

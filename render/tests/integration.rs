@@ -10,3 +10,4 @@ mod depth_of_field;
 mod glass_convergence;
 mod gpu_trace;
 mod motion_blur;
+mod texture_filtering;

@@ -34,6 +34,8 @@ pub struct RenderConfig {
     /// camera ray sees the pieces where their motion puts them at its own time in that interval
     /// (3D motion blur). 0.5 is a 180-degree shutter; 0 gives still frames.
     pub shutter: f64,
+    /// How the floor texture is sampled.
+    pub texture_filter: TextureFilter,
     /// Also write the denoising passes (Blender's Denoising Albedo and Denoising Normal), the
     /// guides a comp's denoiser takes with the colour.
     pub denoising_passes: bool,
@@ -66,6 +68,7 @@ impl Default for RenderConfig {
             glass_split_events: 0,
             shutter: 0.5,
             denoising_passes: true,
+            texture_filter: TextureFilter::Anisotropic,
             environment: None,
             environment_intensity: 1.0,
             show_environment: true,
@@ -113,6 +116,18 @@ impl Default for CameraConfig {
             sensor_height_mm: 24.0,
         }
     }
+}
+
+/// How the floor texture is sampled (`render.texture_filter`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TextureFilter {
+    /// Averaged over each ray's footprint: a mip chain, several trilinear lookups along the
+    /// footprint's long axis (no moire toward the horizon).
+    #[default]
+    Anisotropic,
+    /// The texel under the point (aliases where a pixel covers many texels).
+    Point,
 }
 
 /// What cubes are made of (`render.material.cubes`).
