@@ -123,8 +123,9 @@ mod tests {
     use crate::materials::FloorTexels;
 
     fn checker(size: usize) -> FloorLook {
-        let texels =
-            (0..size * size).map(|i| if (i % size + i / size) % 2 == 0 { [1.0; 3] } else { [0.0; 3] }).collect();
+        let texels = (0..size * size)
+            .map(|i| if (i % size + i / size).is_multiple_of(2) { [1.0; 3] } else { [0.0; 3] })
+            .collect();
         FloorLook { height: 0.0, tile: 1.0, size: [size, size], texels: FloorTexels::Linear(texels), mips: None }
     }
 

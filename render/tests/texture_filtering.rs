@@ -15,8 +15,9 @@ use shatter_render::texture_filter::MipChain;
 
 /// A checker of 64 x 64 texels on a floor tile of 1 m, point sampled or filtered.
 fn look(filtered: bool) -> Look {
-    let size = 64;
-    let texels = (0..size * size).map(|i| if (i % size + i / size) % 2 == 0 { [0.9; 3] } else { [0.05; 3] }).collect();
+    let size = 64usize;
+    let texels =
+        (0..size * size).map(|i| if (i % size + i / size).is_multiple_of(2) { [0.9; 3] } else { [0.05; 3] }).collect();
     let mut floor =
         FloorLook { height: 0.0, tile: 1.0, size: [size, size], texels: FloorTexels::Linear(texels), mips: None };
     if filtered {
