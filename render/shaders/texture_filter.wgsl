@@ -71,7 +71,7 @@ fn filtered_albedo(p: vec3<f32>, direction: vec3<f32>, width_m: f32) -> vec3<f32
     }
     let minor = max(width_m * texels_per_metre, 1e-6);
     let major = minor / sine;
-    let taps = clamp(u32(ceil(major / minor)), 1u, MAX_TAPS);
+    let taps = clamp(u32(ceil(major / max(minor, 1.0))), 1u, MAX_TAPS);
     let lod = log2(max(minor, major / f32(taps)));
     let du = ax * width_m / sine / tile;
     let dv = az * width_m / sine / tile;

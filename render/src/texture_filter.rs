@@ -104,7 +104,8 @@ pub fn filtered_albedo(floor: &FloorLook, mips: &MipChain, p: [f32; 3], footprin
     let (ax, az) = if across > 0.0 { (d[0] / across, d[2] / across) } else { (1.0, 0.0) };
     let minor = texels(footprint.width_m).max(1e-6);
     let major = minor / sine;
-    let taps = ((major / minor).ceil() as u32).clamp(1, MAX_TAPS);
+    // one lookup per texel-wide share of the long axis: none more where it is under a texel
+    let taps = ((major / minor.max(1.0)).ceil() as u32).clamp(1, MAX_TAPS);
     let lod = (minor.max(major / taps as f32)).log2();
     // the long axis in (u, v) units
     let (du, dv) = (ax * footprint.width_m / sine / floor.tile, az * footprint.width_m / sine / floor.tile);

@@ -7,23 +7,15 @@ use glam::DVec3;
 use shatter_core::particles::{Elements, ParticleSet};
 use shatter_render::camera::Camera;
 use shatter_render::image_loop::render;
-use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
 use shatter_render::materials::{FloorLook, FloorTexels, Look};
 use shatter_render::scene_geometry::SceneGeometry;
 
 fn look(opaque_cubes: bool) -> Look {
-    let environment = EnvironmentMap { width: 4, height: 2, texels: vec![[0.6, 0.7, 0.9]; 8] };
     Look {
-        sh: sh_project(&environment),
-        key: key_light(&environment),
-        environment,
-        show_environment: true,
-        ior: 1.5,
         absorption: [2.0, 0.5, 1.0],
         albedo: [0.7, 0.5, 0.3],
         fracture_albedo: [0.2, 0.4, 0.6],
         specular: 0.2,
-        shininess: 32.0,
         floor: Some(FloorLook {
             height: -0.1,
             tile: 100.0,
@@ -32,8 +24,8 @@ fn look(opaque_cubes: bool) -> Look {
             mips: None,
         }),
         max_bounces: 8,
-        glass_split_events: 0,
         opaque_cubes,
+        ..support::look([0.6, 0.7, 0.9], (4, 2))
     }
 }
 

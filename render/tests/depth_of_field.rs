@@ -10,7 +10,6 @@ use shatter_gpu::GpuContext;
 use shatter_render::camera::{Camera, Lens};
 use shatter_render::gpu_trace::GpuTracer;
 use shatter_render::image_loop::render;
-use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
 use shatter_render::materials::Look;
 use shatter_render::scene_geometry::SceneGeometry;
 
@@ -23,23 +22,7 @@ const SENSOR_MM: f64 = 24.0;
 
 /// Opaque cubes on a transparent background: alpha is their coverage.
 fn look() -> Look {
-    let environment = EnvironmentMap { width: 4, height: 2, texels: vec![[0.5; 3]; 8] };
-    Look {
-        sh: sh_project(&environment),
-        key: key_light(&environment),
-        environment,
-        show_environment: false,
-        ior: 1.5,
-        absorption: [0.0; 3],
-        albedo: [0.7; 3],
-        fracture_albedo: [0.7; 3],
-        specular: 0.0,
-        shininess: 16.0,
-        floor: None,
-        max_bounces: 4,
-        glass_split_events: 0,
-        opaque_cubes: true,
-    }
+    Look { show_environment: false, ..support::look([0.5; 3], (4, 2)) }
 }
 
 /// A cube `edge_m` wide at distance `distance_m` in front of the camera at z = 1.

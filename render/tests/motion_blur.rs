@@ -22,23 +22,7 @@ const HALF: f32 = 0.05;
 
 /// Opaque cubes on a black, transparent background: alpha is the cubes' coverage.
 fn coverage_look() -> Look {
-    let environment = EnvironmentMap { width: 4, height: 2, texels: vec![[0.5; 3]; 8] };
-    Look {
-        sh: sh_project(&environment),
-        key: key_light(&environment),
-        environment,
-        show_environment: false,
-        ior: 1.5,
-        absorption: [0.0; 3],
-        albedo: [0.7; 3],
-        fracture_albedo: [0.7; 3],
-        specular: 0.0,
-        shininess: 16.0,
-        floor: None,
-        max_bounces: 4,
-        glass_split_events: 0,
-        opaque_cubes: true,
-    }
+    Look { show_environment: false, ..support::look([0.5; 3], (4, 2)) }
 }
 
 /// Cubes at `centres`, one fragment each unless `fragment_of` says otherwise.

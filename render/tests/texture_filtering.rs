@@ -8,7 +8,6 @@ use glam::DVec3;
 use shatter_core::particles::Elements;
 use shatter_render::camera::Camera;
 use shatter_render::image_loop::render;
-use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
 use shatter_render::materials::{FloorLook, FloorTexels, Look};
 use shatter_render::scene_geometry::SceneGeometry;
 use shatter_render::texture_filter::MipChain;
@@ -23,23 +22,7 @@ fn look(filtered: bool) -> Look {
     if filtered {
         floor.mips = Some(MipChain::of(&floor));
     }
-    let environment = EnvironmentMap { width: 4, height: 2, texels: vec![[1.0; 3]; 8] };
-    Look {
-        sh: sh_project(&environment),
-        key: key_light(&environment),
-        environment,
-        show_environment: true,
-        ior: 1.5,
-        absorption: [0.0; 3],
-        albedo: [0.5; 3],
-        fracture_albedo: [0.5; 3],
-        specular: 0.0,
-        shininess: 16.0,
-        floor: Some(floor),
-        max_bounces: 4,
-        glass_split_events: 0,
-        opaque_cubes: true,
-    }
+    Look { floor: Some(floor), ..support::look([1.0; 3], (4, 2)) }
 }
 
 /// The image as 8-bit sRGB.

@@ -271,7 +271,20 @@ impl RenderConfig {
             || format!("must be a multiplier from 0 to {MAX_ENVIRONMENT_INTENSITY:e}"),
         )?;
         check.finite("render.preview_exposure_stops", self.preview_exposure_stops)?;
-        let camera = &self.camera;
+        self.camera.validate(check)?;
+        self.material.validate(check)?;
+        if let Some(floor) = &self.floor {
+            check.finite("render.floor.height_m", floor.height_m)?;
+            check.positive("render.floor.tile_size_m", floor.tile_size_m, "metres")?;
+            check.unit_colour("render.floor.albedo", &floor.albedo)?;
+        }
+        Ok(())
+    }
+}
+
+impl CameraConfig {
+    fn validate(&self, check: &Checker) -> Result<(), ConfigError> {
+        let camera = self;
         if let Some(position) = &camera.position_m {
             check.finite_array("render.camera.position_m", position)?;
         }
@@ -306,7 +319,13 @@ impl RenderConfig {
             &sensor.to_string(),
             || "must be from 1 to 1000 millimetres".into(),
         )?;
-        let look = &self.material;
+        Ok(())
+    }
+}
+
+impl LookConfig {
+    fn validate(&self, check: &Checker) -> Result<(), ConfigError> {
+        let look = self;
         check.that(
             look.glass_ior >= 1.0 && look.glass_ior <= 4.0,
             "render.material.glass_ior",
@@ -325,11 +344,6 @@ impl RenderConfig {
         }
         check.non_negative("render.material.specular", look.specular, "a multiplier")?;
         check.positive("render.material.shininess", look.shininess, "a Blinn-Phong exponent")?;
-        if let Some(floor) = &self.floor {
-            check.finite("render.floor.height_m", floor.height_m)?;
-            check.positive("render.floor.tile_size_m", floor.tile_size_m, "metres")?;
-            check.unit_colour("render.floor.albedo", &floor.albedo)?;
-        }
         Ok(())
     }
 }
