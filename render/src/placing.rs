@@ -3,6 +3,7 @@
 //! image of a convex polytope is convex: the tracers need nothing else); and what every frame of
 //! a render shares ([`SceneBasis`]).
 
+use std::borrow::Cow;
 use std::collections::HashMap;
 
 use glam::{DMat3, DVec3, Quat, Vec3};
@@ -119,15 +120,9 @@ impl SceneGeometry {
         // the rest tree's instances: the fragments, or under an open shutter the motion's groups
         // (each group's elements share this frame's fragment, so its motion)
         let members = motion.as_ref().map_or(&scene.fragment, |motion| &motion.group_of);
-        let member_motions: Vec<(Quat, Vec3)> = match &motion {
-            Some(motion) if !motions.is_empty() => {
-                let mut first = vec![u32::MAX; motion.groups.len()];
-                for (e, &g) in motion.group_of.iter().enumerate().rev() {
-                    first[g as usize] = e as u32;
-                }
-                first.iter().map(|&e| motions[scene.fragment[e as usize] as usize]).collect()
-            }
-            _ => motions.clone(),
+        let member_motions: Cow<[(Quat, Vec3)]> = match &motion {
+            Some(motion) if !motions.is_empty() => Cow::Owned(group_motions(motion, &scene.fragment, &motions)),
+            _ => Cow::Borrowed(&motions),
         };
         let moved = match (fragments, &basis.rest) {
             (Some(_), Some(rest)) if !deformed => {
@@ -168,6 +163,16 @@ impl SceneGeometry {
             (self.cube_slabs, self.cube_axes) = cube_slabs(&self.planes);
         }
     }
+}
+
+/// Each of `motion`'s groups' rigid motion this frame: that of the fragment (in `fragment_of`)
+/// its elements share, from `motions`.
+fn group_motions(motion: &SceneMotion, fragment_of: &[u32], motions: &[(Quat, Vec3)]) -> Vec<(Quat, Vec3)> {
+    let mut first = vec![u32::MAX; motion.groups.len()];
+    for (e, &g) in motion.group_of.iter().enumerate().rev() {
+        first[g as usize] = e as u32;
+    }
+    first.iter().map(|&e| motions[fragment_of[e as usize] as usize]).collect()
 }
 
 /// An element's world bounds `b` widened by twice the tracers' `slack` (see

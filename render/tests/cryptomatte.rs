@@ -16,7 +16,7 @@ use shatter_render::cryptomatte::{fragment_matte, material_matte};
 use shatter_render::hit_search::{NONE, closest_hit};
 use shatter_render::image_loop::render;
 use shatter_render::image_out::{FrameHeader, FrameLayers, write_exr};
-use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
+use shatter_render::lighting::EnvironmentMap;
 use shatter_render::materials::{FloorLook, FloorTexels, Look};
 use shatter_render::scene_geometry::SceneGeometry;
 
@@ -33,17 +33,9 @@ fn scene() -> SceneGeometry {
 }
 
 fn look() -> Look {
-    let environment = EnvironmentMap::constant([0.5; 3]);
     Look {
-        sh: sh_project(&environment),
-        key: key_light(&environment),
-        environment,
-        show_environment: true,
-        ior: 1.5,
-        absorption: [0.0; 3],
         albedo: [0.8; 3],
         fracture_albedo: [0.8; 3],
-        specular: 0.0,
         shininess: 32.0,
         floor: Some(FloorLook {
             height: FLOOR_Y,
@@ -53,8 +45,8 @@ fn look() -> Look {
             mips: None,
         }),
         max_bounces: 2,
-        glass_split_events: 0,
         opaque_cubes: false,
+        ..support::look(EnvironmentMap::constant([0.5; 3]))
     }
 }
 

@@ -12,7 +12,7 @@ use shatter_render::camera::Camera;
 use shatter_render::image_loop::render;
 use shatter_render::image_out::write_png;
 use shatter_render::integrator::Pixel;
-use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
+use shatter_render::lighting::EnvironmentMap;
 use shatter_render::materials::{FloorLook, FloorTexels, Look};
 use shatter_render::scene_geometry::SceneGeometry;
 
@@ -41,13 +41,7 @@ fn look(bounces: u32, split: u32) -> Look {
             if (14..17).contains(&row) { [6.0, 5.0, 4.0] } else { [0.05, 0.06, 0.08] }
         })
         .collect();
-    let environment = EnvironmentMap { width, height, texels };
     Look {
-        sh: sh_project(&environment),
-        key: key_light(&environment),
-        environment,
-        show_environment: true,
-        ior: 1.5,
         absorption: [1.0, 0.3, 0.6],
         albedo: [0.8; 3],
         fracture_albedo: [0.8; 3],
@@ -63,6 +57,7 @@ fn look(bounces: u32, split: u32) -> Look {
         max_bounces: bounces,
         glass_split_events: split,
         opaque_cubes: false,
+        ..support::look(EnvironmentMap { width, height, texels })
     }
 }
 

@@ -13,7 +13,6 @@ use shatter_render::camera::Camera;
 use shatter_render::gpu_trace::GpuTracer;
 use shatter_render::hit_search::NONE;
 use shatter_render::image_loop::render;
-use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
 use shatter_render::materials::{FloorLook, FloorTexels, Look};
 use shatter_render::mattes::SURFACE_FRACTURE;
 use shatter_render::scene_geometry::SceneGeometry;
@@ -41,17 +40,7 @@ fn lattice_neighbours(positions: &[[f32; 3]]) -> Vec<[u32; 2]> {
 
 fn look(floor: bool) -> Look {
     // a gradient sky so that shading varies with direction
-    let (width, height) = (32, 16);
-    let texels = (0..width * height)
-        .map(|i| [0.2 + (i % width) as f32 / width as f32, 0.5, 1.0 - (i / width) as f32 / height as f32])
-        .collect();
-    let environment = EnvironmentMap { width, height, texels };
     Look {
-        sh: sh_project(&environment),
-        key: key_light(&environment),
-        environment,
-        show_environment: true,
-        ior: 1.5,
         absorption: [0.5, 0.2, 0.1],
         albedo: [0.7, 0.6, 0.5],
         fracture_albedo: [0.3, 0.5, 0.9],
@@ -67,6 +56,7 @@ fn look(floor: bool) -> Look {
         max_bounces: 6,
         glass_split_events: 2,
         opaque_cubes: false,
+        ..support::look(support::gradient_sky())
     }
 }
 

@@ -12,7 +12,6 @@ use shatter_gpu::GpuContext;
 use shatter_render::camera::Camera;
 use shatter_render::gpu_trace::GpuTracer;
 use shatter_render::image_loop::{Rendered, render};
-use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
 use shatter_render::materials::Look;
 use shatter_render::scene_geometry::SceneGeometry;
 use shatter_render::shutter::FramePoses;
@@ -22,7 +21,7 @@ const HALF: f32 = 0.05;
 
 /// Opaque cubes on a black, transparent background: alpha is the cubes' coverage.
 fn coverage_look() -> Look {
-    Look { show_environment: false, ..support::look([0.5; 3], (4, 2)) }
+    Look { show_environment: false, ..support::look(support::uniform_sky([0.5; 3], (4, 2))) }
 }
 
 /// Cubes at `centres`, one fragment each unless `fragment_of` says otherwise.
@@ -219,20 +218,11 @@ fn moving_scene(shutter: f64) -> SceneGeometry {
 }
 
 fn glass_look() -> Look {
-    let (width, height) = (32, 16);
-    let texels = (0..width * height)
-        .map(|i| [0.2 + (i % width) as f32 / width as f32, 0.5, 1.0 - (i / width) as f32 / height as f32])
-        .collect();
-    let environment = EnvironmentMap { width, height, texels };
     Look {
-        sh: sh_project(&environment),
-        key: key_light(&environment),
-        environment,
-        show_environment: true,
         absorption: [0.5, 0.2, 0.1],
         glass_split_events: 1,
         opaque_cubes: false,
-        ..coverage_look()
+        ..support::look(support::gradient_sky())
     }
 }
 

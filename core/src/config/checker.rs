@@ -43,6 +43,19 @@ impl Checker<'_> {
         })
     }
 
+    /// `value` lies in `range` (NaN never does): "must be `what` from LO to HI".
+    pub(super) fn within(
+        &self,
+        key: &str,
+        value: f64,
+        range: std::ops::RangeInclusive<f64>,
+        what: &str,
+    ) -> Result<(), ConfigError> {
+        self.that(range.contains(&value), key, &value.to_string(), || {
+            format!("must be {what} from {} to {}", range.start(), range.end())
+        })
+    }
+
     pub(super) fn finite(&self, key: &str, value: f64) -> Result<(), ConfigError> {
         self.that(value.is_finite(), key, &value.to_string(), || "must be a finite number".to_string())
     }

@@ -241,9 +241,7 @@ impl RenderConfig {
             &self.glass_split_events.to_string(),
             || "must be between 0 and 8".into(),
         )?;
-        check.that((0.0..=1.0).contains(&self.shutter), "render.shutter", &self.shutter.to_string(), || {
-            "must be a fraction of a frame from 0 (still frames) to 1".into()
-        })?;
+        check.within("render.shutter", self.shutter, 0.0..=1.0, "a fraction of a frame (0: still frames)")?;
         for (key, path) in [
             ("render.environment", &self.environment),
             ("render.floor.texture", &self.floor.as_ref().and_then(|f| f.texture.clone())),
@@ -302,23 +300,12 @@ impl CameraConfig {
             "must be between 0 and 179 degrees".into()
         })?;
         if let Some(f_stop) = camera.f_stop {
-            check.that(
-                f_stop.is_finite() && (0.5..=256.0).contains(&f_stop),
-                "render.camera.f_stop",
-                &f_stop.to_string(),
-                || "must be an f-number from 0.5 to 256 (leave it out for a pinhole)".into(),
-            )?;
+            check.within("render.camera.f_stop", f_stop, 0.5..=256.0, "an f-number (left out: a pinhole)")?;
         }
         if let Some(focus) = camera.focus_distance_m {
             check.positive("render.camera.focus_distance_m", focus, "metres")?;
         }
-        let sensor = camera.sensor_height_mm;
-        check.that(
-            sensor.is_finite() && (1.0..=1000.0).contains(&sensor),
-            "render.camera.sensor_height_mm",
-            &sensor.to_string(),
-            || "must be from 1 to 1000 millimetres".into(),
-        )?;
+        check.within("render.camera.sensor_height_mm", camera.sensor_height_mm, 1.0..=1000.0, "millimetres")?;
         Ok(())
     }
 }

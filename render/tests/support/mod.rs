@@ -14,11 +14,23 @@ pub fn particle_set(
     ParticleSet { adjacency, ..ParticleSet::unbonded(positions, elements, lambda_m) }
 }
 
-/// A look under a uniform environment of radiance `radiance` (`width` x `height` texels):
-/// opaque cubes of albedo 0.7 without a highlight, no floor, the environment shown; tests
-/// change what they need.
-pub fn look(radiance: [f32; 3], (width, height): (usize, usize)) -> Look {
-    let environment = EnvironmentMap { width, height, texels: vec![radiance; width * height] };
+/// A uniform environment of radiance `radiance`, `width` x `height` texels.
+pub fn uniform_sky(radiance: [f32; 3], (width, height): (usize, usize)) -> EnvironmentMap {
+    EnvironmentMap { width, height, texels: vec![radiance; width * height] }
+}
+
+/// A 32 x 16 sky whose colour varies with direction, so that shading does.
+pub fn gradient_sky() -> EnvironmentMap {
+    let (width, height) = (32, 16);
+    let texels = (0..width * height)
+        .map(|i| [0.2 + (i % width) as f32 / width as f32, 0.5, 1.0 - (i / width) as f32 / height as f32])
+        .collect();
+    EnvironmentMap { width, height, texels }
+}
+
+/// A look under `environment` (its SH light and key light): opaque cubes of albedo 0.7 without a
+/// highlight, no floor, the environment shown; tests change what they need.
+pub fn look(environment: EnvironmentMap) -> Look {
     Look {
         sh: sh_project(&environment),
         key: key_light(&environment),
