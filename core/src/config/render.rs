@@ -303,7 +303,7 @@ impl CameraConfig {
             check.within("render.camera.f_stop", f_stop, 0.5..=256.0, "an f-number (left out: a pinhole)")?;
         }
         if let Some(focus) = camera.focus_distance_m {
-            check.positive("render.camera.focus_distance_m", focus, "metres")?;
+            check.within("render.camera.focus_distance_m", focus, 0.001..=1e6, "metres")?;
         }
         check.within("render.camera.sensor_height_mm", camera.sensor_height_mm, 1.0..=1000.0, "millimetres")?;
         Ok(())
