@@ -4,7 +4,9 @@
 #   the vase and the dragon, each on its own particle file and model) and on grid blocks standing
 #   in for them (vase and dragon scale, and an elastoplastic block), beside the bandwidth floor of
 #   the bytes each step moves;
-# - the GPU tracer's primary-hit and full-glass-path rays per second at 1920 x 1080 x 4 spp;
+# - the GPU tracer's primary-hit and full-glass-path rays per second at 1920 x 1080 x 4 spp, on
+#   600,000 cubes and on dragon_paper's 473,749 trimtopes (its cells made by `shatter preprocess`
+#   with a small horizon: the tracer needs the cells, not the bonds);
 # - CPU-vs-GPU agreement: the simulation's state after the same steps on both backends, and the
 #   tracer's images against the CPU's.
 #
@@ -80,7 +82,7 @@ run() {
   vulkan
   local bin
   bin=$(mktemp -d)
-  for bench in gpu_steps render; do
+  for bench in gpu_steps render shatter; do
     [ -f "$bench_dir/$bench.gz" ] || { echo "gpu-bench: .gpu-bench/$bench.gz is missing: run '$0 build' first" >&2; exit 1; }
     gunzip -c "$bench_dir/$bench.gz" >"$bin/$bench"
     chmod +x "$bin/$bench"
@@ -89,14 +91,16 @@ run() {
   if command -v nvidia-smi >/dev/null 2>&1; then nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader || true; fi
   # the benchmarks fall back to a software adapter themselves; the scenes follow what they find
   if ! "$bin/gpu_steps" --adapter | grep -q '^hardware'; then hardware=0; fi
-  local steps scenes
+  local steps scenes cells
   if [ "$hardware" = 1 ]; then
     steps=${SHATTER_GPU_BENCH_STEPS:-200}
     scenes=${SHATTER_GPU_BENCH_SCENES:-assets/scenes/glass_plate_paper.toml assets/scenes/vase_paper.toml assets/scenes/dragon_paper.toml}
+    cells=assets/scenes/dragon_paper.toml
   else
     export SHATTER_GPU_ALLOW_SOFTWARE=1
     steps=${SHATTER_GPU_BENCH_STEPS:-20}
     scenes=${SHATTER_GPU_BENCH_SCENES:-assets/scenes/glass_plate_small.toml assets/scenes/dragon_small.toml}
+    cells=assets/scenes/dragon_small.toml
   fi
   local args=("$steps" --agreement)
   for scene in $scenes; do args+=(--scene "$root/$scene"); done
@@ -108,10 +112,24 @@ run() {
   echo "== tracer"
   # a bound on the tracer's run: a pass that outlasts it still leaves the figures printed before
   local bound=${SHATTER_GPU_BENCH_TRACER_S:-300}
-  if ! timeout "$bound" "$bin/render" 640 360 | tee "$log_render"; then
+  local particles
+  particles=$(trimtope_cells "$bin/shatter" "$cells" "$bin/cells")
+  if ! timeout "$bound" "$bin/render" 640 360 --particles "$particles" | tee "$log_render"; then
     echo "gpu-bench: the tracer benchmark stopped after ${bound} s (SHATTER_GPU_BENCH_TRACER_S); figures above are complete"
   fi
   table "$log_sim" "$log_render"
+}
+
+# The cells of the scene config $2 (a path from the repository's root, in assets/scenes/) made by
+# the shatter binary $1 into the folder $3, with a horizon of 1.5 spacings: the tracer needs the
+# cells, and the bonds of the scene's own horizon (123M for dragon_paper) would only cost time.
+# Prints the particle file's path.
+trimtope_cells() {
+  local shatter=$1 scene=$2 out=$3
+  sed -e "s#\"\.\./#\"$root/assets/#" -e "s#^output_dir = .*#output_dir = \"$out\"#" \
+    -e 's#^horizon_factor = .*#horizon_factor = 1.5#' "$root/$scene" >"$out.toml"
+  "$shatter" preprocess --config "$out.toml" >/dev/null 2>&1 || { echo "gpu-bench: could not make the cells of $scene" >&2; exit 1; }
+  echo "$out/particles.shp"
 }
 
 # The figures above as markdown tables.
@@ -132,15 +150,16 @@ table() {
     END { flush() }
   ' "$1"
   echo
-  echo "| tracer | size | M rays/s | against the CPU |"
-  echo "|---|---|---|---|"
+  echo "| elements | tracer | size | M rays/s | against the CPU |"
+  echo "|---|---|---|---|---|"
   awk '
     function grab(pattern, strip) { if (match($0, pattern)) { v = substr($0, RSTART, RLENGTH); gsub(strip, "", v); return v } return "" }
+    /^render benchmark: [0-9]/ { elements = grab("[0-9]+ [a-z ]+", ""); sub(/ *(of)? *$/, "", elements) }
     /^  (GPU|CPU) / {
       label = $0; sub(/:.*/, "", label); sub(/^  /, "", label); sub(/^GPU .*\), /, "GPU, ", label)
       size = grab("[0-9]+ x [0-9]+ x [0-9]+ spp", ""); rays = grab("[0-9.]+ M rays", " M rays")
       agree = ""; if (index($0, "against the CPU: ")) { agree = $0; sub(/.*against the CPU: /, "", agree) }
-      printf "| %s | %s | %s | %s |\n", label, size, rays, agree
+      printf "| %s | %s | %s | %s | %s |\n", elements, label, size, rays, agree
     }
   ' "$2"
 }

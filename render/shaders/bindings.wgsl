@@ -77,6 +77,9 @@ struct MatteOut {
 // shutter.rs SceneMotion: each element's group, and each group's GroupMotion as five vec4
 @group(0) @binding(17) var<storage, read> motion_groups: array<u32>;
 @group(0) @binding(18) var<storage, read> group_motions: array<vec4<f32>>;
+// per trimtope: min, then max corner of the part of its cell inside the surface (one zero for
+// other elements)
+@group(0) @binding(19) var<storage, read> element_bounds: array<vec4<f32>>;
 
 fn infinity() -> f32 {
     return bitcast<f32>(0x7f800000u);

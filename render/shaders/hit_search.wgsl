@@ -13,9 +13,10 @@ fn miss() -> Hit {
 }
 
 // hit_search.rs element_entry
-fn element_entry(e: u32, origin: vec3<f32>, direction: vec3<f32>, t_min: f32) -> Entry {
+// (a trimtope's hit beyond t_max may be given or not)
+fn element_entry(e: u32, origin: vec3<f32>, direction: vec3<f32>, t_min: f32, t_max: f32) -> Entry {
     if (params.counts.y == 2u) {
-        return trimtope_entry(e, origin, direction, t_min);
+        return trimtope_entry(e, origin, direction, t_min, t_max);
     }
     let span = polytope_span(e, params.scene_min.w, origin, direction);
     if (span.hit && span.t_in >= t_min && span.plane_in != NONE) {
@@ -132,7 +133,7 @@ fn closest_hit(origin: vec3<f32>, direction: vec3<f32>, t_min_ray: f32, time: f3
                 centre_origin = centre_point(map, origin);
                 centre_direction = centre_vector(map, direction);
             }
-            let entry = element_entry(e, centre_origin, centre_direction, t_min_ray);
+            let entry = element_entry(e, centre_origin, centre_direction, t_min_ray, best.t);
             if (entry.t < best.t || (entry.t == best.t && e < best_element)) {
                 best = entry;
                 best_element = e;

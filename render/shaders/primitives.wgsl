@@ -120,7 +120,12 @@ fn no_entry() -> Entry {
 }
 
 // primitives.rs trimtope_hit
-fn trimtope_entry(e: u32, origin: vec3<f32>, direction: vec3<f32>, t_min: f32) -> Entry {
+fn trimtope_entry(e: u32, origin: vec3<f32>, direction: vec3<f32>, t_min: f32, t_max: f32) -> Entry {
+    let lo = element_bounds[2u * e].xyz;
+    let hi = element_bounds[2u * e + 1u].xyz;
+    if (!segment_meets_box(origin, direction, t_min, t_max, lo, hi)) {
+        return no_entry();
+    }
     let slack = params.scene_min.w;
     let span = polytope_span(e, slack, origin, direction);
     if (!span.hit) {
@@ -139,6 +144,9 @@ fn trimtope_entry(e: u32, origin: vec3<f32>, direction: vec3<f32>, t_min: f32) -
         return Entry(t_in, ENTRY_FACE, span.plane_in);
     }
     let entry = origin + t_in * direction;
+    if (any(entry < lo) || any(entry > hi)) {
+        return no_entry();
+    }
     let nearest = first_triangle(e, entry, sites[e].xyz - entry, 0.0, 1.0);
     if (nearest.index != NONE && nearest.front) {
         return no_entry();

@@ -43,6 +43,11 @@ impl Aabb {
         }
     }
 
+    /// Whether `point` is in the box (its faces included).
+    pub fn holds(&self, point: [f32; 3]) -> bool {
+        (0..3).all(|a| self.min[a] <= point[a] && point[a] <= self.max[a])
+    }
+
     fn area(&self) -> f32 {
         let d = [0, 1, 2].map(|a| (self.max[a] - self.min[a]).max(0.0));
         2.0 * (d[0] * d[1] + d[1] * d[2] + d[2] * d[0])

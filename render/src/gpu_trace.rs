@@ -192,6 +192,8 @@ struct TraceBuffers {
     triangle_group_offsets: wgpu::Buffer,
     triangle_groups: wgpu::Buffer,
     sites: wgpu::Buffer,
+    /// A trimtope's bounds (min, max: [`SceneGeometry::element_bounds`]); one zero for other elements.
+    element_bounds: wgpu::Buffer,
     interior_faces: wgpu::Buffer,
     face_neighbours: wgpu::Buffer,
     /// [`crate::shutter::SceneMotion`]'s groups of the elements, and the groups' motions.
@@ -237,6 +239,13 @@ impl TraceBuffers {
         let triangle_groups = ctx.create_storage_buffer("triangle groups", &non_empty(triangle_groups))?;
         let sites: Vec<[f32; 4]> = scene.sites.iter().map(|s| vec4(*s, 0.0)).collect();
         let sites = ctx.create_storage_buffer("sites", &non_empty(sites))?;
+        let element_bounds: Vec<[f32; 4]> = match scene.element_type {
+            ElementType::Trimtope => {
+                scene.element_bounds.iter().flat_map(|b| [vec4(b.min, 0.0), vec4(b.max, 0.0)]).collect()
+            }
+            _ => Vec::new(),
+        };
+        let element_bounds = ctx.create_storage_buffer("element bounds", &non_empty(element_bounds))?;
         let interior_faces = ctx.create_storage_buffer("interior faces", non_empty_u32(&scene.interior_faces))?;
         let face_neighbours = ctx.create_storage_buffer("face neighbours", non_empty_u32(&scene.face_neighbours))?;
         let fragments = ctx.create_storage_buffer("fragments", non_empty_u32(&scene.fragment))?;
@@ -272,6 +281,7 @@ impl TraceBuffers {
             triangle_group_offsets,
             triangle_groups,
             sites,
+            element_bounds,
             interior_faces,
             face_neighbours,
             motion_groups,
@@ -286,7 +296,7 @@ impl TraceBuffers {
 
     /// The bindings of the batch of `count` pixels from pixel `first`, in the order of
     /// shaders/bindings.wgsl: the outputs are the batch's slices.
-    fn batch_bindings(&self, first: u32, count: u32) -> [wgpu::BindingResource<'_>; 19] {
+    fn batch_bindings(&self, first: u32, count: u32) -> [wgpu::BindingResource<'_>; 20] {
         let slice = |buffer, bytes: u64| {
             wgpu::BindingResource::Buffer(wgpu::BufferBinding {
                 buffer,
@@ -314,6 +324,7 @@ impl TraceBuffers {
             self.face_neighbours.as_entire_binding(),
             self.motion_groups.as_entire_binding(),
             self.group_motions.as_entire_binding(),
+            self.element_bounds.as_entire_binding(),
         ]
     }
 

@@ -39,7 +39,8 @@ impl Hit {
 /// trimtope, the rules of Fig. 4), as the plane or triangle it meets there; [`resolve`] turns it
 /// into a [`Hit`]. Nearest-hit searches compare entries and resolve only the nearest (a normal
 /// and a fracture-face lookup for one element, not for every one).
-fn element_entry(scene: &SceneGeometry, e: usize, origin: [f32; 3], direction: [f32; 3], t_min: f32) -> TrimtopeHit {
+fn element_entry(scene: &SceneGeometry, e: usize, origin: [f32; 3], direction: [f32; 3], t: (f32, f32)) -> TrimtopeHit {
+    let t_min = t.0;
     if scene.element_type == ElementType::Trimtope {
         let cell = Trimtope {
             planes: scene.planes_of(e),
@@ -47,8 +48,9 @@ fn element_entry(scene: &SceneGeometry, e: usize, origin: [f32; 3], direction: [
             groups: scene.triangle_groups_of(e),
             site: scene.sites[e],
             slack: scene.slack,
+            bounds: &scene.element_bounds[e],
         };
-        return trimtope_hit(&cell, origin, direction, t_min);
+        return trimtope_hit(&cell, origin, direction, t);
     }
     let entry = match scene.cube(e) {
         Some((axes, distances)) => CubeFromOrigin::new(axes, distances, origin).entry(scene.slack, direction, t_min),
@@ -170,7 +172,7 @@ pub fn closest_hit(scene: &SceneGeometry, origin: [f32; 3], direction: [f32; 3],
     let shutter = scene.motion.as_ref().map(|motion| (motion, time));
     scene.index.traverse(scene.members(), (origin, direction), t_min, shutter, |e| {
         let (o, d) = centre.ray(e);
-        nearest.offer(e, element_entry(scene, e as usize, o, d, t_min));
+        nearest.offer(e, element_entry(scene, e as usize, o, d, (t_min, nearest.t)));
         nearest.t
     });
     centre.back(resolve(scene, nearest.element, nearest.entry))
@@ -206,7 +208,7 @@ pub fn closest_hits(
             (Some(centres), _) => {
                 for r in each_ray(rays) {
                     let (o, d) = centres[r].ray(e);
-                    nearest[r].offer(e, element_entry(scene, e as usize, o, d, 0.0));
+                    nearest[r].offer(e, element_entry(scene, e as usize, o, d, (0.0, nearest[r].t)));
                 }
             }
             (None, Some((axes, distances))) => {
@@ -217,7 +219,7 @@ pub fn closest_hits(
             }
             (None, None) => {
                 for r in each_ray(rays) {
-                    nearest[r].offer(e, element_entry(scene, e as usize, origin, directions[r], 0.0));
+                    nearest[r].offer(e, element_entry(scene, e as usize, origin, directions[r], (0.0, nearest[r].t)));
                 }
             }
         }

@@ -363,7 +363,7 @@ fn rigid_element(particles: &ParticleSet, e: usize, q: Quat, t: Vec3) -> Element
                 .map(|tri| tri.map(place))
                 .collect();
             sort_triangles_spatially(&mut triangles);
-            let bounds = polytope_bounds(&moved_planes, site);
+            let bounds = trimtope_bounds(particles, e, place).unwrap_or_else(|| polytope_bounds(&moved_planes, site));
             (moved_planes, triangles, site, bounds)
         }
     }
@@ -438,10 +438,40 @@ fn deformed_element(particles: &ParticleSet, e: usize, map: &Affine) -> ElementP
                 .map(|tri| tri.map(point))
                 .collect();
             sort_triangles_spatially(&mut triangles);
-            let bounds = polytope_bounds(&moved_planes, site);
+            let bounds = trimtope_bounds(particles, e, point).unwrap_or_else(|| polytope_bounds(&moved_planes, site));
             (moved_planes, triangles, site, bounds)
         }
     }
+}
+
+/// Bounds of what trimtope `e` of `particles` draws, placed by `place`: the part of its cell
+/// inside the mesh, which its surface triangles and its faces' parts inside the mesh enclose
+/// (their vertices' bounds, padded by 1e-4 of their size and 1e-6 of their distance from the
+/// origin for rounding). Far tighter than the cell's own bounds where the cell reaches out from
+/// the surface to the box every cell starts from. None where the set gives no faces (then the
+/// triangles alone do not enclose it) or the cell has neither (nothing of it inside the mesh):
+/// its cell's bounds hold it.
+fn trimtope_bounds(particles: &ParticleSet, e: usize, place: impl Fn([f32; 3]) -> [f32; 3]) -> Option<Aabb> {
+    let Elements::Trimtopes { triangle_offsets, triangles_m, face_offsets, face_triangles_m, .. } = &particles.elements
+    else {
+        return None;
+    };
+    if face_triangles_m.is_empty() {
+        return None;
+    }
+    let surface = &triangles_m[triangle_offsets[e] as usize..triangle_offsets[e + 1] as usize];
+    let faces = &face_triangles_m[face_offsets[e] as usize..face_offsets[e + 1] as usize];
+    let b = surface.iter().chain(faces).flatten().fold(Aabb::EMPTY, |b, v| {
+        let v = place(*v);
+        b.union(&Aabb { min: v, max: v })
+    });
+    if b.min[0] > b.max[0] {
+        return None;
+    }
+    let size = (0..3).map(|a| b.max[a] - b.min[a]).fold(0.0f32, f32::max);
+    let far = b.min.iter().chain(&b.max).fold(0.0f32, |m, v| m.max(v.abs()));
+    let pad = 1e-4 * size + 1e-6 * far;
+    Some(Aabb { min: b.min.map(|v| v - pad), max: b.max.map(|v| v + pad) })
 }
 
 /// Bounds of a convex polytope around a point inside it: every vertex (three planes meeting,

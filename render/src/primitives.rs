@@ -274,16 +274,23 @@ pub struct Trimtope<'a> {
     pub site: [f32; 3],
     /// The widening of the hit-or-miss test ([`polytope_span`]).
     pub slack: f32,
+    /// Bounds of the part of the cell inside the surface, which every hit lies in.
+    pub bounds: &'a Aabb,
 }
 
-/// The rules of Levine et al.'s Fig. 4 for a ray meeting the trimtope `cell`, starting no earlier
-/// than `t_min`. Within the cell, the first triangle the ray meets decides: front side first (it
+/// The rules of Levine et al.'s Fig. 4 for a ray meeting the trimtope `cell`, nearer than `t_max`
+/// and no earlier than `t_min` (a hit beyond `t_max` may be given or not). Within the cell, the first triangle the ray meets decides: front side first (it
 /// enters the surface there) is a surface hit (C); back side first (it was inside already) is a
 /// hit on the entry face (D). Meeting no triangle, a secondary ray from the entry point to the
 /// site decides: a front side on the way means the entry point is outside the surface, a miss
 /// (A); otherwise a hit on the entry face (B).
-pub fn trimtope_hit(cell: &Trimtope, origin: [f32; 3], direction: [f32; 3], t_min: f32) -> TrimtopeHit {
-    let Trimtope { planes, triangles, groups, site, slack } = *cell;
+pub fn trimtope_hit(cell: &Trimtope, origin: [f32; 3], direction: [f32; 3], (t_min, t_max): (f32, f32)) -> TrimtopeHit {
+    let Trimtope { planes, triangles, groups, site, slack, bounds } = *cell;
+    // every hit lies in the bounds: a ray that misses them before t_max passes (a cell reaching
+    // out from the surface is far larger than they are)
+    if !segment_meets_box(origin, direction, t_min, t_max, bounds) {
+        return TrimtopeHit::Miss;
+    }
     let Some(span) = polytope_span(planes, slack, origin, direction) else {
         return TrimtopeHit::Miss;
     };
@@ -298,6 +305,10 @@ pub fn trimtope_hit(cell: &Trimtope, origin: [f32; 3], direction: [f32; 3], t_mi
         Some((_, false, _)) => TrimtopeHit::Face { t: t_in, plane: span.plane_in },
         None => {
             let entry = along(origin, direction, t_in);
+            // a face hit is at the entry point, inside the surface: inside the bounds
+            if !bounds.holds(entry) {
+                return TrimtopeHit::Miss;
+            }
             let to_site = sub(site, entry);
             match first_triangle(triangles, groups, entry, to_site, 0.0, 1.0) {
                 Some((_, true, _)) => TrimtopeHit::Miss,
@@ -341,7 +352,7 @@ fn first_triangle(
 /// A trimtope's surface triangles are tested in groups of this many consecutive ones, each
 /// behind a bounding box: a ray through a cell that carries hundreds of triangles tests the few
 /// groups near its path.
-pub const TRIANGLE_GROUP: usize = 16;
+pub const TRIANGLE_GROUP: usize = 8;
 
 /// Orders `triangles` along a Z-order curve of their centroids, so that the groups of
 /// [`TRIANGLE_GROUP`] consecutive triangles are compact.
@@ -518,8 +529,11 @@ mod tests {
     fn the_four_cases_of_fig_4() {
         let (planes, triangles, site) = cell();
         let groups = triangle_groups(&triangles);
-        let cell = Trimtope { planes: &planes, triangles: &triangles, groups: &groups, site, slack: 0.0 };
-        let hit = |origin: [f32; 3], direction: [f32; 3]| trimtope_hit(&cell, origin, direction, 0.0);
+        // the part of the cell below the surface
+        let bounds = Aabb { min: [-0.5; 3], max: [0.5, 0.5, 0.2] };
+        let cell =
+            Trimtope { planes: &planes, triangles: &triangles, groups: &groups, site, slack: 0.0, bounds: &bounds };
+        let hit = |origin: [f32; 3], direction: [f32; 3]| trimtope_hit(&cell, origin, direction, (0.0, f32::INFINITY));
         // A: enters and leaves above the surface (outside the solid), no triangle on the way:
         // the secondary ray to the site crosses the surface's front: a miss
         assert_eq!(hit([-2.0, 0.0, 0.4], [1.0, 0.0, 0.0]), TrimtopeHit::Miss);
@@ -559,9 +573,11 @@ mod tests {
             let target = [r(), r(), r()];
             let direction = [0, 1, 2].map(|a| target[a] - origin[a]);
             let site = [0.02 * r(), 0.02 * r(), 0.02 * r()];
-            let cell = Trimtope { planes: &planes, triangles: &triangles, groups: &groups, site, slack: 0.0 };
-            let grouped = trimtope_hit(&cell, origin, direction, 0.0);
-            let brute = trimtope_hit(&Trimtope { groups: &everywhere, ..cell }, origin, direction, 0.0);
+            let bounds = &everywhere[0];
+            let cell = Trimtope { planes: &planes, triangles: &triangles, groups: &groups, site, slack: 0.0, bounds };
+            let grouped = trimtope_hit(&cell, origin, direction, (0.0, f32::INFINITY));
+            let brute =
+                trimtope_hit(&Trimtope { groups: &everywhere, ..cell }, origin, direction, (0.0, f32::INFINITY));
             assert_eq!(grouped, brute);
             kinds[match grouped {
                 TrimtopeHit::Miss => 0,

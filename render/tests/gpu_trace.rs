@@ -266,18 +266,36 @@ fn split_in_four(t: [[f32; 3]; 3]) -> [[[f32; 3]; 3]; 4] {
     [[t[0], ab, ca], [ab, t[1], bc], [ca, bc, t[2]], [ab, bc, ca]]
 }
 
-#[test]
-fn gpu_and_cpu_agree_on_trimtopes_with_an_embedded_surface() {
-    // Cube cells on a lattice under a tilted surface z = 0.3 x + 0.02 (outward +z): cells whose
-    // site lies below it; those it crosses carry its triangles.
+/// Fan triangles of a convex polygon, wound outward about `normal`.
+fn fan(polygon: &[[f32; 3]], normal: [f32; 3]) -> Vec<[[f32; 3]; 3]> {
+    (1..polygon.len().saturating_sub(1))
+        .map(|k| {
+            let mut t = [polygon[0], polygon[k], polygon[k + 1]];
+            let e = [0, 1].map(|j| [0, 1, 2].map(|a| t[j + 1][a] - t[0][a]));
+            let n = [0, 1, 2].map(|a| e[0][(a + 1) % 3] * e[1][(a + 2) % 3] - e[0][(a + 2) % 3] * e[1][(a + 1) % 3]);
+            if (0..3).map(|a| n[a] * normal[a]).sum::<f32>() < 0.0 {
+                t.swap(1, 2);
+            }
+            t
+        })
+        .collect()
+}
+
+/// Box cells on a lattice 0.1 apart under the tilted surface z = 0.3 x + 0.02 (outward +z): the
+/// cells whose site lies below it, each column's top cell reaching up to z = 0.5 (as a clipped
+/// Voronoi cell by the surface reaches out to the box every cell starts from); those the surface
+/// crosses carry its triangles (each split in 16, so that cells carry several groups of them).
+/// With `faces`, each cell's faces' parts below the surface, as preprocessing gives them (a
+/// trimtope's bounds are then those of the part of its cell below the surface); without, none
+/// (its bounds are its cell's).
+fn cells_under_a_tilted_surface(faces: bool) -> ParticleSet {
     let surface = |x: f32| 0.3 * x + 0.02;
-    let normal = {
-        let n = [-0.3f32, 0.0, 1.0];
-        let l = (n[0] * n[0] + n[2] * n[2]).sqrt();
-        [n[0] / l, 0.0, n[2] / l]
-    };
+    let length = (0.3f32 * 0.3 + 1.0).sqrt();
+    let normal = [-0.3 / length, 0.0, 1.0 / length];
+    let below = [normal[0], normal[1], normal[2], 0.02 / length];
     let (mut sites, mut plane_offsets, mut planes, mut triangle_offsets, mut triangles) =
         (Vec::new(), vec![0u64], Vec::new(), vec![0u64], Vec::new());
+    let (mut face_offsets, mut face_triangles, mut face_planes) = (vec![0u64], Vec::new(), Vec::new());
     for x in -2..=2 {
         for y in -2..=2 {
             for z in -3..=1 {
@@ -285,11 +303,14 @@ fn gpu_and_cpu_agree_on_trimtopes_with_an_embedded_surface() {
                 if c[2] >= surface(c[0]) {
                     continue;
                 }
+                let top = z == 1 || c[2] + 0.1 >= surface(c[0]);
+                let (lo, hi) = (c.map(|v| v - 0.05), [c[0] + 0.05, c[1] + 0.05, if top { 0.5 } else { c[2] + 0.05 }]);
+                // +axis then -axis, inside where n . x <= d
                 let cell: Vec<[f32; 4]> = (0..3)
                     .flat_map(|a| {
                         let mut n = [0.0f32; 3];
                         n[a] = 1.0;
-                        [[n[0], n[1], n[2], c[a] + 0.05], [-n[0], -n[1], -n[2], -c[a] + 0.05]]
+                        [[n[0], n[1], n[2], hi[a]], [-n[0], -n[1], -n[2], -lo[a]]]
                     })
                     .collect();
                 let mut polygon = vec![
@@ -301,23 +322,22 @@ fn gpu_and_cpu_agree_on_trimtopes_with_an_embedded_surface() {
                 for plane in &cell {
                     polygon = clip(&polygon, *plane);
                 }
-                for k in 1..polygon.len().saturating_sub(1) {
-                    let mut t = [polygon[0], polygon[k], polygon[k + 1]];
-                    let e = [
-                        [t[1][0] - t[0][0], t[1][1] - t[0][1], t[1][2] - t[0][2]],
-                        [t[2][0] - t[0][0], t[2][1] - t[0][1], t[2][2] - t[0][2]],
-                    ];
-                    let n = [
-                        e[0][1] * e[1][2] - e[0][2] * e[1][1],
-                        e[0][2] * e[1][0] - e[0][0] * e[1][2],
-                        e[0][0] * e[1][1] - e[0][1] * e[1][0],
-                    ];
-                    if n[0] * normal[0] + n[2] * normal[2] < 0.0 {
-                        t.swap(1, 2);
-                    }
-                    // split in 16, so cells carry several groups of triangles
-                    triangles.extend(split_in_four(t).into_iter().flat_map(split_in_four));
+                triangles.extend(fan(&polygon, normal).into_iter().flat_map(split_in_four).flat_map(split_in_four));
+                for (k, plane) in cell.iter().enumerate().filter(|_| faces) {
+                    let (a, u, v) = (k / 2, (k / 2 + 1) % 3, (k / 2 + 2) % 3);
+                    let square: Vec<[f32; 3]> = [(lo, lo), (hi, lo), (hi, hi), (lo, hi)]
+                        .map(|(pu, pv)| {
+                            let mut p = [0.0; 3];
+                            p[a] = if k % 2 == 0 { hi[a] } else { lo[a] };
+                            (p[u], p[v]) = (pu[u], pv[v]);
+                            p
+                        })
+                        .to_vec();
+                    let inside = fan(&clip(&square, below), [plane[0], plane[1], plane[2]]);
+                    face_planes.extend(inside.iter().map(|_| k as u32));
+                    face_triangles.extend(inside);
                 }
+                face_offsets.push(face_triangles.len() as u64);
                 sites.push(c);
                 planes.extend(cell);
                 plane_offsets.push(planes.len() as u64);
@@ -325,22 +345,43 @@ fn gpu_and_cpu_agree_on_trimtopes_with_an_embedded_surface() {
             }
         }
     }
-    let face_offsets = vec![0; sites.len() + 1];
     let elements = Elements::Trimtopes {
         plane_offsets,
         planes,
         triangle_offsets,
         triangles_m: triangles,
         face_offsets,
-        face_triangles_m: Vec::new(),
-        face_planes: Vec::new(),
+        face_triangles_m: face_triangles,
+        face_planes,
     };
-    let particles = set(sites, elements);
+    set(sites, elements)
+}
+
+#[test]
+fn gpu_and_cpu_agree_on_trimtopes_with_an_embedded_surface() {
+    let particles = cells_under_a_tilted_surface(true);
     let scene = SceneGeometry::build(&particles, None);
+    let cell_bounded = SceneGeometry::build(&cells_under_a_tilted_surface(false), None);
     for (eye, samples) in [(DVec3::new(0.2, 0.6, 0.8), 1), (DVec3::new(-0.9, -0.2, -0.3), 2)] {
         let camera = Camera::look_at(eye, DVec3::new(0.0, 0.0, -0.1), DVec3::Y, 50.0, 48, 36);
         assert!(compare(&scene, &look(false), &camera, samples) > 0, "trimtope cell faces are fracture faces");
+        // bounds of the part below the surface cull rays, and lose no hit
+        let (tight, loose) =
+            (render(&scene, &look(false), &camera, samples), render(&cell_bounded, &look(false), &camera, samples));
+        assert!(tight.pixels == loose.pixels, "the cells' own bounds and the tighter ones give other pixels");
     }
+    // the cells the surface crosses are bounded by what lies below it, the others by themselves
+    let volume = |b: &[f32; 3], c: &[f32; 3]| (0..3).map(|a| c[a] - b[a]).product::<f32>();
+    let mut crossed = [0.0f32; 2];
+    for (e, (tight, loose)) in scene.element_bounds.iter().zip(&cell_bounded.element_bounds).enumerate() {
+        let (tight, loose) = (volume(&tight.min, &tight.max), volume(&loose.min, &loose.max));
+        if scene.triangles_of(e).is_empty() {
+            assert!((tight / loose - 1.0).abs() < 1e-3, "cell {e}: bounds {tight} against its cell's {loose}");
+        } else {
+            crossed = [crossed[0] + tight, crossed[1] + loose];
+        }
+    }
+    assert!(crossed[0] < 0.5 * crossed[1], "the crossed cells' bounds: {crossed:?} against their cells'");
     // deformed cells: planes and embedded triangles mapped by each cell's affine map
     let bent = bent_scene(&particles);
     assert_ne!(bent.triangles, scene.triangles);
