@@ -73,11 +73,17 @@ resolution = [24, 16]
 samples_per_pixel = 1
 max_bounces = 4
 environment_intensity = 1.0
+shutter = 0.5
+texture_filter = "anisotropic"
+denoising_passes = true
 
 [render.camera]
 position_m = [0.02, 0.03, 0.04]
 look_at_m = [0.0, 0.01, 0.0]
 fov_deg = 40.0
+f_stop = 2.8
+focus_distance_m = 0.05
+sensor_height_mm = 24.0
 "#;
 
 /// Values no key of the scene takes as they are (or takes only within its range).
