@@ -5,6 +5,7 @@
 #   - a C++ compiler: NVIDIA FLIP (the regression images' metric) builds from source;
 #   - Pixar's usd-core (Python): the USD files post and rigid write are parsed by USD itself;
 #   - Blender (Debian's): a rendered frame's passes are read by Blender's compositor;
+#   - Chromium and ChromeDriver (Debian's): `shatter preview`'s page runs in a headless browser;
 #   - a Rust toolchain (rustup), when cargo is missing.
 # It installs with apt-get and pip (Debian or Ubuntu; as root or through sudo). Elsewhere it names
 # what is missing and how to get it, and stops.
@@ -36,6 +37,8 @@ need_package ca-certificates test -d /etc/ssl/certs
 need_package curl command -v curl
 need_package python3-pip sh -c 'python3 -m pip --version || python3 -c "import pxr"'
 need_package blender command -v blender
+need_package chromium test -x /usr/bin/chromium
+need_package chromium-driver command -v chromedriver
 
 if [ ${#missing_packages[@]} -gt 0 ]; then
   if ! command -v apt-get >/dev/null 2>&1; then

@@ -6,6 +6,7 @@ mod lead_in;
 mod pipeline;
 mod post;
 mod preprocess;
+mod preview;
 mod progress_bars;
 mod progress_log;
 mod render;
@@ -110,6 +111,14 @@ enum Command {
         #[arg(long, value_enum, default_value = "render")]
         until: Stage,
     },
+    /// Serve the scene live in a browser on 127.0.0.1: its stages at a coarser spacing, rerun as
+    /// the page edits it (the scene's output folder is not touched).
+    Preview {
+        #[command(flatten)]
+        config: ConfigArg,
+        #[command(flatten)]
+        options: preview::PreviewArgs,
+    },
     /// Summarise any stage file.
     Inspect {
         /// The stage file.
@@ -210,6 +219,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
             check_memory(&config, Stage::Preprocess, until)?;
             pipeline::run(&config, &options, until)
         }
+        Command::Preview { config, options } => Ok(preview::run(config.config, &options)?),
         Command::Inspect { path, json } => inspect::run(&path, json),
     }
 }

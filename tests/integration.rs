@@ -15,6 +15,7 @@ mod farm_log_cli;
 mod module_visibility;
 mod output_lock_cli;
 mod post_cli;
+mod preview_page;
 mod regression;
 mod rigid_cli;
 mod run_cli;

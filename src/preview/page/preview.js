@@ -1,0 +1,311 @@
+// shatter preview: polls /api/state, fetches each new frame of the current run as a binary
+// message (see src/preview/run_folder.rs), draws its particles with WebGL2, and sends edits.
+'use strict';
+
+const preview = {
+  generation: 0, // the run whose frames are held
+  frames: [], // its frames: { frame, time, count, positions, damage, speed }
+  framesDrawn: 0, // draws since the page loaded (tests watch it)
+  errors: [], // uncaught errors and console.error calls (tests check there are none)
+  state: null, // the last /api/state
+  editError: '', // why the last edit was refused
+  fetching: false,
+};
+window.shatterPreview = preview;
+window.addEventListener('error', (event) => preview.errors.push(String(event.message)));
+const consoleError = console.error.bind(console);
+console.error = (...args) => { preview.errors.push(args.map(String).join(' ')); consoleError(...args); };
+
+const $ = (id) => document.getElementById(id);
+const canvas = $('view');
+const gl = canvas.getContext('webgl2', { preserveDrawingBuffer: true, antialias: true });
+
+// ---- drawing --------------------------------------------------------------------------------
+
+const VERTEX = `#version 300 es
+in vec3 position;
+in float value;
+uniform mat4 viewProjection;
+uniform float pointScale;
+uniform float valueScale;
+out float shade;
+void main() {
+  gl_Position = viewProjection * vec4(position, 1.0);
+  gl_PointSize = clamp(pointScale / gl_Position.w, 1.0, 24.0);
+  shade = clamp(value * valueScale, 0.0, 1.0);
+}`;
+const FRAGMENT = `#version 300 es
+precision mediump float;
+in float shade;
+uniform int mode;
+out vec4 colour;
+void main() {
+  vec2 p = gl_PointCoord * 2.0 - 1.0;
+  if (dot(p, p) > 1.0) discard;
+  vec3 low = mode == 0 ? vec3(0.82, 0.84, 0.86) : vec3(0.15, 0.3, 0.85);
+  vec3 high = mode == 0 ? vec3(0.9, 0.15, 0.1) : vec3(1.0, 0.85, 0.2);
+  colour = vec4(mix(low, high, shade) * (0.75 + 0.25 * (1.0 - dot(p, p))), 1.0);
+}`;
+
+function compile(type, source) {
+  const shader = gl.createShader(type);
+  gl.shaderSource(shader, source);
+  gl.compileShader(shader);
+  if (!gl.getShaderParameter(shader, gl.COMPILE_STATUS)) throw new Error(gl.getShaderInfoLog(shader));
+  return shader;
+}
+
+const program = gl.createProgram();
+gl.attachShader(program, compile(gl.VERTEX_SHADER, VERTEX));
+gl.attachShader(program, compile(gl.FRAGMENT_SHADER, FRAGMENT));
+gl.linkProgram(program);
+if (!gl.getProgramParameter(program, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(program));
+const uniform = (name) => gl.getUniformLocation(program, name);
+const positionBuffer = gl.createBuffer();
+const valueBuffer = gl.createBuffer();
+const vao = gl.createVertexArray();
+gl.bindVertexArray(vao);
+for (const [buffer, name, size] of [[positionBuffer, 'position', 3], [valueBuffer, 'value', 1]]) {
+  const location = gl.getAttribLocation(program, name);
+  gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
+  gl.enableVertexAttribArray(location);
+  gl.vertexAttribPointer(location, size, gl.FLOAT, false, 0, 0);
+}
+
+// the orbit camera: yaw and pitch about a target, at a distance
+const camera = { target: [0, 0, 0], distance: 1, yaw: 0.6, pitch: 0.35, framed: false };
+
+function frameCamera(frame) {
+  const lo = [Infinity, Infinity, Infinity];
+  const hi = [-Infinity, -Infinity, -Infinity];
+  for (let i = 0; i < frame.count; i++) {
+    for (let a = 0; a < 3; a++) {
+      const v = frame.positions[3 * i + a];
+      lo[a] = Math.min(lo[a], v);
+      hi[a] = Math.max(hi[a], v);
+    }
+  }
+  camera.target = lo.map((v, a) => (v + hi[a]) / 2);
+  camera.distance = 1.8 * Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) + 1e-6;
+  camera.framed = true;
+}
+
+function viewProjection() {
+  const [cy, sy, cp, sp] = [Math.cos(camera.yaw), Math.sin(camera.yaw), Math.cos(camera.pitch), Math.sin(camera.pitch)];
+  const back = [sy * cp, sp, cy * cp];
+  const eye = camera.target.map((t, a) => t + camera.distance * back[a]);
+  const f = back.map((v) => -v);
+  const right = normalise([f[1] * 0 - f[2] * 1, f[2] * 0 - f[0] * 0, f[0] * 1 - f[1] * 0]);
+  const up = [right[1] * f[2] - right[2] * f[1], right[2] * f[0] - right[0] * f[2], right[0] * f[1] - right[1] * f[0]];
+  const dot = (u, v) => u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+  const view = [
+    right[0], up[0], -f[0], 0, right[1], up[1], -f[1], 0, right[2], up[2], -f[2], 0,
+    -dot(right, eye), -dot(up, eye), dot(f, eye), 1,
+  ];
+  const near = camera.distance / 100;
+  const far = camera.distance * 100;
+  const s = 1 / Math.tan((40 * Math.PI) / 360);
+  const aspect = canvas.width / canvas.height;
+  const projection = [s / aspect, 0, 0, 0, 0, s, 0, 0, 0, 0, (far + near) / (near - far), -1, 0, 0, (2 * far * near) / (near - far), 0];
+  return multiply(projection, view);
+}
+
+function normalise(v) {
+  const length = Math.hypot(v[0], v[1], v[2]) || 1;
+  return v.map((c) => c / length);
+}
+
+function multiply(a, b) {
+  const out = new Array(16).fill(0);
+  for (let c = 0; c < 4; c++) for (let r = 0; r < 4; r++) for (let k = 0; k < 4; k++) out[4 * c + r] += a[4 * k + r] * b[4 * c + k];
+  return out;
+}
+
+function shownFrame() {
+  const index = Number($('frame').value) - 1;
+  return preview.frames[Math.min(index, preview.frames.length - 1)];
+}
+
+function draw() {
+  gl.viewport(0, 0, canvas.width, canvas.height);
+  gl.clearColor(0.17, 0.18, 0.19, 1);
+  gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
+  const frame = shownFrame();
+  if (frame) {
+    if (!camera.framed) frameCamera(frame);
+    const mode = $('colour').value === 'speed' ? 1 : 0;
+    const values = mode === 1 ? frame.speed : frame.damage;
+    const maxSpeed = Math.max(1e-6, ...preview.frames.map((f) => f.maxSpeed));
+    gl.enable(gl.DEPTH_TEST);
+    gl.useProgram(program);
+    gl.bindVertexArray(vao);
+    gl.bindBuffer(gl.ARRAY_BUFFER, positionBuffer);
+    gl.bufferData(gl.ARRAY_BUFFER, frame.positions, gl.DYNAMIC_DRAW);
+    gl.bindBuffer(gl.ARRAY_BUFFER, valueBuffer);
+    gl.bufferData(gl.ARRAY_BUFFER, values, gl.DYNAMIC_DRAW);
+    gl.uniformMatrix4fv(uniform('viewProjection'), false, viewProjection());
+    gl.uniform1f(uniform('pointScale'), (canvas.height * 1.2 * camera.distance) / Math.cbrt(frame.count) / 3);
+    gl.uniform1f(uniform('valueScale'), mode === 1 ? 1 / maxSpeed : 2.5);
+    gl.uniform1i(uniform('mode'), mode);
+    gl.drawArrays(gl.POINTS, 0, frame.count);
+    $('frame-label').textContent = `${frame.frame} (${(frame.time * 1e6).toFixed(1)} µs)`;
+  }
+  preview.framesDrawn += frame ? 1 : 0;
+}
+
+// ---- orbit, pan, zoom -----------------------------------------------------------------------
+
+let drag = null;
+canvas.addEventListener('pointerdown', (event) => {
+  drag = { x: event.clientX, y: event.clientY, pan: event.shiftKey || event.button === 2 };
+  canvas.setPointerCapture(event.pointerId);
+});
+canvas.addEventListener('pointerup', () => { drag = null; });
+canvas.addEventListener('contextmenu', (event) => event.preventDefault());
+canvas.addEventListener('pointermove', (event) => {
+  if (!drag) return;
+  const [dx, dy] = [event.clientX - drag.x, event.clientY - drag.y];
+  drag.x = event.clientX;
+  drag.y = event.clientY;
+  if (drag.pan) {
+    const step = camera.distance / canvas.height;
+    const right = [Math.cos(camera.yaw), 0, -Math.sin(camera.yaw)];
+    camera.target = camera.target.map((t, a) => t - dx * step * right[a]);
+    camera.target[1] += dy * step;
+  } else {
+    camera.yaw -= dx * 0.01;
+    camera.pitch = Math.max(-1.5, Math.min(1.5, camera.pitch + dy * 0.01));
+  }
+});
+canvas.addEventListener('wheel', (event) => {
+  event.preventDefault();
+  camera.distance *= Math.exp(event.deltaY * 0.001);
+}, { passive: false });
+
+// ---- the run: state and frames --------------------------------------------------------------
+
+function decode(buffer) {
+  const view = new DataView(buffer);
+  const magic = String.fromCharCode(...new Uint8Array(buffer, 0, 4));
+  if (magic !== 'SHPV' || view.getUint32(4, true) !== 1) throw new Error('not a frame message');
+  const count = view.getUint32(12, true);
+  const floats = new Float32Array(buffer, 20, 5 * count);
+  const speed = floats.subarray(4 * count, 5 * count);
+  return {
+    frame: view.getUint32(8, true),
+    time: view.getFloat32(16, true),
+    count,
+    positions: floats.subarray(0, 3 * count),
+    damage: floats.subarray(3 * count, 4 * count),
+    speed,
+    maxSpeed: speed.reduce((m, v) => Math.max(m, v), 0),
+  };
+}
+
+async function fetchFrames(run) {
+  if (preview.fetching) return;
+  preview.fetching = true;
+  try {
+    while (preview.generation === run.generation && preview.frames.length < run.frames) {
+      const next = preview.frames.length + 1;
+      const response = await fetch(`/api/frame?generation=${run.generation}&frame=${next}`);
+      if (!response.ok) break;
+      const frame = decode(await response.arrayBuffer());
+      if (preview.generation === run.generation) preview.frames.push(frame);
+    }
+  } finally {
+    preview.fetching = false;
+  }
+}
+
+function figure(name, value) {
+  return `<dt>${name}</dt><dd>${value}</dd>`;
+}
+
+function showState(state) {
+  $('scene').textContent = state.scene;
+  const run = state.run;
+  const rows = [];
+  if (run) {
+    const broken = run.broken_bonds.length ? run.broken_bonds[run.broken_bonds.length - 1] : 0;
+    const frame = shownFrame();
+    rows.push(figure('run', `${run.generation} (${run.status})`));
+    rows.push(figure('particles', frame ? frame.count.toLocaleString() : '…'));
+    rows.push(figure('spacing', `${(run.spacing_m * 1000).toFixed(2)} mm`));
+    rows.push(figure('frames', run.frames));
+    rows.push(figure('broken bonds', `<span id="broken">${broken}</span>`));
+    rows.push(figure('seconds', run.seconds.toFixed(1)));
+    if (run.first_break_s !== null) rows.push(figure('first broken bond', `${run.first_break_s.toFixed(2)} s`));
+  }
+  $('figures').innerHTML = rows.join('');
+  $('error').textContent = preview.editError || state.error || (run && run.failure) || '';
+  const slider = $('frame');
+  slider.max = Math.max(1, preview.frames.length);
+  if ($('follow').checked) slider.value = slider.max;
+}
+
+function buildFields(state) {
+  const fields = $('fields');
+  if (fields.dataset.built === '1') return;
+  fields.innerHTML = '';
+  for (const [key, value] of Object.entries(state.values)) {
+    const label = document.createElement('label');
+    label.textContent = key;
+    const input = document.createElement('input');
+    input.type = 'text';
+    input.name = key;
+    input.value = JSON.stringify(value);
+    input.dataset.original = input.value;
+    label.appendChild(input);
+    fields.appendChild(label);
+  }
+  $('particles').value = state.target_particles;
+  fields.dataset.built = '1';
+}
+
+async function poll() {
+  try {
+    const response = await fetch('/api/state', { cache: 'no-store' });
+    const state = await response.json();
+    preview.state = state;
+    if (state.run && state.run.generation !== preview.generation) {
+      preview.generation = state.run.generation;
+      preview.frames = [];
+    }
+    buildFields(state);
+    showState(state);
+    if (state.run) fetchFrames(state.run);
+  } catch (error) {
+    // the server is away (restarting, or the connection dropped): the next poll resumes
+  }
+  setTimeout(poll, 250);
+}
+
+$('edits').addEventListener('submit', async (event) => {
+  event.preventDefault();
+  const edits = {};
+  try {
+    for (const input of $('fields').querySelectorAll('input')) {
+      if (input.value !== input.dataset.original) edits[input.name] = JSON.parse(input.value);
+    }
+  } catch (error) {
+    preview.editError = `not a value: ${error.message}`;
+    $('error').textContent = preview.editError;
+    return;
+  }
+  const body = JSON.stringify({ edits, particles: Number($('particles').value) });
+  const response = await fetch('/api/edit', { method: 'POST', body });
+  const answer = await response.json();
+  preview.editError = response.ok ? '' : answer.error;
+  $('error').textContent = preview.editError;
+  if (!response.ok) return;
+  for (const input of $('fields').querySelectorAll('input')) input.dataset.original = input.value;
+  camera.framed = false;
+});
+
+function loop() {
+  draw();
+  requestAnimationFrame(loop);
+}
+poll();
+loop();

@@ -1,0 +1,85 @@
+//! The preview's session: the scene as edited, and its current run.
+
+use std::path::PathBuf;
+
+use serde::Deserialize;
+
+use super::preview_config::{Edits, PreviewScene};
+use super::preview_run::PreviewRun;
+
+/// The fewest and the most particles the page may ask a preview for.
+const PARTICLES: std::ops::RangeInclusive<u64> = 500..=2_000_000;
+
+/// An edit from the page: keys and values (JSON), and the particle count to aim at.
+#[derive(Debug, Deserialize)]
+pub struct EditRequest {
+    /// Dotted keys and their new values; the keys not named keep their edited values.
+    #[serde(default)]
+    pub edits: serde_json::Map<String, serde_json::Value>,
+    /// The particles to aim at (the scene's preview spacing follows).
+    pub particles: Option<u64>,
+}
+
+/// The scene, its edits, and the run of them.
+#[derive(Debug)]
+pub struct Session {
+    /// The scene's config file and its text as read at the start.
+    scene_text: String,
+    /// The edits so far.
+    edits: Edits,
+    /// The scene with them.
+    pub scene: PreviewScene,
+    /// Particles the preview aims at.
+    pub target: u64,
+    /// The current run, if one could start.
+    pub run: Option<PreviewRun>,
+    /// Why the last run could not start.
+    pub error: Option<String>,
+    /// The runs' folder (removed with the session).
+    scratch: tempfile::TempDir,
+    generations: u64,
+}
+
+impl Session {
+    /// A session on the scene at `path`, starting its first run at `target` particles.
+    pub fn start(path: PathBuf, target: u64) -> Result<Session, String> {
+        let scene_text = std::fs::read_to_string(&path).map_err(|error| format!("{}: {error}", path.display()))?;
+        let scene = PreviewScene::new(&path, &scene_text, &Edits::new())?;
+        let scratch = tempfile::Builder::new()
+            .prefix("shatter-preview-")
+            .tempdir()
+            .map_err(|error| format!("cannot make the preview's scratch folder: {error}"))?;
+        let mut session =
+            Session { scene_text, edits: Edits::new(), scene, target, run: None, error: None, scratch, generations: 0 };
+        session.restart();
+        Ok(session)
+    }
+
+    /// Applies `edit` if the scene takes it and restarts the run: the new run's generation, or
+    /// the reason it was refused (the config check's message), the session left as it was.
+    pub fn apply(&mut self, edit: EditRequest) -> Result<u64, String> {
+        let mut edits = self.edits.clone();
+        for (key, value) in edit.edits {
+            let value = toml::Value::try_from(value).map_err(|error| format!("{key}: {error}"))?;
+            edits.insert(key, value);
+        }
+        let target = edit.particles.unwrap_or(self.target);
+        if !PARTICLES.contains(&target) {
+            return Err(format!("particles: {target} is outside {} to {}", PARTICLES.start(), PARTICLES.end()));
+        }
+        let scene = PreviewScene::new(&self.scene.path, &self.scene_text, &edits)?;
+        (self.edits, self.scene, self.target) = (edits, scene, target);
+        self.restart();
+        self.error.clone().map_or(Ok(self.generations), Err)
+    }
+
+    /// Stops the current run and starts the next.
+    fn restart(&mut self) {
+        self.run = None;
+        self.generations += 1;
+        match PreviewRun::start(&self.scene, self.target, self.scratch.path(), self.generations) {
+            Ok(run) => (self.run, self.error) = (Some(run), None),
+            Err(message) => self.error = Some(message),
+        }
+    }
+}

@@ -1,0 +1,225 @@
+//! `shatter preview` in a real browser: Debian's headless `chromium`, driven through
+//! `chromedriver` (WebDriver; scripts/test.sh installs both), draws with WebGL on SwiftShader.
+//! The page loads for a small struck plate, its frames arrive and the canvas changes; an edit of
+//! the projectile's speed restarts the preview and changes the bonds broken; a refused edit shows
+//! the config check's message; the console stays free of errors.
+
+use std::io::{BufRead, BufReader};
+use std::net::TcpListener;
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use serde_json::{Value, json};
+
+/// A small plate struck by a projectile: 50 x 50 x 5 mm, 12,500 particles at full resolution,
+/// previewed at about 3,000 (three layers).
+const PLATE: &str = r#"[scene]
+name = "preview_plate"
+output_dir = "out"
+seed = 3
+
+[geometry]
+source = "box"
+box_size_m = [0.05, 0.05, 0.005]
+sampler = "grid"
+spacing_m = 0.001
+horizon_factor = 3.0
+
+[material]
+density_kg_m3 = 2200.0
+bulk_modulus_pa = 14.9e9
+critical_stretch = 0.00032
+
+[sim]
+frames = 16
+steps_per_frame = 100
+
+[[sim.projectile]]
+center_m = [0.0, 0.0, 0.0087]
+velocity_m_s = [0.0, 0.0, -150.0]
+radius_m = 0.004
+stiffness_pa = 4e5
+"#;
+
+/// How long the page may take to show what a step waits for.
+const PATIENCE: Duration = Duration::from_secs(120);
+
+/// A free port on 127.0.0.1.
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0").and_then(|listener| listener.local_addr()).expect("a free port").port()
+}
+
+/// A child process killed when dropped.
+struct Process(Child);
+
+impl Drop for Process {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// `shatter preview` of `dir`'s pipeline.toml, and the URL it printed.
+fn start_preview(dir: &Path) -> (Process, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_shatter"))
+        .args(["preview", "--port", "0", "--particles", "3000"])
+        .current_dir(dir)
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("shatter preview starts");
+    let stdout = child.stdout.take().expect("stdout");
+    let mut line = String::new();
+    BufReader::new(stdout).read_line(&mut line).expect("the preview prints its URL");
+    let url = line.trim().strip_prefix("preview: ").unwrap_or_else(|| panic!("not a URL line: {line:?}")).to_owned();
+    (Process(child), url)
+}
+
+/// A WebDriver session on a headless chromium.
+struct Browser {
+    base: String,
+    session: String,
+    _driver: Process,
+    _profile: tempfile::TempDir,
+}
+
+impl Browser {
+    fn start() -> Browser {
+        let port = free_port();
+        let driver = Command::new("chromedriver")
+            .arg(format!("--port={port}"))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("chromedriver runs (scripts/test.sh installs Debian's chromium-driver)");
+        let (driver, base) = (Process(driver), format!("http://127.0.0.1:{port}"));
+        let started = Instant::now();
+        while ureq::get(&format!("{base}/status")).call().is_err() {
+            assert!(started.elapsed() < Duration::from_secs(30), "chromedriver did not answer");
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        let profile = tempfile::tempdir().expect("tempdir");
+        let args = [
+            "--headless=new",
+            "--no-sandbox",
+            "--use-angle=swiftshader",
+            "--enable-unsafe-swiftshader",
+            "--window-size=1400,760",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--no-first-run",
+            &format!("--user-data-dir={}", profile.path().display()),
+        ];
+        let capabilities = json!({ "capabilities": { "alwaysMatch": {
+            "browserName": "chrome",
+            "goog:chromeOptions": { "binary": "/usr/bin/chromium", "args": args },
+        }}});
+        let answer: Value = ureq::post(&format!("{base}/session"))
+            .send_json(capabilities)
+            .expect("a browser session")
+            .into_json()
+            .expect("JSON");
+        let session = answer["value"]["sessionId"].as_str().expect("a session id").to_owned();
+        Browser { base, session, _driver: driver, _profile: profile }
+    }
+
+    /// A WebDriver command on the session: its `value`.
+    fn command(&self, path: &str, body: Value) -> Value {
+        let url = format!("{}/session/{}/{path}", self.base, self.session);
+        let answer: Value = match ureq::post(&url).send_json(body) {
+            Ok(response) => response.into_json().expect("JSON"),
+            Err(ureq::Error::Status(code, response)) => {
+                panic!("{path}: {code} {}", response.into_string().unwrap_or_default())
+            }
+            Err(error) => panic!("{path}: {error}"),
+        };
+        answer["value"].clone()
+    }
+
+    fn script(&self, script: &str) -> Value {
+        self.command("execute/sync", json!({ "script": script, "args": [] }))
+    }
+
+    /// Waits until `script` returns something other than null or false; returns it.
+    fn wait_for(&self, what: &str, script: &str) -> Value {
+        let started = Instant::now();
+        loop {
+            let value = self.script(script);
+            if !value.is_null() && value != Value::Bool(false) {
+                return value;
+            }
+            assert!(started.elapsed() < PATIENCE, "waited {PATIENCE:?} for {what}");
+            std::thread::sleep(Duration::from_millis(200));
+        }
+    }
+
+    /// Types `text` into the element `css` holds, in place of its value.
+    fn type_into(&self, css: &str, text: &str) {
+        let element = self.command("element", json!({ "using": "css selector", "value": css }));
+        let id = element["element-6066-11e4-a52e-4f735466cecf"].as_str().expect("an element").to_owned();
+        self.command(&format!("element/{id}/clear"), json!({}));
+        self.command(&format!("element/{id}/value"), json!({ "text": text }));
+    }
+
+    fn click(&self, css: &str) {
+        let element = self.command("element", json!({ "using": "css selector", "value": css }));
+        let id = element["element-6066-11e4-a52e-4f735466cecf"].as_str().expect("an element").to_owned();
+        self.command(&format!("element/{id}/click"), json!({}));
+    }
+}
+
+impl Drop for Browser {
+    fn drop(&mut self) {
+        let _ = ureq::delete(&format!("{}/session/{}", self.base, self.session)).call();
+    }
+}
+
+/// A script's first line: `hash()`, the canvas's pixels hashed in the page.
+const CANVAS_HASH: &str = "const hash = () => { const c = document.getElementById('view').toDataURL(); \
+    let h = 0; for (let i = 0; i < c.length; i++) { h = (h * 31 + c.charCodeAt(i)) | 0; } return h; };";
+
+/// The run's generation and bonds broken once it has finished, else null.
+const FINISHED_RUN: &str = "const s = shatterPreview.state; \
+    return s && s.run && s.run.status === 'finished' && shatterPreview.frames.length === s.run.frames \
+    ? [s.run.generation, s.run.broken_bonds[s.run.broken_bonds.length - 1] || 0] : null;";
+
+#[test]
+fn the_preview_page_draws_frames_restarts_on_an_edit_and_refuses_a_bad_one() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    std::fs::write(dir.path().join("pipeline.toml"), PLATE).expect("config");
+    let (_preview, url) = start_preview(dir.path());
+    let browser = Browser::start();
+    browser.command("url", json!({ "url": url }));
+
+    browser.wait_for("a frame drawn", "return shatterPreview.frames.length > 0 && shatterPreview.framesDrawn > 0");
+    let first = browser.script(&format!("{CANVAS_HASH} return hash();"));
+    browser.wait_for("the canvas to change as frames arrive", &format!("{CANVAS_HASH} return hash() !== {first};"));
+    let run = browser.wait_for("the first run to finish", FINISHED_RUN);
+    let (generation, broken) = (run[0].as_u64().expect("generation"), run[1].as_u64().expect("broken bonds"));
+    assert_eq!(generation, 1);
+    assert!(broken > 0, "the projectile breaks bonds");
+    assert!(dir.path().join("out").symlink_metadata().is_err(), "the preview wrote into the scene's output folder");
+
+    // a slower projectile: the preview restarts and breaks fewer bonds
+    browser.type_into("input[name='sim.projectile[0].velocity_m_s']", "[0, 0, -40]");
+    browser.click("#apply");
+    let slower = browser.wait_for(
+        "the edited run to finish",
+        &FINISHED_RUN.replace("return s && s.run", "return s && s.run && s.run.generation === 2"),
+    );
+    let broken_slower = slower[1].as_u64().expect("broken bonds");
+    assert!(broken_slower < broken, "{broken_slower} bonds broken at 40 m/s against {broken} at 150 m/s");
+
+    // a refused edit names the key, as the CLI does, and leaves the run alone
+    browser.type_into("input[name='material.critical_stretch']", "-1");
+    browser.click("#apply");
+    let message =
+        browser.wait_for("the refusal", "const e = document.getElementById('error').textContent; return e || null;");
+    let message = message.as_str().expect("text");
+    assert!(message.contains("material.critical_stretch"), "{message}");
+    assert_eq!(browser.script("return shatterPreview.state.run.generation"), json!(2));
+
+    let errors = browser.script("return shatterPreview.errors");
+    assert_eq!(errors, json!([]), "the page's console");
+}
