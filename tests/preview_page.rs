@@ -2,7 +2,8 @@
 //! `chromedriver` (WebDriver; scripts/test.sh installs both), draws with WebGL on SwiftShader.
 //! The page loads for a small struck plate, its frames arrive and the canvas changes; an edit of
 //! the projectile's speed restarts the preview and changes the bonds broken; a refused edit shows
-//! the config check's message; the console stays free of errors.
+//! the config check's message; the console stays free of errors. The canvas, at the first run's
+//! last frame, is within a FLIP bound of its golden (`SHATTER_BLESS=1` rewrites it).
 
 use std::io::{BufRead, BufReader};
 use std::net::TcpListener;
@@ -10,7 +11,10 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use base64::Engine;
 use serde_json::{Value, json};
+
+use crate::support;
 
 /// A small plate struck by a projectile: 50 x 50 x 5 mm, 12,500 particles at full resolution,
 /// previewed at about 3,000 (three layers).
@@ -41,6 +45,12 @@ velocity_m_s = [0.0, 0.0, -150.0]
 radius_m = 0.004
 stiffness_pa = 4e5
 "#;
+
+/// The canvas's golden, at the first run's last frame.
+const GOLDEN: &str = "tests/golden/preview_page.png";
+/// Largest mean FLIP error of the canvas against its golden (the same machine gives the same
+/// pixels; SwiftShader elsewhere may round differently at the points' edges).
+const MAX_MEAN_FLIP: f32 = 0.02;
 
 /// How long the page may take to show what a step waits for.
 const PATIENCE: Duration = Duration::from_secs(120);
@@ -156,16 +166,30 @@ impl Browser {
 
     /// Types `text` into the element `css` holds, in place of its value.
     fn type_into(&self, css: &str, text: &str) {
-        let element = self.command("element", json!({ "using": "css selector", "value": css }));
-        let id = element["element-6066-11e4-a52e-4f735466cecf"].as_str().expect("an element").to_owned();
+        let id = self.element(css);
         self.command(&format!("element/{id}/clear"), json!({}));
         self.command(&format!("element/{id}/value"), json!({ "text": text }));
     }
 
     fn click(&self, css: &str) {
-        let element = self.command("element", json!({ "using": "css selector", "value": css }));
-        let id = element["element-6066-11e4-a52e-4f735466cecf"].as_str().expect("an element").to_owned();
+        let id = self.element(css);
         self.command(&format!("element/{id}/click"), json!({}));
+    }
+
+    /// The WebDriver id of the element `css` selects.
+    fn element(&self, css: &str) -> String {
+        let element = self.command("element", json!({ "using": "css selector", "value": css }));
+        element["element-6066-11e4-a52e-4f735466cecf"].as_str().expect("an element").to_owned()
+    }
+
+    /// A screenshot of the element `css` selects.
+    fn screenshot(&self, css: &str) -> image::RgbImage {
+        let url = format!("{}/session/{}/element/{}/screenshot", self.base, self.session, self.element(css));
+        let answer: Value = ureq::get(&url).call().expect("a screenshot").into_json().expect("JSON");
+        let png = base64::engine::general_purpose::STANDARD
+            .decode(answer["value"].as_str().expect("base64"))
+            .expect("base64 PNG");
+        image::load_from_memory(&png).expect("a PNG").to_rgb8()
     }
 }
 
@@ -179,10 +203,11 @@ impl Drop for Browser {
 const CANVAS_HASH: &str = "const hash = () => { const c = document.getElementById('view').toDataURL(); \
     let h = 0; for (let i = 0; i < c.length; i++) { h = (h * 31 + c.charCodeAt(i)) | 0; } return h; };";
 
-/// The run's generation and bonds broken once it has finished, else null.
+/// The run's generation and bonds broken once it has finished and its last frame is drawn, else
+/// null.
 const FINISHED_RUN: &str = "const s = shatterPreview.state; \
     return s && s.run && s.run.status === 'finished' && shatterPreview.frames.length === s.run.frames \
-    ? [s.run.generation, s.run.broken_bonds[s.run.broken_bonds.length - 1] || 0] : null;";
+    && shatterPreview.shown === s.run.frames ? [s.run.generation, s.run.broken_bonds[s.run.broken_bonds.length - 1] || 0] : null;";
 
 #[test]
 fn the_preview_page_draws_frames_restarts_on_an_edit_and_refuses_a_bad_one() {
@@ -200,6 +225,7 @@ fn the_preview_page_draws_frames_restarts_on_an_edit_and_refuses_a_bad_one() {
     assert_eq!(generation, 1);
     assert!(broken > 0, "the projectile breaks bonds");
     assert!(dir.path().join("out").symlink_metadata().is_err(), "the preview wrote into the scene's output folder");
+    matches_golden(&browser.screenshot("#view"));
 
     // a slower projectile: the preview restarts and breaks fewer bonds
     browser.type_into("input[name='sim.projectile[0].velocity_m_s']", "[0, 0, -40]");
@@ -210,6 +236,12 @@ fn the_preview_page_draws_frames_restarts_on_an_edit_and_refuses_a_bad_one() {
     );
     let broken_slower = slower[1].as_u64().expect("broken bonds");
     assert!(broken_slower < broken, "{broken_slower} bonds broken at 40 m/s against {broken} at 150 m/s");
+    // the bound tells the two apart
+    if !std::env::var("SHATTER_BLESS").is_ok_and(|value| value == "1") {
+        let reference = image::open(Path::new(env!("CARGO_MANIFEST_DIR")).join(GOLDEN)).expect("golden").to_rgb8();
+        let (_, mean, _) = support::flip(&reference, &browser.screenshot("#view"));
+        assert!(mean > MAX_MEAN_FLIP, "the slower projectile's canvas is FLIP {mean} from the faster one's");
+    }
 
     // a refused edit names the key, as the CLI does, and leaves the run alone
     browser.type_into("input[name='material.critical_stretch']", "-1");
@@ -222,4 +254,23 @@ fn the_preview_page_draws_frames_restarts_on_an_edit_and_refuses_a_bad_one() {
 
     let errors = browser.script("return shatterPreview.errors");
     assert_eq!(errors, json!([]), "the page's console");
+}
+
+/// Compares the canvas with [`GOLDEN`] (or rewrites it when SHATTER_BLESS=1); a canvas outside
+/// the bound is written beside the golden's name under `target/`.
+fn matches_golden(canvas: &image::RgbImage) {
+    let golden = Path::new(env!("CARGO_MANIFEST_DIR")).join(GOLDEN);
+    if std::env::var("SHATTER_BLESS").is_ok_and(|value| value == "1") {
+        canvas.save(&golden).expect("write the golden");
+        return;
+    }
+    let reference = image::open(&golden).expect("the golden (SHATTER_BLESS=1 makes it)").to_rgb8();
+    assert_eq!(reference.dimensions(), canvas.dimensions(), "the canvas's size");
+    let (_, mean, p99) = support::flip(&reference, canvas);
+    eprintln!("preview canvas: FLIP mean {mean:.5}, 99th percentile {p99:.5}");
+    if mean > MAX_MEAN_FLIP {
+        let failed = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/preview_page.png");
+        canvas.save(&failed).expect("write the canvas");
+        panic!("the canvas is FLIP {mean:.4} from its golden (max {MAX_MEAN_FLIP}): {}", failed.display());
+    }
 }

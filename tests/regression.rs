@@ -21,6 +21,9 @@ use shatter_core::config::sim::BackendChoice;
 use shatter_core::sim_frames::SimFrames;
 use shatter_core::{NoProgress, OutputLayout, PipelineConfig};
 use shatter_sim::sim_driver::RunOptions;
+use support::flip;
+
+use crate::support;
 
 /// Largest mean FLIP error allowed.
 const MAX_MEAN: f32 = 0.01;
@@ -308,17 +311,6 @@ fn check_closed_pieces(
     assert!((volume / total - 1.0).abs() < 1e-3, "{scene}: pieces enclose {volume:e} m^3, particles hold {total:e}");
     assert!(unmatched == 0, "{scene}: {} of {pieces} pieces are open: {open_pieces:?}", open_pieces.len());
     assert!(pieces > 1 && fracture_faces > 0, "{scene}: {pieces} pieces, {fracture_faces} fracture faces");
-}
-
-/// FLIP of `test` against `reference`: the error map, its mean and 99th percentile.
-fn flip(reference: &image::RgbImage, test: &image::RgbImage) -> (nv_flip::FlipImageFloat, f32, f32) {
-    let (width, height) = reference.dimensions();
-    let reference = nv_flip::FlipImageRgb8::with_data(width, height, reference.as_raw());
-    let test = nv_flip::FlipImageRgb8::with_data(width, height, test.as_raw());
-    let error = nv_flip::flip(reference, test, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
-    let mut pool = nv_flip::FlipPool::from_image(&error);
-    let (mean, p99) = (pool.mean(), pool.get_percentile(0.99, false));
-    (error, mean, p99)
 }
 
 /// Compares `image` with the golden of `scene`'s `frame`: `None` when it is within the

@@ -1,11 +1,14 @@
 //! The preview's session: the scene as edited, and its current run.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
 use super::preview_config::{Edits, PreviewScene};
 use super::preview_run::PreviewRun;
+
+/// The start of a preview's scratch folder's name, followed by its process id.
+const SCRATCH_PREFIX: &str = "shatter-preview-";
 
 /// The fewest and the most particles the page may ask a preview for.
 const PARTICLES: std::ops::RangeInclusive<u64> = 500..=2_000_000;
@@ -45,8 +48,9 @@ impl Session {
     pub fn start(path: PathBuf, target: u64) -> Result<Session, String> {
         let scene_text = std::fs::read_to_string(&path).map_err(|error| format!("{}: {error}", path.display()))?;
         let scene = PreviewScene::new(&path, &scene_text, &Edits::new())?;
+        remove_abandoned_scratch();
         let scratch = tempfile::Builder::new()
-            .prefix("shatter-preview-")
+            .prefix(&format!("{SCRATCH_PREFIX}{}-", std::process::id()))
             .tempdir()
             .map_err(|error| format!("cannot make the preview's scratch folder: {error}"))?;
         let mut session =
@@ -80,6 +84,26 @@ impl Session {
         match PreviewRun::start(&self.scene, self.target, self.scratch.path(), self.generations) {
             Ok(run) => (self.run, self.error) = (Some(run), None),
             Err(message) => self.error = Some(message),
+        }
+    }
+}
+
+/// Removes the scratch folders of previews that were killed (their process is gone; a preview
+/// that ends normally removes its own). Only where /proc tells which processes live (Linux).
+fn remove_abandoned_scratch() {
+    if !Path::new("/proc/self").is_dir() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(std::env::temp_dir()) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let pid = name.strip_prefix(SCRATCH_PREFIX).and_then(|rest| rest.split('-').next()?.parse::<u32>().ok());
+        if let Some(pid) = pid
+            && !Path::new(&format!("/proc/{pid}")).exists()
+        {
+            let _ = std::fs::remove_dir_all(entry.path());
         }
     }
 }

@@ -90,3 +90,14 @@ pub fn tree_files(folder: &Path, skip: &[&str]) -> Vec<(String, Vec<u8>)> {
     files.sort();
     files
 }
+
+/// FLIP of `test` against `reference`: the error map, its mean and 99th percentile.
+pub fn flip(reference: &image::RgbImage, test: &image::RgbImage) -> (nv_flip::FlipImageFloat, f32, f32) {
+    let (width, height) = reference.dimensions();
+    let reference = nv_flip::FlipImageRgb8::with_data(width, height, reference.as_raw());
+    let test = nv_flip::FlipImageRgb8::with_data(width, height, test.as_raw());
+    let error = nv_flip::flip(reference, test, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
+    let mut pool = nv_flip::FlipPool::from_image(&error);
+    let (mean, p99) = (pool.mean(), pool.get_percentile(0.99, false));
+    (error, mean, p99)
+}

@@ -6,6 +6,7 @@ const preview = {
   generation: 0, // the run whose frames are held
   frames: [], // its frames: { frame, time, count, positions, damage, speed }
   framesDrawn: 0, // draws since the page loaded (tests watch it)
+  shown: 0, // the frame number drawn last
   errors: [], // uncaught errors and console.error calls (tests check there are none)
   state: null, // the last /api/state
   editError: '', // why the last edit was refused
@@ -132,7 +133,8 @@ function draw() {
   gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
   const frame = shownFrame();
   if (frame) {
-    if (!camera.framed) frameCamera(frame);
+    // framed on the run's first frame (the rest state), whichever frame is shown first
+    if (!camera.framed) frameCamera(preview.frames[0]);
     const mode = $('colour').value === 'speed' ? 1 : 0;
     const values = mode === 1 ? frame.speed : frame.damage;
     const maxSpeed = Math.max(1e-6, ...preview.frames.map((f) => f.maxSpeed));
@@ -149,6 +151,7 @@ function draw() {
     gl.uniform1i(uniform('mode'), mode);
     gl.drawArrays(gl.POINTS, 0, frame.count);
     $('frame-label').textContent = `${frame.frame} (${(frame.time * 1e6).toFixed(1)} µs)`;
+    preview.shown = frame.frame;
   }
   preview.framesDrawn += frame ? 1 : 0;
 }
@@ -211,7 +214,10 @@ async function fetchFrames(run) {
       const response = await fetch(`/api/frame?generation=${run.generation}&frame=${next}`);
       if (!response.ok) break;
       const frame = decode(await response.arrayBuffer());
-      if (preview.generation === run.generation) preview.frames.push(frame);
+      if (preview.generation === run.generation) {
+        preview.frames.push(frame);
+        followFrames();
+      }
     }
   } finally {
     preview.fetching = false;
@@ -239,6 +245,11 @@ function showState(state) {
   }
   $('figures').innerHTML = rows.join('');
   $('error').textContent = preview.editError || state.error || (run && run.failure) || '';
+  followFrames();
+}
+
+// the slider spans the frames held, and stays on the newest while "follow" is checked
+function followFrames() {
   const slider = $('frame');
   slider.max = Math.max(1, preview.frames.length);
   if ($('follow').checked) slider.value = slider.max;
