@@ -1,8 +1,9 @@
 //! `shatter preview` in a real browser: Debian's headless `chromium`, driven through
 //! `chromedriver` (WebDriver; scripts/test.sh installs both), draws with WebGL on SwiftShader.
 //! The page loads for a small struck plate, its frames arrive and the canvas changes; an edit of
-//! the projectile's speed restarts the preview and changes the bonds broken; a refused edit shows
-//! the config check's message; the console stays free of errors. The canvas, at the first run's
+//! the projectile's speed restarts the preview and changes the bonds broken; "Save" shows the diff
+//! and writes that value alone into the scene's file, its comment kept; a refused edit shows the
+//! config check's message; the console stays free of errors. The canvas, at the first run's
 //! last frame, is within a FLIP bound of its golden (`SHATTER_BLESS=1` rewrites it).
 
 use std::io::{BufRead, BufReader};
@@ -41,7 +42,7 @@ steps_per_frame = 100
 
 [[sim.projectile]]
 center_m = [0.0, 0.0, 0.0087]
-velocity_m_s = [0.0, 0.0, -150.0]
+velocity_m_s = [0.0, 0.0, -150.0]  # fast enough to break the plate
 radius_m = 0.004
 stiffness_pa = 4e5
 "#;
@@ -242,6 +243,23 @@ fn the_preview_page_draws_frames_restarts_on_an_edit_and_refuses_a_bad_one() {
         let (_, mean, _) = support::flip(&reference, &browser.screenshot("#view"));
         assert!(mean > MAX_MEAN_FLIP, "the slower projectile's canvas is FLIP {mean} from the faster one's");
     }
+
+    // "Save" shows the diff, then writes the edited value and nothing else into the scene's file
+    browser.click("#save");
+    let diff = browser.wait_for("the diff", "const d = document.getElementById('diff').textContent; return d || null;");
+    assert!(diff.as_str().is_some_and(|diff| diff.contains("+velocity_m_s = [0.0, 0.0, -40.0]")), "{diff}");
+    browser.click("#write");
+    browser.wait_for("the save", "return document.getElementById('saved').textContent || null;");
+    let saved = std::fs::read_to_string(dir.path().join("pipeline.toml")).expect("the scene");
+    let changed: Vec<(&str, &str)> = PLATE.lines().zip(saved.lines()).filter(|(a, b)| a != b).collect();
+    assert_eq!(
+        changed,
+        [(
+            "velocity_m_s = [0.0, 0.0, -150.0]  # fast enough to break the plate",
+            "velocity_m_s = [0.0, 0.0, -40.0]  # fast enough to break the plate"
+        )]
+    );
+    assert_eq!(PLATE.lines().count(), saved.lines().count());
 
     // a refused edit names the key, as the CLI does, and leaves the run alone
     browser.type_into("input[name='material.critical_stretch']", "-1");

@@ -1,11 +1,13 @@
 //! `shatter preview`: the scene live in a browser. A local web server runs the scene's own
 //! stages at a coarser spacing into a scratch folder (`preview_run`: `shatter run --until rigid`
 //! as a child process) and serves the page that draws its frames as they land; an edit on the
-//! page restarts the run with the edited config.
+//! page restarts the run with the edited config, and "Save" writes the edits into the scene's
+//! file after showing the diff.
 //!
 //! - `preview_config`: the scene as edited, and the preview's config from it.
 //! - `preview_run`: one run of it, in its own folder.
 //! - `run_folder`: what the page is shown of an output folder: frames, broken bonds.
+//! - `scene_file`: "Save": the edits written into the scene's file, comments kept.
 //! - `session`: the edits and the current run.
 //! - `server`: the HTTP routes.
 //! - `page/`: the page (WebGL2, no library).
@@ -13,6 +15,7 @@
 mod preview_config;
 mod preview_run;
 mod run_folder;
+mod scene_file;
 mod server;
 mod session;
 

@@ -138,6 +138,34 @@ impl PreviewScene {
     }
 }
 
+impl PreviewScene {
+    /// `value` for `key`, its whole numbers made floats where the scene's value there is a float
+    /// (the page sends `40` for `40.0`: the saved file keeps the scene's own kinds).
+    pub fn typed_like_scene(&self, key: &str, value: toml::Value) -> toml::Value {
+        match get_key(&self.table, key) {
+            Some(old) => floats_like(old, value),
+            None => value,
+        }
+    }
+}
+
+/// `new` with its integers made floats where `old` has floats (arrays entry by entry).
+fn floats_like(old: &toml::Value, new: toml::Value) -> toml::Value {
+    match (old, new) {
+        (toml::Value::Float(_), toml::Value::Integer(whole)) => toml::Value::Float(whole as f64),
+        (toml::Value::Array(olds), toml::Value::Array(news)) => toml::Value::Array(
+            news.into_iter()
+                .enumerate()
+                .map(|(k, new)| match olds.get(k).or(olds.first()) {
+                    Some(old) => floats_like(old, new),
+                    None => new,
+                })
+                .collect(),
+        ),
+        (_, new) => new,
+    }
+}
+
 /// The value of the dotted `key` (as [`set_key`] names it) in `table`, if set.
 fn get_key<'a>(table: &'a toml::Table, key: &str) -> Option<&'a toml::Value> {
     let mut parts = key.split('.');
@@ -207,6 +235,10 @@ mod tests {
         edits.insert("material.critical_stretch".into(), toml::Value::Float(0.002));
         let scene = PreviewScene::new(Path::new("scene/pipeline.toml"), SCENE, &edits).expect("scene");
         assert_eq!(scene.config.sim.projectile[0].velocity_m_s, [0.0, 0.0, -40.0]);
+        let typed = scene
+            .typed_like_scene("sim.projectile[0].velocity_m_s", toml::Value::try_from([0, 0, -40]).expect("value"));
+        assert_eq!(typed.to_string(), "[0.0, 0.0, -40.0]");
+        assert_eq!(scene.typed_like_scene("scene.seed", toml::Value::Integer(4)), toml::Value::Integer(4));
         assert_eq!(scene.config.material.critical_stretch, Some(0.002));
         let mut table = toml::Table::new();
         assert!(set_key(&mut table, "sim.projectile[0].radius_m", toml::Value::Float(1.0)).is_err());

@@ -1,5 +1,5 @@
 //! The preview's HTTP server on 127.0.0.1 (tiny_http): the page, the state the page polls, each
-//! frame as a binary message, and edits. The page asks for what it lacks, so a dropped
+//! frame as a binary message, edits, and saving them into the scene's file. The page asks for what it lacks, so a dropped
 //! connection resumes with the next poll.
 
 use std::io::Read;
@@ -49,6 +49,14 @@ fn handle(mut request: Request, session: &Mutex<Session>) {
         (Method::Get, "/api/state") => json_response(200, &state(session)),
         (Method::Get, "/api/frame") => frame(session, query),
         (Method::Post, "/api/edit") => edit(&mut request, session),
+        (Method::Get, "/api/diff") => match lock(session).save_preview() {
+            Ok((diff, _)) => json_response(200, &json!({ "diff": diff })),
+            Err(message) => json_response(400, &json!({ "error": message })),
+        },
+        (Method::Post, "/api/save") => match lock(session).save() {
+            Ok(path) => json_response(200, &json!({ "saved": path.display().to_string() })),
+            Err(message) => json_response(500, &json!({ "error": message })),
+        },
         (Method::Get, _) => match PAGE.iter().find(|(route, _, _)| *route == path) {
             Some((_, kind, body)) => Response::from_data(body.as_bytes()).with_header(header("Content-Type", kind)),
             None => text_response(404, "not found"),

@@ -65,7 +65,7 @@ impl Session {
         let mut edits = self.edits.clone();
         for (key, value) in edit.edits {
             let value = toml::Value::try_from(value).map_err(|error| format!("{key}: {error}"))?;
-            edits.insert(key, value);
+            edits.insert(key.clone(), self.scene.typed_like_scene(&key, value));
         }
         let target = edit.particles.unwrap_or(self.target);
         if !PARTICLES.contains(&target) {
@@ -75,6 +75,23 @@ impl Session {
         (self.edits, self.scene, self.target) = (edits, scene, target);
         self.restart();
         self.error.clone().map_or(Ok(self.generations), Err)
+    }
+
+    /// The scene's file as "Save" would write it, and the diff from what it holds now.
+    pub fn save_preview(&self) -> Result<(String, String), String> {
+        let saved = super::scene_file::saved_text(&self.scene_text, &self.edits)?;
+        let label = self.scene.path.display().to_string();
+        Ok((super::scene_file::diff(&label, &self.scene_text, &saved), saved))
+    }
+
+    /// Writes the edits into the scene's file (atomically; the edits are then the file's own).
+    pub fn save(&mut self) -> Result<PathBuf, String> {
+        let (_, saved) = self.save_preview()?;
+        let path = self.scene.path.clone();
+        shatter_core::atomic_file::write_atomically(&path, &[saved.as_bytes()])
+            .map_err(|error| format!("{}: {error}", path.display()))?;
+        (self.scene_text, self.edits) = (saved, Edits::new());
+        Ok(path)
     }
 
     /// Stops the current run and starts the next.

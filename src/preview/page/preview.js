@@ -314,6 +314,20 @@ $('edits').addEventListener('submit', async (event) => {
   camera.framed = false;
 });
 
+// "Save": the diff first, then the write
+$('save').addEventListener('click', async () => {
+  const answer = await (await fetch('/api/diff', { cache: 'no-store' })).json();
+  $('diff').textContent = answer.error || answer.diff || '(no change)';
+  $('saving').hidden = false;
+  $('saved').textContent = '';
+});
+$('cancel').addEventListener('click', () => { $('saving').hidden = true; });
+$('write').addEventListener('click', async () => {
+  const answer = await (await fetch('/api/save', { method: 'POST' })).json();
+  $('saving').hidden = true;
+  $('saved').textContent = answer.error || `saved ${answer.saved}`;
+});
+
 function loop() {
   draw();
   requestAnimationFrame(loop);
