@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::time::Instant;
+use std::time::{Instant, SystemTime};
 
 use shatter_core::{OutputLayout, PipelineConfig};
 
@@ -34,6 +34,8 @@ pub struct PreviewRun {
     pub folder: RunFolder,
     /// When it started.
     started: Instant,
+    /// The same, on the clock files are stamped by.
+    started_at: SystemTime,
     /// Seconds from its start to its end, once it has ended.
     seconds_to_end: Option<f64>,
     /// Seconds from its start to the first frame with a broken bond, once one has been seen.
@@ -69,6 +71,7 @@ impl PreviewRun {
             spacing_m,
             folder: RunFolder::new(OutputLayout::of(&config)),
             started: Instant::now(),
+            started_at: SystemTime::now(),
             seconds_to_end: None,
             first_break_s: None,
             dir,
@@ -82,12 +85,17 @@ impl PreviewRun {
         self.seconds_to_end.unwrap_or_else(|| self.started.elapsed().as_secs_f64())
     }
 
-    /// Notes the bonds broken so far (`broken`, per frame): the first time any are, how long the
-    /// run took to get there.
+    /// Notes the bonds broken so far (`broken`, per frame from frame 2): once any are, how long
+    /// the run took to write the first frame that shows them.
     pub fn saw_broken_bonds(&mut self, broken: &[u64]) {
-        if self.first_break_s.is_none() && broken.last().is_some_and(|&count| count > 0) {
-            self.first_break_s = Some(self.seconds());
+        if self.first_break_s.is_some() {
+            return;
         }
+        let Some(first) = broken.iter().position(|&count| count > 0) else {
+            return;
+        };
+        let written = self.folder.frame_written(first as u32 + 2);
+        self.first_break_s = written.and_then(|at| at.duration_since(self.started_at).ok()).map(|d| d.as_secs_f64());
     }
 
     /// How it stands now.

@@ -38,6 +38,11 @@ impl RunFolder {
         Ok(encode(&points))
     }
 
+    /// When frame `frame` was written, if it is there.
+    pub fn frame_written(&self, frame: u32) -> Option<std::time::SystemTime> {
+        std::fs::metadata(self.layout.frame_points(frame)).and_then(|meta| meta.modified()).ok()
+    }
+
     /// The bonds broken by each frame, in frame order from frame 2 (the break log's blocks, as
     /// far as they are written whole); empty before the log exists.
     pub fn broken_bonds(&self) -> Vec<u64> {

@@ -93,7 +93,27 @@ fn state(session: &Mutex<Session>) -> serde_json::Value {
             "failure": match status { RunStatus::Failed(log) => Some(log), _ => None },
         })
     });
-    json!({ "scene": scene, "target_particles": target, "values": values, "error": error, "run": run })
+    let bodies = bodies(&session.scene.config);
+    json!({ "scene": scene, "target_particles": target, "values": values, "error": error, "run": run, "bodies": bodies })
+}
+
+/// What the page draws besides the particles: the floor's height, the projectiles and indenters
+/// (their start, velocity and radius), and the render camera where the scene places it.
+fn bodies(config: &shatter_core::PipelineConfig) -> serde_json::Value {
+    let sim = &config.sim;
+    let projectiles = sim.projectile.iter().map(|p| (p.center_m, p.velocity_m_s, p.radius_m));
+    let indenters = sim.indenter.iter().map(|i| (i.center_m, i.velocity_m_s, i.radius_m));
+    let spheres: Vec<serde_json::Value> = projectiles
+        .chain(indenters)
+        .map(|(center_m, velocity_m_s, radius_m)| json!({ "center_m": center_m, "velocity_m_s": velocity_m_s, "radius_m": radius_m }))
+        .collect();
+    let camera = &config.render.camera;
+    let [width, height] = config.render.resolution;
+    let camera = camera.position_m.zip(camera.look_at_m).map(|(position_m, look_at_m)| {
+        json!({ "position_m": position_m, "look_at_m": look_at_m, "up": camera.up, "fov_deg": camera.fov_deg,
+                "aspect": f64::from(width) / f64::from(height.max(1)) })
+    });
+    json!({ "floor_height_m": sim.floor.as_ref().map(|floor| floor.height_m), "spheres": spheres, "camera": camera })
 }
 
 /// `GET /api/frame?generation=G&frame=F`: the frame's message, or 404 while it is not there

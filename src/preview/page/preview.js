@@ -73,6 +73,100 @@ for (const [buffer, name, size] of [[positionBuffer, 'position', 3], [valueBuffe
   gl.vertexAttribPointer(location, size, gl.FLOAT, false, 0, 0);
 }
 
+// lines: the floor, the projectiles and indenters, the render camera's frustum
+const LINE_VERTEX = `#version 300 es
+in vec3 position;
+uniform mat4 viewProjection;
+void main() { gl_Position = viewProjection * vec4(position, 1.0); }`;
+const LINE_FRAGMENT = `#version 300 es
+precision mediump float;
+uniform vec3 tint;
+out vec4 colour;
+void main() { colour = vec4(tint, 1.0); }`;
+const lineProgram = gl.createProgram();
+gl.attachShader(lineProgram, compile(gl.VERTEX_SHADER, LINE_VERTEX));
+gl.attachShader(lineProgram, compile(gl.FRAGMENT_SHADER, LINE_FRAGMENT));
+gl.linkProgram(lineProgram);
+if (!gl.getProgramParameter(lineProgram, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(lineProgram));
+const lineBuffer = gl.createBuffer();
+const lineVao = gl.createVertexArray();
+gl.bindVertexArray(lineVao);
+gl.bindBuffer(gl.ARRAY_BUFFER, lineBuffer);
+gl.enableVertexAttribArray(gl.getAttribLocation(lineProgram, 'position'));
+gl.vertexAttribPointer(gl.getAttribLocation(lineProgram, 'position'), 3, gl.FLOAT, false, 0, 0);
+
+// line segments (pairs of points) of the floor's grid under the body, at `time` seconds
+function floorLines(height, size) {
+  const lines = [];
+  const [cx, , cz] = camera.target;
+  for (let k = -10; k <= 10; k++) {
+    const along = (k / 10) * size;
+    lines.push([cx + along, height, cz - size], [cx + along, height, cz + size]);
+    lines.push([cx - size, height, cz + along], [cx + size, height, cz + along]);
+  }
+  return lines;
+}
+
+// three great circles of each sphere where it is at `time`
+function sphereLines(spheres, time) {
+  const lines = [];
+  for (const sphere of spheres) {
+    const c = sphere.center_m.map((v, a) => v + sphere.velocity_m_s[a] * time);
+    for (const [u, v] of [[0, 1], [1, 2], [2, 0]]) {
+      for (let k = 0; k < 24; k++) {
+        const point = (angle) => {
+          const p = c.slice();
+          p[u] += sphere.radius_m * Math.cos(angle);
+          p[v] += sphere.radius_m * Math.sin(angle);
+          return p;
+        };
+        lines.push(point((k / 24) * 2 * Math.PI), point(((k + 1) / 24) * 2 * Math.PI));
+      }
+    }
+  }
+  return lines;
+}
+
+// the render camera's frustum, out to the point it looks at
+function frustumLines(view) {
+  const eye = view.position_m;
+  const ahead = view.look_at_m.map((v, a) => v - eye[a]);
+  const distance = Math.hypot(...ahead);
+  const f = normalise(ahead);
+  const right = normalise(cross(f, view.up));
+  const up = cross(right, f);
+  const h = distance * Math.tan((view.fov_deg * Math.PI) / 360);
+  const w = h * view.aspect;
+  const corner = (sx, sy) => eye.map((e, a) => e + distance * f[a] + sx * w * right[a] + sy * h * up[a]);
+  const corners = [corner(-1, -1), corner(1, -1), corner(1, 1), corner(-1, 1)];
+  const lines = [];
+  corners.forEach((c, k) => lines.push([eye, c], [c, corners[(k + 1) % 4]]));
+  return lines.flat();
+}
+
+function cross(u, v) {
+  return [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+}
+
+function drawLines(points, tint, matrix) {
+  if (points.length === 0) return;
+  gl.useProgram(lineProgram);
+  gl.bindVertexArray(lineVao);
+  gl.bindBuffer(gl.ARRAY_BUFFER, lineBuffer);
+  gl.bufferData(gl.ARRAY_BUFFER, new Float32Array(points.flat()), gl.DYNAMIC_DRAW);
+  gl.uniformMatrix4fv(gl.getUniformLocation(lineProgram, 'viewProjection'), false, matrix);
+  gl.uniform3fv(gl.getUniformLocation(lineProgram, 'tint'), tint);
+  gl.drawArrays(gl.LINES, 0, points.length);
+}
+
+function drawBodies(frame, matrix) {
+  const bodies = preview.state && preview.state.bodies;
+  if (!bodies) return;
+  if (bodies.floor_height_m !== null) drawLines(floorLines(bodies.floor_height_m, camera.distance), [0.4, 0.42, 0.45], matrix);
+  drawLines(sphereLines(bodies.spheres, frame.time), [0.95, 0.6, 0.2], matrix);
+  if (bodies.camera) drawLines(frustumLines(bodies.camera), [0.3, 0.75, 0.85], matrix);
+}
+
 // the orbit camera: yaw and pitch about a target, at a distance
 const camera = { target: [0, 0, 0], distance: 1, yaw: 0.6, pitch: 0.35, framed: false };
 
@@ -145,7 +239,11 @@ function draw() {
     gl.bufferData(gl.ARRAY_BUFFER, frame.positions, gl.DYNAMIC_DRAW);
     gl.bindBuffer(gl.ARRAY_BUFFER, valueBuffer);
     gl.bufferData(gl.ARRAY_BUFFER, values, gl.DYNAMIC_DRAW);
-    gl.uniformMatrix4fv(uniform('viewProjection'), false, viewProjection());
+    const matrix = viewProjection();
+    drawBodies(frame, matrix);
+    gl.useProgram(program);
+    gl.bindVertexArray(vao);
+    gl.uniformMatrix4fv(uniform('viewProjection'), false, matrix);
     gl.uniform1f(uniform('pointScale'), (canvas.height * 1.2 * camera.distance) / Math.cbrt(frame.count) / 3);
     gl.uniform1f(uniform('valueScale'), mode === 1 ? 1 / maxSpeed : 2.5);
     gl.uniform1i(uniform('mode'), mode);
