@@ -18,7 +18,7 @@ use shatter_render::camera::Camera;
 use shatter_render::hit_search::NONE;
 use shatter_render::image_loop::render;
 use shatter_render::integrator::Pixel;
-use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
+use shatter_render::lighting::EnvironmentMap;
 use shatter_render::materials::Look;
 use shatter_render::mattes::SURFACE_FRACTURE;
 use shatter_render::scene_geometry::SceneGeometry;
@@ -65,20 +65,15 @@ fn fragments(particles: &ParticleSet, position: &[Vec<f32>; 3]) -> (FragmentFram
 fn look() -> Look {
     let environment = EnvironmentMap::constant([1.0, 0.9, 0.8]);
     Look {
-        sh: sh_project(&environment),
-        key: key_light(&environment),
-        environment,
         show_environment: false,
-        ior: 1.5,
         absorption: [0.5, 0.2, 0.1],
         albedo: [0.7, 0.6, 0.5],
         fracture_albedo: [0.3, 0.5, 0.9],
         specular: 0.3,
         shininess: 32.0,
-        floor: None,
         max_bounces: 6,
-        glass_split_events: 0,
         opaque_cubes: false,
+        ..Look::under(environment)
     }
 }
 

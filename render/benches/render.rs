@@ -24,7 +24,7 @@ use shatter_render::camera::Camera;
 use shatter_render::gpu_trace::GpuTracer;
 use shatter_render::hit_search::closest_hit;
 use shatter_render::image_loop::{Rendered, pixel_hits, render};
-use shatter_render::lighting::{EnvironmentMap, key_light, sh_project};
+use shatter_render::lighting::EnvironmentMap;
 use shatter_render::materials::Look;
 use shatter_render::scene_geometry::SceneGeometry;
 
@@ -135,20 +135,15 @@ fn bench_case(case: &Case, (width, height): (u32, u32), gpu: Option<&(GpuContext
     println!("render benchmark: {}; scene + k-d tree built in {:.2} s", case.label, started.elapsed().as_secs_f64());
     let environment = EnvironmentMap::constant([1.0; 3]);
     let mut look = Look {
-        sh: sh_project(&environment),
-        key: key_light(&environment),
-        environment,
-        show_environment: true,
-        ior: 1.5,
         absorption: [1.0, 0.3, 0.6],
         albedo: [0.8; 3],
         fracture_albedo: [0.8; 3],
         specular: 0.2,
         shininess: 64.0,
-        floor: None,
         max_bounces: 1,
         glass_split_events: 2,
         opaque_cubes: false,
+        ..Look::under(environment)
     };
     let camera = |w: u32, h: u32| Camera::look_at(case.eye, case.target, DVec3::Y, 40.0, w, h);
     // What a ray-casting library counts (Embree's figure in scripts/compare-peers.sh): the

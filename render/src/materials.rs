@@ -1,7 +1,7 @@
 //! The look of a shot: what the renderer needs besides the geometry (the environment and its
 //! light, glass and opaque materials, the floor and its texture).
 
-use crate::lighting::{EnvironmentMap, KeyLight};
+use crate::lighting::{EnvironmentMap, KeyLight, key_light, sh_project};
 use crate::texture_filter::MipChain;
 
 /// What the renderer needs besides the geometry.
@@ -37,6 +37,30 @@ pub struct Look {
     pub glass_split_events: u32,
     /// Cubes are opaque (as tetrahedra and trimtopes are) instead of glass.
     pub opaque_cubes: bool,
+}
+
+impl Look {
+    /// A look lit by `environment` (its SH light and key light), shown behind the scene: opaque
+    /// cubes of albedo 0.7 without a highlight, glass of index 1.5 that absorbs nothing, no floor,
+    /// 4 bounces. Callers change what they need (`Look { max_bounces: 8, ..Look::under(sky) }`).
+    pub fn under(environment: EnvironmentMap) -> Look {
+        Look {
+            sh: sh_project(&environment),
+            key: key_light(&environment),
+            environment,
+            show_environment: true,
+            ior: 1.5,
+            absorption: [0.0; 3],
+            albedo: [0.7; 3],
+            fracture_albedo: [0.7; 3],
+            specular: 0.0,
+            shininess: 16.0,
+            floor: None,
+            max_bounces: 4,
+            glass_split_events: 0,
+            opaque_cubes: true,
+        }
+    }
 }
 
 /// A floor plane with a tiled albedo texture.

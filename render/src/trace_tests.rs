@@ -8,7 +8,7 @@ use shatter_core::particles::{Elements, ParticleSet};
 use crate::camera::Camera;
 use crate::hit_search::{NONE, closest_hit, element_at, union_exit};
 use crate::image_loop::{pixel_hits, render};
-use crate::lighting::{EnvironmentMap, key_light, sh_project};
+use crate::lighting::EnvironmentMap;
 use crate::materials::Look;
 use crate::primitives::along;
 use crate::sampling::random;
@@ -28,20 +28,13 @@ fn cubes(centres: Vec<[f32; 3]>) -> SceneGeometry {
 fn look() -> Look {
     let environment = EnvironmentMap::constant([0.5; 3]);
     Look {
-        sh: sh_project(&environment),
-        key: key_light(&environment),
-        environment,
-        show_environment: true,
-        ior: 1.5,
-        absorption: [0.0; 3],
         albedo: [0.8; 3],
         fracture_albedo: [0.8; 3],
-        specular: 0.0,
         shininess: 32.0,
-        floor: None,
         max_bounces: 8,
         glass_split_events: 2,
         opaque_cubes: false,
+        ..Look::under(environment)
     }
 }
 

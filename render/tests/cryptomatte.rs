@@ -46,7 +46,7 @@ fn look() -> Look {
         }),
         max_bounces: 2,
         opaque_cubes: false,
-        ..support::look(EnvironmentMap::constant([0.5; 3]))
+        ..Look::under(EnvironmentMap::constant([0.5; 3]))
     }
 }
 

@@ -25,7 +25,7 @@ fn look(opaque_cubes: bool) -> Look {
         }),
         max_bounces: 8,
         opaque_cubes,
-        ..support::look(support::uniform_sky([0.6, 0.7, 0.9], (4, 2)))
+        ..Look::under(support::uniform_sky([0.6, 0.7, 0.9], (4, 2)))
     }
 }
 

@@ -22,7 +22,7 @@ const SENSOR_MM: f64 = 24.0;
 
 /// Opaque cubes on a transparent background: alpha is their coverage.
 fn look() -> Look {
-    Look { show_environment: false, ..support::look(support::uniform_sky([0.5; 3], (4, 2))) }
+    Look { show_environment: false, ..Look::under(support::uniform_sky([0.5; 3], (4, 2))) }
 }
 
 /// A cube `edge_m` wide at distance `distance_m` in front of the camera at z = 1.

@@ -57,7 +57,7 @@ fn look(bounces: u32, split: u32) -> Look {
         max_bounces: bounces,
         glass_split_events: split,
         opaque_cubes: false,
-        ..support::look(EnvironmentMap { width, height, texels })
+        ..Look::under(EnvironmentMap { width, height, texels })
     }
 }
 

@@ -56,7 +56,7 @@ fn look(floor: bool) -> Look {
         max_bounces: 6,
         glass_split_events: 2,
         opaque_cubes: false,
-        ..support::look(support::gradient_sky())
+        ..Look::under(support::gradient_sky())
     }
 }
 

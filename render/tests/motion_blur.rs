@@ -21,7 +21,7 @@ const HALF: f32 = 0.05;
 
 /// Opaque cubes on a black, transparent background: alpha is the cubes' coverage.
 fn coverage_look() -> Look {
-    Look { show_environment: false, ..support::look(support::uniform_sky([0.5; 3], (4, 2))) }
+    Look { show_environment: false, ..Look::under(support::uniform_sky([0.5; 3], (4, 2))) }
 }
 
 /// Cubes at `centres`, one fragment each unless `fragment_of` says otherwise.
@@ -222,7 +222,7 @@ fn glass_look() -> Look {
         absorption: [0.5, 0.2, 0.1],
         glass_split_events: 1,
         opaque_cubes: false,
-        ..support::look(support::gradient_sky())
+        ..Look::under(support::gradient_sky())
     }
 }
 

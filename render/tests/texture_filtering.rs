@@ -22,7 +22,7 @@ fn look(filtered: bool) -> Look {
     if filtered {
         floor.mips = Some(MipChain::of(&floor));
     }
-    Look { floor: Some(floor), ..support::look(support::uniform_sky([1.0; 3], (4, 2))) }
+    Look { floor: Some(floor), ..Look::under(support::uniform_sky([1.0; 3], (4, 2))) }
 }
 
 /// The image as 8-bit sRGB.
