@@ -42,20 +42,30 @@ impl PreviewScene {
         Ok(PreviewScene { path, config, table })
     }
 
-    /// The spacing, metres, at which the scene has about `target` particles: the scene's volume
-    /// (its box, or its mesh's enclosed volume after the transform's scale) over `target`, cube
-    /// rooted; never finer than the scene's own.
-    pub fn spacing_for(&self, target: u64) -> Result<f64, String> {
+    /// The scene's volume, m^3: its box's, or its mesh's enclosed volume after the transform's
+    /// scale (the mesh is read: a caller that asks again keeps it, see [`PreviewScene::volume_key`]).
+    pub fn volume_m3(&self) -> Result<f64, String> {
         let geometry = &self.config.geometry;
-        let volume_m3 = match (&geometry.source, geometry.box_size_m) {
-            (GeometrySource::Box, Some([x, y, z])) => x * y * z,
+        match (&geometry.source, geometry.box_size_m) {
+            (GeometrySource::Box, Some([x, y, z])) => Ok(x * y * z),
             (GeometrySource::Mesh(mesh), _) => {
                 let (mesh, _) = TriangleMesh::load_obj(mesh).map_err(|error| format!("{}: {error}", mesh.display()))?;
-                mesh.signed_volume().abs() * geometry.transform.scale.powi(3)
+                Ok(mesh.signed_volume().abs() * geometry.transform.scale.powi(3))
             }
-            (GeometrySource::Box, None) => return Err("geometry.box_size_m is not set".to_string()),
-        };
-        Ok((volume_m3 / target.max(1) as f64).cbrt().max(geometry.spacing_m))
+            (GeometrySource::Box, None) => Err("geometry.box_size_m is not set".to_string()),
+        }
+    }
+
+    /// What [`PreviewScene::volume_m3`] depends on: equal keys, equal volumes.
+    pub fn volume_key(&self) -> String {
+        let geometry = &self.config.geometry;
+        format!("{:?} {:?} {}", geometry.source, geometry.box_size_m, geometry.transform.scale)
+    }
+
+    /// The spacing, metres, at which the scene, of `volume_m3`, has about `target` particles: the
+    /// volume over `target`, cube rooted; never finer than the scene's own.
+    pub fn spacing_for(&self, volume_m3: f64, target: u64) -> f64 {
+        (volume_m3 / target.max(1) as f64).cbrt().max(self.config.geometry.spacing_m)
     }
 
     /// The preview's config text: the edited scene at `spacing_m` (a Voronoi scene: `target`
@@ -271,7 +281,7 @@ mod tests {
     #[test]
     fn the_preview_is_coarser_and_writes_elsewhere() {
         let scene = PreviewScene::new(Path::new("scene/pipeline.toml"), SCENE, &Edits::new()).expect("scene");
-        let spacing = scene.spacing_for(200).expect("spacing");
+        let spacing = scene.spacing_for(scene.volume_m3().expect("volume"), 200);
         // 1.6e-6 m^3 over 200 particles: 2 mm
         assert!((spacing - 0.002).abs() < 1e-9, "{spacing}");
         let text = scene.preview_text(spacing, 200, Path::new("/tmp/preview/run")).expect("text");

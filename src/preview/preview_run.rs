@@ -46,11 +46,16 @@ pub struct PreviewRun {
 }
 
 impl PreviewRun {
-    /// Starts run `generation` of `scene` at about `target` particles in `scratch`/run-N.
-    pub fn start(scene: &PreviewScene, target: u64, scratch: &Path, generation: u64) -> Result<PreviewRun, String> {
+    /// Starts run `generation` of `scene` at `spacing_m` (a Voronoi scene: `target` cells) in
+    /// `scratch`/run-N.
+    pub fn start(
+        scene: &PreviewScene,
+        (spacing_m, target): (f64, u64),
+        scratch: &Path,
+        generation: u64,
+    ) -> Result<PreviewRun, String> {
         let dir = scratch.join(format!("run-{generation}"));
         std::fs::create_dir_all(&dir).map_err(|error| format!("{}: {error}", dir.display()))?;
-        let spacing_m = scene.spacing_for(target)?;
         let config_path = dir.join("pipeline.toml");
         let text = scene.preview_text(spacing_m, target, &dir.join("out"))?;
         std::fs::write(&config_path, &text).map_err(|error| format!("{}: {error}", config_path.display()))?;

@@ -41,6 +41,9 @@ pub struct Session {
     /// The runs' folder (removed with the session).
     scratch: tempfile::TempDir,
     generations: u64,
+    /// The scene's volume, m^3, with the key of the geometry it was measured on (a mesh is read
+    /// once, not at every edit).
+    volume: Option<(String, f64)>,
 }
 
 impl Session {
@@ -53,8 +56,17 @@ impl Session {
             .prefix(&format!("{SCRATCH_PREFIX}{}-", std::process::id()))
             .tempdir()
             .map_err(|error| format!("cannot make the preview's scratch folder: {error}"))?;
-        let mut session =
-            Session { scene_text, edits: Edits::new(), scene, target, run: None, error: None, scratch, generations: 0 };
+        let mut session = Session {
+            scene_text,
+            edits: Edits::new(),
+            scene,
+            target,
+            run: None,
+            error: None,
+            scratch,
+            generations: 0,
+            volume: None,
+        };
         session.restart();
         Ok(session)
     }
@@ -98,10 +110,27 @@ impl Session {
     fn restart(&mut self) {
         self.run = None;
         self.generations += 1;
-        match PreviewRun::start(&self.scene, self.target, self.scratch.path(), self.generations) {
+        let started = self.volume_m3().and_then(|volume_m3| {
+            let resolution = (self.scene.spacing_for(volume_m3, self.target), self.target);
+            PreviewRun::start(&self.scene, resolution, self.scratch.path(), self.generations)
+        });
+        match started {
             Ok(run) => (self.run, self.error) = (Some(run), None),
             Err(message) => self.error = Some(message),
         }
+    }
+
+    /// The scene's volume, measured again only when its geometry changed.
+    fn volume_m3(&mut self) -> Result<f64, String> {
+        let key = self.scene.volume_key();
+        if let Some((measured, volume_m3)) = &self.volume
+            && *measured == key
+        {
+            return Ok(*volume_m3);
+        }
+        let volume_m3 = self.scene.volume_m3()?;
+        self.volume = Some((key, volume_m3));
+        Ok(volume_m3)
     }
 }
 

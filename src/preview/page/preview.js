@@ -221,6 +221,8 @@ function shownFrame() {
   return preview.frames[Math.min(index, preview.frames.length - 1)];
 }
 
+let uploaded = null; // the frame and values in the GPU's buffers
+
 function draw() {
   gl.viewport(0, 0, canvas.width, canvas.height);
   gl.clearColor(0.17, 0.18, 0.19, 1);
@@ -233,12 +235,14 @@ function draw() {
     const values = mode === 1 ? frame.speed : frame.damage;
     const maxSpeed = Math.max(1e-6, ...preview.frames.map((f) => f.maxSpeed));
     gl.enable(gl.DEPTH_TEST);
-    gl.useProgram(program);
-    gl.bindVertexArray(vao);
-    gl.bindBuffer(gl.ARRAY_BUFFER, positionBuffer);
-    gl.bufferData(gl.ARRAY_BUFFER, frame.positions, gl.DYNAMIC_DRAW);
-    gl.bindBuffer(gl.ARRAY_BUFFER, valueBuffer);
-    gl.bufferData(gl.ARRAY_BUFFER, values, gl.DYNAMIC_DRAW);
+    // the particles go to the GPU when the frame or the colouring changes, not at every draw
+    if (!uploaded || uploaded.frame !== frame || uploaded.values !== values) {
+      gl.bindBuffer(gl.ARRAY_BUFFER, positionBuffer);
+      gl.bufferData(gl.ARRAY_BUFFER, frame.positions, gl.DYNAMIC_DRAW);
+      gl.bindBuffer(gl.ARRAY_BUFFER, valueBuffer);
+      gl.bufferData(gl.ARRAY_BUFFER, values, gl.DYNAMIC_DRAW);
+      uploaded = { frame, values };
+    }
     const matrix = viewProjection();
     drawBodies(frame, matrix);
     gl.useProgram(program);
