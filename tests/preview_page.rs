@@ -1,9 +1,12 @@
 //! `shatter preview` in a real browser: Debian's headless `chromium`, driven through
 //! `chromedriver` (WebDriver; scripts/test.sh installs both), draws with WebGL on SwiftShader.
-//! The page loads for a small struck plate, its frames arrive and the canvas changes; an edit of
-//! the projectile's speed restarts the preview and changes the bonds broken; "Save" shows the diff
+//! The page loads for a small struck plate, its frames arrive and the canvas follows the frame
+//! slider; its fragment figures and ids are post's, and it colours by fragment; an edit of
+//! the material's strength restarts the preview and breaks fewer bonds; "Save" shows the diff
 //! and writes that value alone into the scene's file, its comment kept; a refused edit shows the
-//! config check's message; the console stays free of errors. The canvas, at the first run's
+//! config check's message; a click on the plate aims the projectile there; the console stays
+//! free of errors. A drop's preview shows the lead-in's, the simulation's and the
+//! follow-through's frames in turn. The canvas, at the first run's
 //! last frame, is within a FLIP bound of its golden (`SHATTER_BLESS=1` rewrites it).
 
 use std::io::{BufRead, BufReader};
@@ -14,6 +17,7 @@ use std::time::{Duration, Instant};
 
 use base64::Engine;
 use serde_json::{Value, json};
+use shatter_core::fragments::FragmentFrame;
 
 use crate::support;
 
@@ -34,7 +38,7 @@ horizon_factor = 3.0
 [material]
 density_kg_m3 = 2200.0
 bulk_modulus_pa = 14.9e9
-critical_stretch = 0.00032
+critical_stretch = 0.00032  # glass: the projectile cracks it
 
 [sim]
 frames = 16
@@ -42,7 +46,7 @@ steps_per_frame = 100
 
 [[sim.projectile]]
 center_m = [0.0, 0.0, 0.0087]
-velocity_m_s = [0.0, 0.0, -150.0]  # fast enough to break the plate
+velocity_m_s = [0.0, 0.0, -150.0]
 radius_m = 0.004
 stiffness_pa = 4e5
 "#;
@@ -71,10 +75,10 @@ impl Drop for Process {
     }
 }
 
-/// `shatter preview` of `dir`'s pipeline.toml, and the URL it printed.
-fn start_preview(dir: &Path) -> (Process, String) {
+/// `shatter preview` of `dir`'s pipeline.toml at about `particles`, and the URL it printed.
+fn start_preview(dir: &Path, particles: u32) -> (Process, String) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_shatter"))
-        .args(["preview", "--port", "0", "--particles", "3000"])
+        .args(["preview", "--port", "0", "--particles", &particles.to_string()])
         .current_dir(dir)
         .stdout(Stdio::piped())
         .spawn()
@@ -172,6 +176,18 @@ impl Browser {
         self.command(&format!("element/{id}/value"), json!({ "text": text }));
     }
 
+    /// A mouse click at (x, y), the viewport's CSS pixels.
+    fn click_at(&self, x: f64, y: f64) {
+        let (x, y) = (x.round() as i64, y.round() as i64);
+        let actions = json!({ "actions": [{ "type": "pointer", "id": "mouse", "parameters": { "pointerType": "mouse" },
+            "actions": [
+                { "type": "pointerMove", "duration": 0, "x": x, "y": y, "origin": "viewport" },
+                { "type": "pointerDown", "button": 0 },
+                { "type": "pointerUp", "button": 0 },
+            ] }] });
+        self.command("actions", actions);
+    }
+
     fn click(&self, css: &str) {
         let id = self.element(css);
         self.command(&format!("element/{id}/click"), json!({}));
@@ -214,40 +230,49 @@ const FINISHED_RUN: &str = "const s = shatterPreview.state; \
 fn the_preview_page_draws_frames_restarts_on_an_edit_and_refuses_a_bad_one() {
     let dir = tempfile::tempdir().expect("tempdir");
     std::fs::write(dir.path().join("pipeline.toml"), PLATE).expect("config");
-    let (_preview, url) = start_preview(dir.path());
+    let (preview, url) = start_preview(dir.path(), 3000);
     let browser = Browser::start();
     browser.command("url", json!({ "url": url }));
 
     browser.wait_for("a frame drawn", "return shatterPreview.frames.length > 0 && shatterPreview.framesDrawn > 0");
-    let first = browser.script(&format!("{CANVAS_HASH} return hash();"));
-    browser.wait_for("the canvas to change as frames arrive", &format!("{CANVAS_HASH} return hash() !== {first};"));
     let run = browser.wait_for("the first run to finish", FINISHED_RUN);
+    // the canvas follows the slider: the rest state differs from the last frame (the frames may
+    // all have landed before the first was drawn, so the slider is moved, not the run awaited)
+    let last = browser.script(&format!("{CANVAS_HASH} return hash();"));
+    browser.script("document.getElementById('follow').checked = false; document.getElementById('frame').value = 1;");
+    browser.wait_for(
+        "the rest state drawn",
+        &format!("{CANVAS_HASH} return shatterPreview.shown === 1 && hash() !== {last};"),
+    );
+    browser.script("document.getElementById('follow').checked = true;");
+    browser.wait_for("the last frame drawn again", FINISHED_RUN);
     let (generation, broken) = (run[0].as_u64().expect("generation"), run[1].as_u64().expect("broken bonds"));
     assert_eq!(generation, 1);
     assert!(broken > 0, "the projectile breaks bonds");
     assert!(dir.path().join("out").symlink_metadata().is_err(), "the preview wrote into the scene's output folder");
     matches_golden(&browser.screenshot("#view"));
+    fragments_match_post(&browser, &url, preview.0.id());
 
-    // a slower projectile: the preview restarts and breaks fewer bonds
-    browser.type_into("input[name='sim.projectile[0].velocity_m_s']", "[0, 0, -40]");
+    // a stronger material: the preview restarts and breaks fewer bonds
+    browser.type_into("input[name='material.critical_stretch']", "0.001");
     browser.click("#apply");
-    let slower = browser.wait_for(
+    let stronger = browser.wait_for(
         "the edited run to finish",
         &FINISHED_RUN.replace("return s && s.run", "return s && s.run && s.run.generation === 2"),
     );
-    let broken_slower = slower[1].as_u64().expect("broken bonds");
-    assert!(broken_slower < broken, "{broken_slower} bonds broken at 40 m/s against {broken} at 150 m/s");
+    let broken_stronger = stronger[1].as_u64().expect("broken bonds");
+    assert!(broken_stronger < broken, "{broken_stronger} bonds broken at a critical stretch of 0.001 against {broken}");
     // the bound tells the two apart
     if !std::env::var("SHATTER_BLESS").is_ok_and(|value| value == "1") {
         let reference = image::open(Path::new(env!("CARGO_MANIFEST_DIR")).join(GOLDEN)).expect("golden").to_rgb8();
         let (_, mean, _) = support::flip(&reference, &browser.screenshot("#view"));
-        assert!(mean > MAX_MEAN_FLIP, "the slower projectile's canvas is FLIP {mean} from the faster one's");
+        assert!(mean > MAX_MEAN_FLIP, "the stronger plate's canvas is FLIP {mean} from the weaker one's");
     }
 
     // "Save" shows the diff, then writes the edited value and nothing else into the scene's file
     browser.click("#save");
     let diff = browser.wait_for("the diff", "const d = document.getElementById('diff').textContent; return d || null;");
-    assert!(diff.as_str().is_some_and(|diff| diff.contains("+velocity_m_s = [0.0, 0.0, -40.0]")), "{diff}");
+    assert!(diff.as_str().is_some_and(|diff| diff.contains("+critical_stretch = 0.001")), "{diff}");
     browser.click("#write");
     browser.wait_for("the save", "return document.getElementById('saved').textContent || null;");
     let saved = std::fs::read_to_string(dir.path().join("pipeline.toml")).expect("the scene");
@@ -255,23 +280,99 @@ fn the_preview_page_draws_frames_restarts_on_an_edit_and_refuses_a_bad_one() {
     assert_eq!(
         changed,
         [(
-            "velocity_m_s = [0.0, 0.0, -150.0]  # fast enough to break the plate",
-            "velocity_m_s = [0.0, 0.0, -40.0]  # fast enough to break the plate"
+            "critical_stretch = 0.00032  # glass: the projectile cracks it",
+            "critical_stretch = 0.001  # glass: the projectile cracks it"
         )]
     );
     assert_eq!(PLATE.lines().count(), saved.lines().count());
 
     // a refused edit names the key, as the CLI does, and leaves the run alone
-    browser.type_into("input[name='material.critical_stretch']", "-1");
+    browser.type_into("input[name='material.bulk_modulus_pa']", "-1");
     browser.click("#apply");
     let message =
         browser.wait_for("the refusal", "const e = document.getElementById('error').textContent; return e || null;");
     let message = message.as_str().expect("text");
-    assert!(message.contains("material.critical_stretch"), "{message}");
+    assert!(message.contains("material.bulk_modulus_pa"), "{message}");
     assert_eq!(browser.script("return shatterPreview.state.run.generation"), json!(2));
+
+    // a click on the body aims the projectile there: it keeps its direction and distance
+    browser.script(
+        "const i = document.querySelector(\"input[name='material.bulk_modulus_pa']\"); i.value = i.dataset.original;",
+    );
+    aim_by_click(&browser);
 
     let errors = browser.script("return shatterPreview.errors");
     assert_eq!(errors, json!([]), "the page's console");
+}
+
+/// The page's fragment figures are those of the shown frame, whose ids are post's for the same
+/// frame (read from the preview's scratch folder); colouring by fragment changes the canvas.
+fn fragments_match_post(browser: &Browser, url: &str, preview_pid: u32) {
+    let shown = browser.script(
+        "const f = shatterPreview.frames[shatterPreview.frames.length - 1]; \
+         return [f.frame, f.fragments, document.getElementById('fragments').textContent, \
+                 document.getElementById('histogram').dataset.counts, f.largestShare];",
+    );
+    let frame = shown[0].as_u64().expect("frame") as u32;
+    let count = shown[1].as_u64().expect("fragments");
+    assert!(count > 1, "the struck plate breaks into fragments: {shown}");
+    assert_eq!(shown[2], json!(count.to_string()));
+    let histogram: u64 = shown[3].as_str().expect("counts").split(',').map(|c| c.parse::<u64>().expect("count")).sum();
+    assert_eq!(histogram, count, "the histogram counts every fragment");
+    // the frame's ids as the server sends them, against post's file of that frame
+    let ids = Message::fetch(url, frame).fragment_of;
+    let post = FragmentFrame::read(&scratch_run(preview_pid).join(format!("fragments/fragments.{frame:04}.shp")))
+        .expect("post's fragments");
+    assert_eq!(ids, post.fragment_of, "the page's fragments are post's");
+    let share = post.mass_shares().expect("mass").largest;
+    assert!((shown[4].as_f64().expect("share") - share).abs() < 1e-6, "{shown} against {share}");
+
+    let before = browser.script(&format!("{CANVAS_HASH} return hash();"));
+    browser.click("#colour option[value='fragment']");
+    browser.wait_for("the fragments' colours", &format!("{CANVAS_HASH} return hash() !== {before};"));
+}
+
+/// Clicks a particle of the plate's top face off its centre, on the rest frame: the projectile's
+/// start moves over it, at the same height, and the preview restarts.
+fn aim_by_click(browser: &Browser) {
+    let generation = browser.script("return shatterPreview.state.run.generation").as_u64().expect("generation");
+    let picked = browser.script(
+        "document.getElementById('follow').checked = false; document.getElementById('frame').value = 1; \
+         const f = shatterPreview.frames[0]; let top = -Infinity; \
+         for (let i = 0; i < f.count; i++) top = Math.max(top, f.positions[3 * i + 2]); \
+         let best = -1, bestD = Infinity; \
+         for (let i = 0; i < f.count; i++) { if (f.positions[3 * i + 2] < top - 1e-5) continue; \
+           const d = Math.hypot(f.positions[3 * i] - 0.012, f.positions[3 * i + 1] - 0.008); \
+           if (d < bestD) { best = i; bestD = d; } } \
+         return [f.positions[3 * best], f.positions[3 * best + 1]];",
+    );
+    let target = [picked[0].as_f64().expect("x"), picked[1].as_f64().expect("y")];
+    browser.wait_for("the rest frame shown", "return shatterPreview.shown === 1;");
+    let at = browser.script(&format!(
+        "const f = shatterPreview.frames[0]; for (let i = 0; i < f.count; i++) \
+         if (f.positions[3 * i] === {} && f.positions[3 * i + 1] === {} && f.positions[3 * i + 2] > 0) \
+         {{ const p = shatterPreview.project(i); return [p.x, p.y]; }} return null;",
+        picked[0], picked[1]
+    ));
+    browser.click_at(at[0].as_f64().expect("x"), at[1].as_f64().expect("y"));
+    let centre = browser.wait_for(
+        "the aimed run",
+        &format!(
+            "const s = shatterPreview.state; return s.run.generation > {generation} ? \
+             s.values['sim.projectile[0].center_m'] : null;"
+        ),
+    );
+    let centre: Vec<f64> = centre.as_array().expect("a centre").iter().map(|v| v.as_f64().expect("number")).collect();
+    // the pick is the particle under the pointer nearest the eye: this one or a neighbour on the
+    // top face (2 mm apart at this coarseness)
+    assert!((centre[0] - target[0]).hypot(centre[1] - target[1]) < 0.0025, "{centre:?} aimed at {target:?}");
+    assert!((centre[2] - 0.0087).abs() < 1e-6, "the projectile keeps its distance: {centre:?}");
+    assert!(
+        browser
+            .script("return document.getElementById('aim').textContent")
+            .as_str()
+            .is_some_and(|t| t.contains("aimed"))
+    );
 }
 
 /// Compares the canvas with [`GOLDEN`] (or rewrites it when SHATTER_BLESS=1); a canvas outside
@@ -290,5 +391,94 @@ fn matches_golden(canvas: &image::RgbImage) {
         let failed = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/preview_page.png");
         canvas.save(&failed).expect("write the canvas");
         panic!("the canvas is FLIP {mean:.4} from its golden (max {MAX_MEAN_FLIP}): {}", failed.display());
+    }
+}
+
+/// The first run's output folder in the scratch folder of the preview with process id `pid`.
+fn scratch_run(pid: u32) -> std::path::PathBuf {
+    let prefix = format!("shatter-preview-{pid}-");
+    std::fs::read_dir(std::env::temp_dir())
+        .expect("the temp folder")
+        .filter_map(Result::ok)
+        .map(|entry| entry.path())
+        .find(|path| path.file_name().is_some_and(|name| name.to_string_lossy().starts_with(&prefix)))
+        .expect("the preview's scratch folder")
+        .join("run-1/out")
+}
+
+/// A frame message's fields (src/preview/frame_message.rs), as a test reads them.
+struct Message {
+    source: u32,
+    time_s: f32,
+    fragments: u32,
+    position_m: Vec<[f32; 3]>,
+    fragment_of: Vec<u32>,
+}
+
+impl Message {
+    /// Page frame `frame` of the first run of the preview at `url`.
+    fn fetch(url: &str, frame: u32) -> Message {
+        let response = ureq::get(&format!("{url}api/frame?generation=1&frame={frame}")).call().expect("the frame");
+        let mut bytes = Vec::new();
+        std::io::Read::read_to_end(&mut response.into_reader(), &mut bytes).expect("bytes");
+        let word = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().expect("4 bytes"));
+        assert_eq!((&bytes[..4], word(4), word(8)), (&b"SHPV"[..], 2, frame));
+        let (n, start) = (word(12) as usize, 36 + 4 * word(32) as usize);
+        Message {
+            source: word(20),
+            time_s: f32::from_bits(word(16)),
+            fragments: word(24),
+            position_m: (0..n).map(|i| [0, 1, 2].map(|a| f32::from_bits(word(start + 12 * i + 4 * a)))).collect(),
+            fragment_of: (0..n).map(|i| word(start + 20 * n + 4 * i)).collect(),
+        }
+    }
+}
+
+/// A block dropped on the floor (the follow-through's tests' scene): the page's frames are the
+/// lead-in's, the simulation's up to the handoff, then the follow-through's, in time order,
+/// each placed as its stage's file says.
+#[test]
+fn the_preview_of_a_drop_shows_its_fall_break_and_settle() {
+    const DROP: &str = "[scene]\nname = \"drop\"\noutput_dir = \"out\"\nseed = 3\n[geometry]\nsource = \"box\"\n\
+        box_size_m = [0.012, 0.012, 0.012]\nsampler = \"grid\"\nspacing_m = 0.001\nhorizon_factor = 3.0\n\
+        [geometry.transform]\ntranslate_m = [0.0, 0.0065, 0.0]\n[material]\ndensity_kg_m3 = 2200.0\n\
+        bulk_modulus_pa = 14.9e9\n[lead_in]\ntranslate_m = [0.0, 0.05, 0.0]\nvelocity_m_s = [0.1, 0.0, 0.0]\n\
+        rotate_axis = [1.0, 0.0, 1.0]\nrotate_deg = 30.0\n[sim]\nframes = 6\nsteps_per_frame = 100\n\
+        [sim.floor]\nheight_m = 0.0\n[rigid]\nfollow_through_s = 0.25\n";
+    let dir = tempfile::tempdir().expect("tempdir");
+    std::fs::write(dir.path().join("pipeline.toml"), DROP).expect("config");
+    let (preview, url) = start_preview(dir.path(), 600);
+    let started = Instant::now();
+    let run = loop {
+        let state: Value = ureq::get(&format!("{url}api/state")).call().expect("state").into_json().expect("JSON");
+        let run = state["run"].clone();
+        assert_ne!(run["status"], json!("failed"), "{run}");
+        if run["status"] == json!("finished") {
+            break run;
+        }
+        assert!(started.elapsed() < PATIENCE, "waited {PATIENCE:?} for the run");
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    let frames = run["frames"].as_u64().expect("frames") as u32;
+    let lead_in = run["lead_in_frames"].as_u64().expect("lead-in frames") as u32;
+    let handoff = run["handoff"].as_u64().expect("a handoff") as u32;
+    assert!(lead_in > 0 && handoff > 0 && frames > lead_in + handoff, "{run}");
+    let messages: Vec<Message> = (1..=frames).map(|frame| Message::fetch(&url, frame)).collect();
+    let sources: Vec<u32> = messages.iter().map(|m| m.source).collect();
+    let stage = |f: u32| u32::from(f > lead_in) + u32::from(f > lead_in + handoff);
+    assert_eq!(sources, (1..=frames).map(stage).collect::<Vec<u32>>());
+    assert!(messages.windows(2).all(|pair| pair[0].time_s < pair[1].time_s), "the frames run forward in time");
+    assert!(messages[0].time_s < 0.0 && messages[lead_in as usize].time_s == 0.0, "time counts from the impact");
+    // the last frame: the follow-through's file's fragments, moved from the rest positions
+    let out = scratch_run(preview.0.id());
+    let last = FragmentFrame::read(&out.join(format!("rigid/fragments.{:04}.shp", frames - lead_in))).expect("last");
+    let rest = shatter_core::particles::ParticleSet::read(&out.join("particles.shp")).expect("particles");
+    let message = &messages[frames as usize - 1];
+    assert_eq!((message.fragments as usize, &message.fragment_of), (last.fragment_count(), &last.fragment_of));
+    for (i, (x, p)) in rest.rest_position_m.iter().zip(&message.position_m).enumerate() {
+        let f = last.fragment_of[i] as usize;
+        let q = glam::DQuat::from_array(last.rotation[f].map(f64::from));
+        let placed = q * glam::DVec3::from_array(x.map(f64::from)) + glam::DVec3::from_array(last.translation_m[f]);
+        assert!((placed.as_vec3() - glam::Vec3::from_array(*p)).length() < 1e-6, "particle {i}: {p:?} vs {placed}");
     }
 }

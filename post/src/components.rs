@@ -189,6 +189,63 @@ impl StableIds {
     }
 }
 
+/// The fragments of a run of frames as bonds break: the components of the intact adjacency,
+/// with [`StableIds`]. What post's tracker and the preview's live figures both count.
+#[derive(Debug, Clone)]
+pub struct FragmentIds {
+    graph: AdjacencyGraph,
+    intact: Vec<bool>,
+    /// (bond id, adjacency edge), sorted: which edges a broken bond cuts.
+    edges_by_bond: Vec<(u64, u32)>,
+    labels: Vec<u32>,
+    ids: StableIds,
+}
+
+impl FragmentIds {
+    /// Every adjacency of `particles` intact, no frame seen yet.
+    pub fn new(particles: &ParticleSet) -> FragmentIds {
+        let graph = AdjacencyGraph::new(particles);
+        let mut edges_by_bond: Vec<(u64, u32)> =
+            (0..graph.edge_count()).map(|edge| (graph.edge_bond(edge), edge as u32)).collect();
+        edges_by_bond.sort_unstable();
+        FragmentIds {
+            intact: vec![true; graph.edge_count()],
+            graph,
+            edges_by_bond,
+            labels: Vec::new(),
+            ids: StableIds::new(),
+        }
+    }
+
+    /// Marks the adjacency edges resting on `bond` broken.
+    pub fn break_bond(&mut self, bond: u64) {
+        let start = self.edges_by_bond.partition_point(|(b, _)| *b < bond);
+        for &(b, edge) in &self.edges_by_bond[start..] {
+            if b != bond {
+                break;
+            }
+            self.intact[edge as usize] = false;
+        }
+    }
+
+    /// Finds the fragments of the next frame (the bonds broken so far): for every new id, the
+    /// id it split from ([`StableIds::assign`]).
+    pub fn next_frame(&mut self) -> Vec<u32> {
+        let components = self.graph.components(&self.intact, &mut self.labels);
+        self.ids.assign(&self.labels, components)
+    }
+
+    /// The fragment of each element in the last frame.
+    pub fn fragment_of(&self) -> &[u32] {
+        self.ids.fragment_of()
+    }
+
+    /// Number of fragments in the last frame.
+    pub fn count(&self) -> usize {
+        self.ids.count()
+    }
+}
+
 /// A histogram of fragment sizes (elements): (lower bound, count) for bins 1, 2-3, 4-7, ...
 pub fn size_histogram(elements: &[u32]) -> Vec<(u32, u32)> {
     let mut bins: Vec<(u32, u32)> = Vec::new();

@@ -4,7 +4,7 @@
 use glam::{DQuat, DVec3};
 use shatter_core::particles::ParticleSet;
 
-use crate::components::{AdjacencyGraph, StableIds};
+use crate::components::FragmentIds;
 use crate::kabsch::{Accumulator, RigidMotion};
 use crate::smoothing::SmoothState;
 
@@ -12,12 +12,7 @@ use crate::smoothing::SmoothState;
 /// the current positions. Keeps the state that carries over between frames.
 #[derive(Debug, Clone)]
 pub struct FragmentTracker {
-    graph: AdjacencyGraph,
-    intact: Vec<bool>,
-    /// (bond id, adjacency edge), sorted: which edges a broken bond cuts.
-    edges_by_bond: Vec<(u64, u32)>,
-    labels: Vec<u32>,
-    ids: StableIds,
+    ids: FragmentIds,
     /// The fragment each id split from (itself for the first frame's fragments).
     parent: Vec<u32>,
     rotation: Vec<DQuat>,
@@ -42,16 +37,8 @@ pub struct TrackedFrame {
 impl FragmentTracker {
     /// A tracker for `particles` with element masses `mass_kg`.
     pub fn new(particles: &ParticleSet, mass_kg: Vec<f64>) -> FragmentTracker {
-        let graph = AdjacencyGraph::new(particles);
-        let mut edges_by_bond: Vec<(u64, u32)> =
-            (0..graph.edge_count()).map(|edge| (graph.edge_bond(edge), edge as u32)).collect();
-        edges_by_bond.sort_unstable();
         FragmentTracker {
-            intact: vec![true; graph.edge_count()],
-            graph,
-            edges_by_bond,
-            labels: Vec::new(),
-            ids: StableIds::new(),
+            ids: FragmentIds::new(particles),
             parent: Vec::new(),
             rotation: Vec::new(),
             smoothed: Vec::new(),
@@ -62,13 +49,7 @@ impl FragmentTracker {
 
     /// Marks the adjacency edges resting on `bond` broken.
     pub fn break_bond(&mut self, bond: u64) {
-        let start = self.edges_by_bond.partition_point(|(b, _)| *b < bond);
-        for &(b, edge) in &self.edges_by_bond[start..] {
-            if b != bond {
-                break;
-            }
-            self.intact[edge as usize] = false;
-        }
+        self.ids.break_bond(bond);
     }
 
     /// The id chain: the fragment that piece id `id` belonged to when there were `count` fragments.
@@ -82,9 +63,8 @@ impl FragmentTracker {
     /// Fragments and motions for current positions `position` (x, y, z arrays);
     /// `smoothing_frames` > 0 smooths the motions.
     pub fn track(&mut self, position: [&[f32]; 3], smoothing_frames: f64) -> TrackedFrame {
-        let components = self.graph.components(&self.intact, &mut self.labels);
         let first_frame = self.parent.is_empty();
-        let parents = self.ids.assign(&self.labels, components);
+        let parents = self.ids.next_frame();
         let count = self.ids.count();
         if first_frame {
             self.parent = (0..count as u32).collect();

@@ -6,14 +6,20 @@
 //!
 //! - `preview_config`: the scene as edited, and the preview's config from it.
 //! - `preview_run`: one run of it, in its own folder.
-//! - `run_folder`: what the page is shown of an output folder: frames, broken bonds.
+//! - `resolution`: the spacing that gives the particle count asked for.
+//! - `page_frames`: the shot's frames as far as written, whichever stage writes each.
+//! - `frame_message`: one frame as the binary message the page draws.
+//! - `run_folder`: what the page is shown of an output folder: frames, fragments, broken bonds.
 //! - `scene_file`: "Save": the edits written into the scene's file, comments kept.
 //! - `session`: the edits and the current run.
 //! - `server`: the HTTP routes.
 //! - `page/`: the page (WebGL2, no library).
 
+mod frame_message;
+mod page_frames;
 mod preview_config;
 mod preview_run;
+mod resolution;
 mod run_folder;
 mod scene_file;
 mod server;

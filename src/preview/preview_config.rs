@@ -6,7 +6,6 @@ use std::path::{Path, PathBuf};
 
 use shatter_core::PipelineConfig;
 use shatter_core::config::{GeometrySource, Sampler};
-use shatter_geometry::mesh::TriangleMesh;
 
 /// Particles a preview aims at unless the page asks for another count.
 pub const DEFAULT_TARGET_PARTICLES: u64 = 12_000;
@@ -42,32 +41,6 @@ impl PreviewScene {
         Ok(PreviewScene { path, config, table })
     }
 
-    /// The scene's volume, m^3: its box's, or its mesh's enclosed volume after the transform's
-    /// scale (the mesh is read: a caller that asks again keeps it, see [`PreviewScene::volume_key`]).
-    pub fn volume_m3(&self) -> Result<f64, String> {
-        let geometry = &self.config.geometry;
-        match (&geometry.source, geometry.box_size_m) {
-            (GeometrySource::Box, Some([x, y, z])) => Ok(x * y * z),
-            (GeometrySource::Mesh(mesh), _) => {
-                let (mesh, _) = TriangleMesh::load_obj(mesh).map_err(|error| format!("{}: {error}", mesh.display()))?;
-                Ok(mesh.signed_volume().abs() * geometry.transform.scale.powi(3))
-            }
-            (GeometrySource::Box, None) => Err("geometry.box_size_m is not set".to_string()),
-        }
-    }
-
-    /// What [`PreviewScene::volume_m3`] depends on: equal keys, equal volumes.
-    pub fn volume_key(&self) -> String {
-        let geometry = &self.config.geometry;
-        format!("{:?} {:?} {}", geometry.source, geometry.box_size_m, geometry.transform.scale)
-    }
-
-    /// The spacing, metres, at which the scene, of `volume_m3`, has about `target` particles: the
-    /// volume over `target`, cube rooted; never finer than the scene's own.
-    pub fn spacing_for(&self, volume_m3: f64, target: u64) -> f64 {
-        (volume_m3 / target.max(1) as f64).cbrt().max(self.config.geometry.spacing_m)
-    }
-
     /// The preview's config text: the edited scene at `spacing_m` (a Voronoi scene: `target`
     /// cells), writing into `output_dir`, with every path absolute (the text is written into the
     /// scratch folder, not beside the scene). The frames keep their physical length. With an
@@ -76,6 +49,8 @@ impl PreviewScene {
     /// under half the coarser stable step, and the frames keep their steps: they span the same
     /// time until the coarser step reaches the next power of two (twice the time per frame at
     /// most at the same coarseness; a timeline's frames are times already).
+    /// Projectiles and indenters push each particle they reach: their stiffness grows with the
+    /// particles' volume, so that they push the body as hard as at the scene's spacing.
     pub fn preview_text(&self, spacing_m: f64, target: u64, output_dir: &Path) -> Result<String, String> {
         let config = &self.config;
         let mut table = self.table.clone();
@@ -96,6 +71,24 @@ impl PreviewScene {
             let steps = (config.sim.steps_per_frame as f64 / coarser).round().max(1.0);
             set("sim.dt_s", toml::Value::Float(dt_s * config.sim.steps_per_frame as f64 / steps))?;
             set("sim.steps_per_frame", toml::Value::Integer(steps as i64))?;
+        }
+        // the paper's projectile force (eq. 7) and an indenter's act on each particle they reach:
+        // a force per particle volume keeps its push on the body as the particles coarsen
+        let volume_ratio = match (config.geometry.sampler, config.geometry.voronoi.particles) {
+            (Sampler::Voronoi, Some(cells)) => cells as f64 / target.max(1) as f64,
+            _ => coarser.powi(3),
+        };
+        for (index, projectile) in config.sim.projectile.iter().enumerate() {
+            set(
+                &format!("sim.projectile[{index}].stiffness_pa"),
+                toml::Value::Float(projectile.stiffness_pa * volume_ratio),
+            )?;
+        }
+        for (index, indenter) in config.sim.indenter.iter().enumerate() {
+            if indenter.lammps_stiffness_n_m5.is_none() {
+                let stiffness = toml::Value::Float(indenter.stiffness_n_m2 * volume_ratio);
+                set(&format!("sim.indenter[{index}].stiffness_n_m2"), stiffness)?;
+            }
         }
         for (index, seam) in config.sim.seam.iter().enumerate() {
             if let Some(mesh) = &seam.mesh {
@@ -228,22 +221,24 @@ pub fn set_key(table: &mut toml::Table, key: &str, value: toml::Value) -> Result
     Ok(())
 }
 
+/// A small struck plate, for the preview's unit tests.
+#[cfg(test)]
+pub(super) const TEST_SCENE: &str = "[scene]\nname = \"t\"\noutput_dir = \"out\"\nseed = 1\n\n[geometry]\nsource = \"box\"\n\
+    box_size_m = [0.02, 0.02, 0.004]\nsampler = \"grid\"\nspacing_m = 0.001\nhorizon_factor = 3.0\n\n[material]\n\
+    density_kg_m3 = 2200.0\nbulk_modulus_pa = 14.9e9\ncritical_stretch = 0.001\n\n[sim]\nframes = 4\n\
+    steps_per_frame = 40\n\n[[sim.projectile]]\ncenter_m = [0.0, 0.0, 0.006]\n\
+    velocity_m_s = [0.0, 0.0, -100.0]\nradius_m = 0.002\nstiffness_pa = 4e5\n";
+
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    const SCENE: &str = "[scene]\nname = \"t\"\noutput_dir = \"out\"\nseed = 1\n\n[geometry]\nsource = \"box\"\n\
-        box_size_m = [0.02, 0.02, 0.004]\nsampler = \"grid\"\nspacing_m = 0.001\nhorizon_factor = 3.0\n\n[material]\n\
-        density_kg_m3 = 2200.0\nbulk_modulus_pa = 14.9e9\ncritical_stretch = 0.001\n\n[sim]\nframes = 4\n\
-        steps_per_frame = 40\n\n[[sim.projectile]]\ncenter_m = [0.0, 0.0, 0.006]\n\
-        velocity_m_s = [0.0, 0.0, -100.0]\nradius_m = 0.002\nstiffness_pa = 4e5\n";
 
     #[test]
     fn edits_reach_nested_keys_and_array_entries() {
         let mut edits = Edits::new();
         edits.insert("sim.projectile[0].velocity_m_s".into(), toml::Value::try_from([0.0, 0.0, -40.0]).expect("value"));
         edits.insert("material.critical_stretch".into(), toml::Value::Float(0.002));
-        let scene = PreviewScene::new(Path::new("scene/pipeline.toml"), SCENE, &edits).expect("scene");
+        let scene = PreviewScene::new(Path::new("scene/pipeline.toml"), TEST_SCENE, &edits).expect("scene");
         assert_eq!(scene.config.sim.projectile[0].velocity_m_s, [0.0, 0.0, -40.0]);
         let typed = scene
             .typed_like_scene("sim.projectile[0].velocity_m_s", toml::Value::try_from([0, 0, -40]).expect("value"));
@@ -270,8 +265,8 @@ mod tests {
     fn a_refused_edit_gives_the_cli_message() {
         let mut edits = Edits::new();
         edits.insert("material.critical_stretch".into(), toml::Value::Float(-1.0));
-        let error = PreviewScene::new(Path::new("pipeline.toml"), SCENE, &edits).expect_err("refused");
-        let cli = PipelineConfig::from_toml_str(&SCENE.replace("0.001\n\n[sim]", "-1.0\n\n[sim]"), Path::new("x"))
+        let error = PreviewScene::new(Path::new("pipeline.toml"), TEST_SCENE, &edits).expect_err("refused");
+        let cli = PipelineConfig::from_toml_str(&TEST_SCENE.replace("0.001\n\n[sim]", "-1.0\n\n[sim]"), Path::new("x"))
             .expect_err("refused")
             .to_string();
         assert!(error.contains("material.critical_stretch"), "{error}");
@@ -280,17 +275,17 @@ mod tests {
 
     #[test]
     fn the_preview_is_coarser_and_writes_elsewhere() {
-        let scene = PreviewScene::new(Path::new("scene/pipeline.toml"), SCENE, &Edits::new()).expect("scene");
-        let spacing = scene.spacing_for(scene.volume_m3().expect("volume"), 200);
-        // 1.6e-6 m^3 over 200 particles: 2 mm
-        assert!((spacing - 0.002).abs() < 1e-9, "{spacing}");
+        let scene = PreviewScene::new(Path::new("scene/pipeline.toml"), TEST_SCENE, &Edits::new()).expect("scene");
+        let spacing = 0.002;
         let text = scene.preview_text(spacing, 200, Path::new("/tmp/preview/run")).expect("text");
         let config = PipelineConfig::from_toml_str(&text, Path::new("/elsewhere/pipeline.toml")).expect("valid");
         assert_eq!(config.output_dir(), Path::new("/tmp/preview/run"));
         assert_eq!(config.geometry.spacing_m, spacing);
         // the material's step: the frames keep their steps
         assert_eq!(config.sim.steps_per_frame, 40);
-        let explicit = SCENE.replace("frames = 4\n", "frames = 4\ndt_s = 1e-7\n");
+        // the projectile pushes each of the particles, 8 times as large, 8 times as hard
+        assert_eq!(config.sim.projectile[0].stiffness_pa, 3.2e6);
+        let explicit = TEST_SCENE.replace("frames = 4\n", "frames = 4\ndt_s = 1e-7\n");
         let scene = PreviewScene::new(Path::new("scene/pipeline.toml"), &explicit, &Edits::new()).expect("scene");
         let text = scene.preview_text(spacing, 200, Path::new("/tmp/preview/run")).expect("text");
         let config = PipelineConfig::from_toml_str(&text, Path::new("/elsewhere/pipeline.toml")).expect("valid");

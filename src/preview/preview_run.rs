@@ -74,7 +74,7 @@ impl PreviewRun {
         Ok(PreviewRun {
             generation,
             spacing_m,
-            folder: RunFolder::new(OutputLayout::of(&config)),
+            folder: RunFolder::new(OutputLayout::of(&config), config.material.density_kg_m3),
             started: Instant::now(),
             started_at: SystemTime::now(),
             seconds_to_end: None,

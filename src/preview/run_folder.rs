@@ -1,50 +1,80 @@
 //! What the page is shown of an output folder, read as its writer leaves it (never locked): the
-//! simulation's frames as they land, each as the binary message the page draws, and the bonds
-//! broken by each frame.
+//! shot's frames as they land ([`PageFrames`]), each as the message the page draws, and the bonds
+//! broken by each frame. The simulation's frames carry the fragments their broken bonds make,
+//! found here as post finds them (the same ids), so that they show while the simulation runs;
+//! the lead-in's and the follow-through's carry their files' fragments.
+
+use std::sync::{Arc, Mutex, PoisonError};
 
 use shatter_core::OutputLayout;
+use shatter_core::fragments::FragmentFrame;
 use shatter_core::frames::{BreakLog, PointFrame};
+use shatter_core::particles::ParticleSet;
+use shatter_post::components::FragmentIds;
 
-/// The first four bytes of a frame message.
-pub const FRAME_MAGIC: &[u8; 4] = b"SHPV";
-/// The frame message's layout version.
-pub const FRAME_VERSION: u32 = 1;
+use super::frame_message::{Fragments, PageFrame};
+use super::page_frames::{FrameSource, PageFrames};
 
 /// An output folder being written or written.
 #[derive(Debug, Clone)]
 pub struct RunFolder {
     layout: OutputLayout,
+    density_kg_m3: f64,
+    /// What earlier requests read, shared by the clones the server's workers hold.
+    cache: Arc<Mutex<Cache>>,
+}
+
+/// What a run folder's readers keep between requests.
+#[derive(Debug, Default)]
+struct Cache {
+    /// The handoff, once the follow-through has written a frame.
+    handoff: Option<u32>,
+    /// The particles' rest positions and masses, once read.
+    rest: Option<Arc<Rest>>,
+    /// The fragments of the simulation's frames from frame 1 on, as far as counted.
+    sim_fragments: Vec<Arc<Fragments>>,
+    /// The counter of fragments, after the last of `sim_fragments`.
+    ids: Option<FragmentIds>,
+}
+
+/// The particles at rest.
+#[derive(Debug)]
+struct Rest {
+    position_m: Vec<[f32; 3]>,
+    mass_kg: Vec<f64>,
+}
+
+/// A frame's particles where they are, and when.
+struct Placed {
+    time_s: f64,
+    position_m: Vec<[f32; 3]>,
 }
 
 impl RunFolder {
-    /// The folder of `layout`.
-    pub fn new(layout: OutputLayout) -> RunFolder {
-        RunFolder { layout }
+    /// The folder of `layout`, whose material has density `density_kg_m3`.
+    pub fn new(layout: OutputLayout, density_kg_m3: f64) -> RunFolder {
+        RunFolder { layout, density_kg_m3, cache: Arc::default() }
     }
 
-    /// How many of the simulation's frames are there, from frame 1 on without a gap (each is
-    /// written whole or not at all).
-    pub fn frames(&self) -> u32 {
-        (1..).take_while(|&frame| self.layout.frame_points(frame).is_file()).last().unwrap_or(0)
+    fn cache(&self) -> std::sync::MutexGuard<'_, Cache> {
+        self.cache.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
-    /// Frame `frame` as the page's message, little-endian: [`FRAME_MAGIC`], the version, the
-    /// frame number and particle count n (u32 each), the simulated time (f32, seconds), then n
-    /// positions (x, y, z f32, metres), n damages (f32, the fraction of a particle's bonds
-    /// broken) and n speeds (f32, m/s).
-    pub fn frame_message(&self, frame: u32) -> Result<Vec<u8>, String> {
-        let path = self.layout.frame_points(frame);
-        let points = PointFrame::read(&path).map_err(|error| error.to_string())?;
-        Ok(encode(&points))
+    /// The page's frames now.
+    pub fn page_frames(&self) -> PageFrames {
+        let known = self.cache().handoff;
+        let frames = PageFrames::of(&self.layout, known);
+        self.cache().handoff = frames.handoff;
+        frames
     }
 
-    /// When frame `frame` was written, if it is there.
+    /// When the simulation's frame `frame` was written, if it is there.
     pub fn frame_written(&self, frame: u32) -> Option<std::time::SystemTime> {
         std::fs::metadata(self.layout.frame_points(frame)).and_then(|meta| meta.modified()).ok()
     }
 
-    /// The bonds broken by each frame, in frame order from frame 2 (the break log's blocks, as
-    /// far as they are written whole); empty before the log exists.
+    /// The bonds broken by each of the simulation's frames, in frame order from frame 2 (the
+    /// break log's blocks, as far as they are written whole); empty before the log exists.
     pub fn broken_bonds(&self) -> Vec<u64> {
         let blocks = BreakLog::read(&self.layout.break_log()).unwrap_or_default();
         let mut total = 0u64;
@@ -56,53 +86,161 @@ impl RunFolder {
             })
             .collect()
     }
-}
 
-/// [`RunFolder::frame_message`]'s bytes of `points`.
-fn encode(points: &PointFrame) -> Vec<u8> {
-    let n = points.damage.len();
-    let mut bytes = Vec::with_capacity(20 + 20 * n);
-    bytes.extend_from_slice(FRAME_MAGIC);
-    for word in [FRAME_VERSION, points.frame, n as u32] {
-        bytes.extend_from_slice(&word.to_le_bytes());
-    }
-    bytes.extend_from_slice(&(points.time_s as f32).to_le_bytes());
-    for i in 0..n {
-        for axis in &points.position {
-            bytes.extend_from_slice(&axis[i].to_le_bytes());
-        }
-    }
-    for damage in &points.damage {
-        bytes.extend_from_slice(&damage.to_le_bytes());
-    }
-    for i in 0..n {
-        let [x, y, z] = [0, 1, 2].map(|axis| points.velocity[axis][i]);
-        bytes.extend_from_slice(&(x * x + y * y + z * z).sqrt().to_le_bytes());
-    }
-    bytes
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_frame_message_carries_positions_damage_and_speed() {
-        let points = PointFrame {
-            frame: 3,
-            step: 10,
-            time_s: 0.5,
-            position: [vec![1.0, 2.0], vec![3.0, 4.0], vec![5.0, 6.0]],
-            velocity: [vec![3.0, 0.0], vec![4.0, 0.0], vec![0.0, 1.0]],
-            damage: vec![0.25, 0.0],
-            inputs: None,
+    /// Page frame `frame` as the page's message (see [`PageFrame::message`]); an error names
+    /// the file that could not be read.
+    pub fn frame_message(&self, frames: &PageFrames, frame: u32) -> Result<Vec<u8>, String> {
+        let source = frames.locate(frame).ok_or_else(|| format!("frame {frame} is not there yet"))?;
+        let page_frame = match source {
+            FrameSource::Sim(local) => {
+                let points = self.points(local)?;
+                let speed_m_s = (0..points.damage.len())
+                    .map(|i| (0..3).map(|a| points.velocity[a][i].powi(2)).sum::<f32>().sqrt())
+                    .collect();
+                PageFrame {
+                    frame,
+                    source: source.code(),
+                    time_s: points.time_s,
+                    position_m: (0..points.damage.len()).map(|i| [0, 1, 2].map(|a| points.position[a][i])).collect(),
+                    damage: points.damage,
+                    speed_m_s,
+                    fragments: (*self.sim_fragments(local)?).clone(),
+                }
+            }
+            FrameSource::LeadIn(_) | FrameSource::Rigid(_) => self.rigid_frame(frames, frame, source)?,
         };
-        let bytes = encode(&points);
-        let word = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().expect("4 bytes"));
-        let float = |at: usize| f32::from_le_bytes(bytes[at..at + 4].try_into().expect("4 bytes"));
-        assert_eq!(&bytes[..4], FRAME_MAGIC);
-        assert_eq!((word(4), word(8), word(12), float(16)), (FRAME_VERSION, 3, 2, 0.5));
-        let floats: Vec<f32> = (20..bytes.len()).step_by(4).map(float).collect();
-        assert_eq!(floats, [1.0, 3.0, 5.0, 2.0, 4.0, 6.0, 0.25, 0.0, 5.0, 1.0]);
+        Ok(page_frame.message())
     }
+
+    /// A lead-in or follow-through frame: its fragments' motions applied to the rest positions,
+    /// speeds from the page frame before (after, for the first), the damage where the
+    /// simulation left it (none before it).
+    fn rigid_frame(&self, frames: &PageFrames, frame: u32, source: FrameSource) -> Result<PageFrame, String> {
+        let fragments = self.fragments_file(source)?;
+        let here = self.placed(frames, frame)?;
+        let other = if frame > 1 { frame - 1 } else { frame + 1 };
+        let speed_m_s = match frames.locate(other) {
+            Some(_) => {
+                let there = self.placed(frames, other)?;
+                let dt_s = (here.time_s - there.time_s).abs().max(f64::MIN_POSITIVE);
+                here.position_m.iter().zip(&there.position_m).map(|(p, q)| (distance(p, q) / dt_s) as f32).collect()
+            }
+            None => vec![0.0; here.position_m.len()],
+        };
+        let damage = match source {
+            FrameSource::Rigid(_) => self.points(frames.sim)?.damage,
+            _ => vec![0.0; here.position_m.len()],
+        };
+        Ok(PageFrame {
+            frame,
+            source: source.code(),
+            time_s: here.time_s,
+            position_m: here.position_m,
+            damage,
+            speed_m_s,
+            fragments: Fragments {
+                fragment_of: fragments.fragment_of,
+                elements: fragments.elements,
+                mass_kg: fragments.mass_kg,
+            },
+        })
+    }
+
+    /// Page frame `frame`'s particles where it puts them, and its time from the simulation's
+    /// start.
+    fn placed(&self, frames: &PageFrames, frame: u32) -> Result<Placed, String> {
+        let source = frames.locate(frame).ok_or_else(|| format!("frame {frame} is not there yet"))?;
+        if let FrameSource::Sim(local) = source {
+            let points = self.points(local)?;
+            let position_m = (0..points.damage.len()).map(|i| [0, 1, 2].map(|a| points.position[a][i])).collect();
+            return Ok(Placed { time_s: points.time_s, position_m });
+        }
+        let fragments = self.fragments_file(source)?;
+        let rest = self.rest()?;
+        let position_m = rest
+            .position_m
+            .iter()
+            .zip(&fragments.fragment_of)
+            .map(|(x, &f)| {
+                let q = glam::DQuat::from_array(fragments.rotation[f as usize].map(f64::from));
+                let t = glam::DVec3::from_array(fragments.translation_m[f as usize]);
+                (q * glam::DVec3::from_array(x.map(f64::from)) + t).as_vec3().to_array()
+            })
+            .collect();
+        let time_s = match source {
+            FrameSource::LeadIn(_) => fragments.meta.time_s - frames.sim_start_s,
+            _ => fragments.meta.time_s,
+        };
+        Ok(Placed { time_s, position_m })
+    }
+
+    /// The simulation's frame `frame`.
+    fn points(&self, frame: u32) -> Result<PointFrame, String> {
+        PointFrame::read(&self.layout.frame_points(frame)).map_err(|error| error.to_string())
+    }
+
+    /// The fragments file of a lead-in or follow-through frame.
+    fn fragments_file(&self, source: FrameSource) -> Result<FragmentFrame, String> {
+        let path = match source {
+            FrameSource::LeadIn(local) => self.layout.lead_in_fragments(local),
+            FrameSource::Sim(local) => self.layout.fragments(local),
+            FrameSource::Rigid(local) => self.layout.rigid_fragments(local),
+        };
+        FragmentFrame::read(&path).map_err(|error| error.to_string())
+    }
+
+    /// The particles at rest, read once.
+    fn rest(&self) -> Result<Arc<Rest>, String> {
+        if let Some(rest) = &self.cache().rest {
+            return Ok(Arc::clone(rest));
+        }
+        let particles = self.particles()?;
+        let mass_kg = particles.volume_m3.iter().map(|v| f64::from(*v) * self.density_kg_m3).collect();
+        let rest = Arc::new(Rest { position_m: particles.rest_position_m, mass_kg });
+        self.cache().rest = Some(Arc::clone(&rest));
+        Ok(rest)
+    }
+
+    fn particles(&self) -> Result<ParticleSet, String> {
+        ParticleSet::read(&self.layout.particles()).map_err(|error| error.to_string())
+    }
+
+    /// The fragments of the simulation's frame `frame`: its break log's bonds broken through
+    /// that frame, counted frame by frame from frame 1 as post counts them.
+    fn sim_fragments(&self, frame: u32) -> Result<Arc<Fragments>, String> {
+        let mut cache = self.cache();
+        if let Some(fragments) = cache.sim_fragments.get(frame as usize - 1) {
+            return Ok(Arc::clone(fragments));
+        }
+        drop(cache);
+        let rest = self.rest()?;
+        let blocks = BreakLog::read(&self.layout.break_log()).map_err(|error| error.to_string())?;
+        cache = self.cache();
+        if cache.ids.is_none() {
+            let particles = self.particles()?;
+            cache.ids = Some(FragmentIds::new(&particles));
+        }
+        while cache.sim_fragments.len() < frame as usize {
+            let next = cache.sim_fragments.len() as u32 + 1;
+            // frame 1 is the rest state; the log's blocks end at frames 2 on
+            if next > 1 && !blocks.iter().any(|block| block.frame == next) {
+                return Err(format!(
+                    "{}: frame {next}'s breaks are not written yet",
+                    self.layout.break_log().display()
+                ));
+            }
+            let ids = cache.ids.as_mut().expect("made above");
+            for block in blocks.iter().filter(|block| block.frame == next) {
+                block.events.iter().for_each(|event| ids.break_bond(event.bond));
+            }
+            ids.next_frame();
+            let fragments = Fragments::of(ids.fragment_of().to_vec(), ids.count(), &rest.mass_kg);
+            cache.sim_fragments.push(Arc::new(fragments));
+        }
+        Ok(Arc::clone(&cache.sim_fragments[frame as usize - 1]))
+    }
+}
+
+fn distance(p: &[f32; 3], q: &[f32; 3]) -> f64 {
+    (0..3).map(|a| f64::from(p[a] - q[a]).powi(2)).sum::<f64>().sqrt()
 }

@@ -82,10 +82,13 @@ fn state(session: &Mutex<Session>) -> serde_json::Value {
         let status = run.status();
         let broken = run.folder.broken_bonds();
         run.saw_broken_bonds(&broken);
+        let frames = run.folder.page_frames();
         json!({
             "generation": run.generation,
             "spacing_m": run.spacing_m,
-            "frames": run.folder.frames(),
+            "frames": frames.count(),
+            "lead_in_frames": frames.lead_in,
+            "handoff": frames.handoff,
             "broken_bonds": broken,
             "seconds": run.seconds(),
             "first_break_s": run.first_break_s,
@@ -116,8 +119,8 @@ fn bodies(config: &shatter_core::PipelineConfig) -> serde_json::Value {
     json!({ "floor_height_m": sim.floor.as_ref().map(|floor| floor.height_m), "spheres": spheres, "camera": camera })
 }
 
-/// `GET /api/frame?generation=G&frame=F`: the frame's message, or 404 while it is not there
-/// (409 when the run asked for has been replaced).
+/// `GET /api/frame?generation=G&frame=F`: page frame F's message, or 404 while it is not there
+/// (409 when the run asked for has been replaced, 503 when its files could not be read yet).
 fn frame(session: &Mutex<Session>, query: &str) -> Response<std::io::Cursor<Vec<u8>>> {
     let number =
         |name: &str| query.split('&').find_map(|pair| pair.strip_prefix(name)?.strip_prefix('=')?.parse::<u64>().ok());
@@ -128,12 +131,14 @@ fn frame(session: &Mutex<Session>, query: &str) -> Response<std::io::Cursor<Vec<
         Some(run) if run.generation == generation => run.folder.clone(),
         _ => return text_response(409, "that run has been replaced"),
     };
-    if frame == 0 || frame > u64::from(folder.frames()) {
+    let frames = folder.page_frames();
+    if frame == 0 || frame > u64::from(frames.count()) {
         return text_response(404, "not there yet");
     }
-    match folder.frame_message(frame as u32) {
+    // a file being replaced or a log block not yet written: the page asks again at its next poll
+    match folder.frame_message(&frames, frame as u32) {
         Ok(bytes) => Response::from_data(bytes).with_header(header("Content-Type", "application/octet-stream")),
-        Err(message) => text_response(500, &message),
+        Err(message) => text_response(503, &message),
     }
 }
 

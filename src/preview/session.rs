@@ -6,6 +6,7 @@ use serde::Deserialize;
 
 use super::preview_config::{Edits, PreviewScene};
 use super::preview_run::PreviewRun;
+use super::resolution::Resolution;
 
 /// The start of a preview's scratch folder's name, followed by its process id.
 const SCRATCH_PREFIX: &str = "shatter-preview-";
@@ -41,9 +42,9 @@ pub struct Session {
     /// The runs' folder (removed with the session).
     scratch: tempfile::TempDir,
     generations: u64,
-    /// The scene's volume, m^3, with the key of the geometry it was measured on (a mesh is read
-    /// once, not at every edit).
-    volume: Option<(String, f64)>,
+    /// The spacing of the preview's resolution, found once per geometry and count (a mesh is
+    /// read, a shell preprocessed on trial, once, not at every edit).
+    resolution: Resolution,
 }
 
 impl Session {
@@ -65,7 +66,7 @@ impl Session {
             error: None,
             scratch,
             generations: 0,
-            volume: None,
+            resolution: Resolution::default(),
         };
         session.restart();
         Ok(session)
@@ -110,27 +111,13 @@ impl Session {
     fn restart(&mut self) {
         self.run = None;
         self.generations += 1;
-        let started = self.volume_m3().and_then(|volume_m3| {
-            let resolution = (self.scene.spacing_for(volume_m3, self.target), self.target);
-            PreviewRun::start(&self.scene, resolution, self.scratch.path(), self.generations)
+        let started = self.resolution.spacing_m(&self.scene, self.target).and_then(|spacing_m| {
+            PreviewRun::start(&self.scene, (spacing_m, self.target), self.scratch.path(), self.generations)
         });
         match started {
             Ok(run) => (self.run, self.error) = (Some(run), None),
             Err(message) => self.error = Some(message),
         }
-    }
-
-    /// The scene's volume, measured again only when its geometry changed.
-    fn volume_m3(&mut self) -> Result<f64, String> {
-        let key = self.scene.volume_key();
-        if let Some((measured, volume_m3)) = &self.volume
-            && *measured == key
-        {
-            return Ok(*volume_m3);
-        }
-        let volume_m3 = self.scene.volume_m3()?;
-        self.volume = Some((key, volume_m3));
-        Ok(volume_m3)
     }
 }
 

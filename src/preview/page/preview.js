@@ -4,7 +4,9 @@
 
 const preview = {
   generation: 0, // the run whose frames are held
-  frames: [], // its frames: { frame, time, count, positions, damage, speed }
+  frames: [], // its frames: see decode()
+  leadIn: 0, // the run's lead-in frames, as the frames held were fetched
+  handoff: null, // its simulation's last frame before the follow-through's, once known
   framesDrawn: 0, // draws since the page loaded (tests watch it)
   shown: 0, // the frame number drawn last
   errors: [], // uncaught errors and console.error calls (tests check there are none)
@@ -33,19 +35,26 @@ out float shade;
 void main() {
   gl_Position = viewProjection * vec4(position, 1.0);
   gl_PointSize = clamp(pointScale / gl_Position.w, 1.0, 24.0);
-  shade = clamp(value * valueScale, 0.0, 1.0);
+  shade = valueScale > 0.0 ? clamp(value * valueScale, 0.0, 1.0) : value;
 }`;
 const FRAGMENT = `#version 300 es
 precision mediump float;
 in float shade;
 uniform int mode;
 out vec4 colour;
+// a fragment's colour: its id's hue by the golden ratio, so that neighbouring ids differ
+vec3 fragmentColour(float id) {
+  float hue = fract(id * 0.618034 + 0.08);
+  vec3 k = clamp(abs(mod(hue * 6.0 + vec3(0.0, 4.0, 2.0), 6.0) - 3.0) - 1.0, 0.0, 1.0);
+  return mix(vec3(0.9), k, id == 0.0 ? 0.15 : 0.7);
+}
 void main() {
   vec2 p = gl_PointCoord * 2.0 - 1.0;
   if (dot(p, p) > 1.0) discard;
   vec3 low = mode == 0 ? vec3(0.82, 0.84, 0.86) : vec3(0.15, 0.3, 0.85);
   vec3 high = mode == 0 ? vec3(0.9, 0.15, 0.1) : vec3(1.0, 0.85, 0.2);
-  colour = vec4(mix(low, high, shade) * (0.75 + 0.25 * (1.0 - dot(p, p))), 1.0);
+  vec3 base = mode == 2 ? fragmentColour(shade) : mix(low, high, shade);
+  colour = vec4(base * (0.75 + 0.25 * (1.0 - dot(p, p))), 1.0);
 }`;
 
 function compile(type, source) {
@@ -163,7 +172,8 @@ function drawBodies(frame, matrix) {
   const bodies = preview.state && preview.state.bodies;
   if (!bodies) return;
   if (bodies.floor_height_m !== null) drawLines(floorLines(bodies.floor_height_m, camera.distance), [0.4, 0.42, 0.45], matrix);
-  drawLines(sphereLines(bodies.spheres, frame.time), [0.95, 0.6, 0.2], matrix);
+  // the projectiles and indenters start with the simulation
+  drawLines(sphereLines(bodies.spheres, Math.max(0, frame.time)), [0.95, 0.6, 0.2], matrix);
   if (bodies.camera) drawLines(frustumLines(bodies.camera), [0.3, 0.75, 0.85], matrix);
 }
 
@@ -231,8 +241,8 @@ function draw() {
   if (frame) {
     // framed on the run's first frame (the rest state), whichever frame is shown first
     if (!camera.framed) frameCamera(preview.frames[0]);
-    const mode = $('colour').value === 'speed' ? 1 : 0;
-    const values = mode === 1 ? frame.speed : frame.damage;
+    const mode = { damage: 0, speed: 1, fragment: 2 }[$('colour').value];
+    const values = [frame.damage, frame.speed, frame.fragmentValues][mode];
     const maxSpeed = Math.max(1e-6, ...preview.frames.map((f) => f.maxSpeed));
     gl.enable(gl.DEPTH_TEST);
     // the particles go to the GPU when the frame or the colouring changes, not at every draw
@@ -249,10 +259,11 @@ function draw() {
     gl.bindVertexArray(vao);
     gl.uniformMatrix4fv(uniform('viewProjection'), false, matrix);
     gl.uniform1f(uniform('pointScale'), (canvas.height * 1.2 * camera.distance) / Math.cbrt(frame.count) / 3);
-    gl.uniform1f(uniform('valueScale'), mode === 1 ? 1 / maxSpeed : 2.5);
+    gl.uniform1f(uniform('valueScale'), [2.5, 1 / maxSpeed, 0][mode]);
     gl.uniform1i(uniform('mode'), mode);
     gl.drawArrays(gl.POINTS, 0, frame.count);
-    $('frame-label').textContent = `${frame.frame} (${(frame.time * 1e6).toFixed(1)} µs)`;
+    $('frame-label').textContent = `${frame.frame}: ${SOURCES[frame.source]}, ${seconds(frame.time)}`;
+    if (preview.shown !== frame.frame) showFragments(frame);
     preview.shown = frame.frame;
   }
   preview.framesDrawn += frame ? 1 : 0;
@@ -262,14 +273,19 @@ function draw() {
 
 let drag = null;
 canvas.addEventListener('pointerdown', (event) => {
-  drag = { x: event.clientX, y: event.clientY, pan: event.shiftKey || event.button === 2 };
+  drag = { x: event.clientX, y: event.clientY, pan: event.shiftKey || event.button === 2, moved: 0 };
   canvas.setPointerCapture(event.pointerId);
 });
-canvas.addEventListener('pointerup', () => { drag = null; });
+canvas.addEventListener('pointerup', (event) => {
+  // a click, not a drag, on the body aims the projectile there
+  if (drag && !drag.pan && drag.moved < 4 && event.button === 0) aimAt(event);
+  drag = null;
+});
 canvas.addEventListener('contextmenu', (event) => event.preventDefault());
 canvas.addEventListener('pointermove', (event) => {
   if (!drag) return;
   const [dx, dy] = [event.clientX - drag.x, event.clientY - drag.y];
+  drag.moved += Math.abs(dx) + Math.abs(dy);
   drag.x = event.clientX;
   drag.y = event.clientY;
   if (drag.pan) {
@@ -287,24 +303,126 @@ canvas.addEventListener('wheel', (event) => {
   camera.distance *= Math.exp(event.deltaY * 0.001);
 }, { passive: false });
 
+// ---- aiming: a click on the body moves the impact point -----------------------------------
+
+// particle `i` of the shown frame in the canvas's CSS pixels, and its depth (tests click there)
+function project(i) {
+  const frame = shownFrame();
+  const m = viewProjection();
+  const p = [0, 1, 2].map((a) => frame.positions[3 * i + a]);
+  const clip = [0, 1, 2, 3].map((r) => m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r]);
+  const rect = canvas.getBoundingClientRect();
+  return {
+    x: rect.left + ((clip[0] / clip[3] + 1) / 2) * rect.width,
+    y: rect.top + ((1 - clip[1] / clip[3]) / 2) * rect.height,
+    depth: clip[2] / clip[3],
+    visible: clip[3] > 0,
+  };
+}
+preview.project = project;
+
+// the particle under the pointer: the nearest to the eye of those within a few pixels
+function pickParticle(event) {
+  const frame = shownFrame();
+  if (!frame) return -1;
+  let best = -1;
+  let bestDepth = Infinity;
+  for (let i = 0; i < frame.count; i++) {
+    const at = project(i);
+    if (at.visible && Math.hypot(at.x - event.clientX, at.y - event.clientY) <= 6 && at.depth < bestDepth) {
+      best = i;
+      bestDepth = at.depth;
+    }
+  }
+  return best;
+}
+
+// moves the first projectile so that it meets the body at the picked particle: along its own
+// direction, as far from that point as it was from the point it met before
+function aimAt(event) {
+  const particle = pickParticle(event);
+  const rest = preview.frames[preview.leadIn];
+  const values = preview.state && preview.state.values;
+  const key = 'sim.projectile[0].center_m';
+  if (particle < 0 || !rest || !values) return;
+  if (!values[key]) {
+    $('aim').textContent = 'the scene has no projectile to aim';
+    return;
+  }
+  const input = $('fields').querySelector(`input[name="${key}"]`);
+  const centre = JSON.parse(input.value);
+  const direction = normalise(JSON.parse($('fields').querySelector('input[name="sim.projectile[0].velocity_m_s"]').value));
+  const at = (i) => [0, 1, 2].map((a) => rest.positions[3 * i + a]);
+  // the point it met: of the particles nearest its line ahead of it (within half a spacing),
+  // the first along it
+  const line = [];
+  for (let i = 0; i < rest.count; i++) {
+    const d = at(i).map((v, a) => v - centre[a]);
+    const along = d[0] * direction[0] + d[1] * direction[1] + d[2] * direction[2];
+    if (along > 0) line.push([Math.hypot(...d.map((v, a) => v - along * direction[a])), along]);
+  }
+  const nearest = line.reduce((m, [off]) => Math.min(m, off), Infinity);
+  const limit = nearest + preview.state.run.spacing_m / 2;
+  const distance = line.reduce((m, [off, along]) => (off <= limit ? Math.min(m, along) : m), Infinity);
+  if (!Number.isFinite(distance)) return;
+  const target = at(particle);
+  input.value = JSON.stringify(target.map((v, a) => Number((v - distance * direction[a]).toPrecision(6))));
+  $('aim').textContent = `aimed at particle ${particle}`;
+  applyEdits();
+}
+
 // ---- the run: state and frames --------------------------------------------------------------
 
+const SOURCES = ['lead-in', 'simulation', 'follow-through'];
+
+// a frame message (src/preview/frame_message.rs)
 function decode(buffer) {
   const view = new DataView(buffer);
   const magic = String.fromCharCode(...new Uint8Array(buffer, 0, 4));
-  if (magic !== 'SHPV' || view.getUint32(4, true) !== 1) throw new Error('not a frame message');
+  if (magic !== 'SHPV' || view.getUint32(4, true) !== 2) throw new Error('not a frame message');
   const count = view.getUint32(12, true);
-  const floats = new Float32Array(buffer, 20, 5 * count);
+  const bins = view.getUint32(32, true);
+  const histogram = Array.from(new Uint32Array(buffer, 36, bins));
+  const start = 36 + 4 * bins;
+  const floats = new Float32Array(buffer, start, 5 * count);
+  const fragment = new Uint32Array(buffer, start + 20 * count, count);
   const speed = floats.subarray(4 * count, 5 * count);
   return {
     frame: view.getUint32(8, true),
     time: view.getFloat32(16, true),
+    source: view.getUint32(20, true),
+    fragments: view.getUint32(24, true),
+    largestShare: view.getFloat32(28, true),
+    histogram,
     count,
     positions: floats.subarray(0, 3 * count),
     damage: floats.subarray(3 * count, 4 * count),
     speed,
+    fragment,
+    fragmentValues: Float32Array.from(fragment),
     maxSpeed: speed.reduce((m, v) => Math.max(m, v), 0),
   };
+}
+
+function seconds(time) {
+  const size = Math.abs(time);
+  if (size === 0 || size >= 1) return `${time.toFixed(2)} s`;
+  return size >= 1e-3 ? `${(time * 1e3).toFixed(2)} ms` : `${(time * 1e6).toFixed(1)} µs`;
+}
+
+// the shown frame's fragments: count, largest piece's share, and their sizes' histogram
+function showFragments(frame) {
+  $('fragments').textContent = frame.fragments.toLocaleString();
+  $('largest').textContent = `${(frame.largestShare * 100).toFixed(1)}%`;
+  const most = Math.max(1, ...frame.histogram);
+  const rows = frame.histogram.map((count, bin) => {
+    const low = 2 ** bin;
+    const label = bin === 0 ? '1' : bin < 10 ? `${low}–${2 * low - 1}` : `${low / 1024}k–${low / 512}k`;
+    const width = count ? Math.max(2, (100 * count) / most) : 0;
+    return `<div class="bin"><span>${label}</span><i style="width:${width}%"></i><b>${count}</b></div>`;
+  });
+  $('histogram').innerHTML = rows.join('');
+  $('histogram').dataset.counts = frame.histogram.join(',');
 }
 
 async function fetchFrames(run) {
@@ -316,7 +434,9 @@ async function fetchFrames(run) {
       const response = await fetch(`/api/frame?generation=${run.generation}&frame=${next}`);
       if (!response.ok) break;
       const frame = decode(await response.arrayBuffer());
-      if (preview.generation === run.generation) {
+      // a simulation frame asked for before the handoff was known, and now past it, is dropped
+      const stale = frame.source === 1 && preview.handoff !== null && frame.frame > preview.leadIn + preview.handoff;
+      if (preview.generation === run.generation && frame.frame === preview.frames.length + 1 && !stale) {
         preview.frames.push(frame);
         followFrames();
       }
@@ -381,9 +501,18 @@ async function poll() {
     const response = await fetch('/api/state', { cache: 'no-store' });
     const state = await response.json();
     preview.state = state;
-    if (state.run && state.run.generation !== preview.generation) {
-      preview.generation = state.run.generation;
+    const run = state.run;
+    if (run && (run.generation !== preview.generation || run.lead_in_frames !== preview.leadIn)) {
+      preview.generation = run.generation;
+      preview.leadIn = run.lead_in_frames;
+      preview.handoff = null;
       preview.frames = [];
+    }
+    if (run && run.handoff !== preview.handoff) {
+      // the follow-through has begun: the simulation's frames past the handoff leave the list
+      preview.frames.length = Math.min(preview.frames.length, run.lead_in_frames + run.handoff);
+      preview.handoff = run.handoff;
+      uploaded = null;
     }
     buildFields(state);
     showState(state);
@@ -394,8 +523,13 @@ async function poll() {
   setTimeout(poll, 250);
 }
 
-$('edits').addEventListener('submit', async (event) => {
+$('edits').addEventListener('submit', (event) => {
   event.preventDefault();
+  applyEdits();
+});
+
+// sends the fields that differ from the run's; a refused edit shows the CLI's message
+async function applyEdits() {
   const edits = {};
   try {
     for (const input of $('fields').querySelectorAll('input')) {
@@ -413,8 +547,7 @@ $('edits').addEventListener('submit', async (event) => {
   $('error').textContent = preview.editError;
   if (!response.ok) return;
   for (const input of $('fields').querySelectorAll('input')) input.dataset.original = input.value;
-  camera.framed = false;
-});
+}
 
 // "Save": the diff first, then the write
 $('save').addEventListener('click', async () => {
@@ -429,6 +562,10 @@ $('write').addEventListener('click', async () => {
   $('saving').hidden = true;
   $('saved').textContent = answer.error || `saved ${answer.saved}`;
 });
+
+// the colouring may be named in the address (`?colour=fragment`)
+const colourAsked = new URLSearchParams(location.search).get('colour');
+if ([...$('colour').options].some((option) => option.value === colourAsked)) $('colour').value = colourAsked;
 
 function loop() {
   draw();
