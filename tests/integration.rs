@@ -16,6 +16,7 @@ mod module_visibility;
 mod output_lock_cli;
 mod post_cli;
 mod preview_page;
+mod preview_review;
 mod regression;
 mod rigid_cli;
 mod run_cli;

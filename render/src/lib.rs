@@ -31,6 +31,7 @@
 //! - [`cryptomatte`]: those counts as Cryptomatte ranks with their manifests.
 //! - [`motion`]: the motion pass from the fragments' rigid motions.
 //! - [`image_out`]: EXR and PNG writing.
+//! - [`frame_review`]: a written frame read back for review: its passes drawn, a Cryptomatte pick.
 //! - [`render_driver`]: the stage's driver (frame ranges, progress).
 
 pub mod camera;
@@ -38,6 +39,7 @@ pub mod cryptomatte;
 mod element_index;
 mod element_kdtree;
 mod face_seams;
+pub mod frame_review;
 pub mod gpu_trace;
 pub mod hit_search;
 pub mod image_loop;

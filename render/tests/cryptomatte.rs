@@ -13,6 +13,7 @@ use glam::DVec3;
 use shatter_core::particles::Elements;
 use shatter_render::camera::Camera;
 use shatter_render::cryptomatte::{fragment_matte, material_matte};
+use shatter_render::frame_review::{RenderedFrame, ReviewPass};
 use shatter_render::hit_search::{NONE, closest_hit};
 use shatter_render::image_loop::render;
 use shatter_render::image_out::{FrameHeader, FrameLayers, write_exr};
@@ -200,4 +201,19 @@ fn cryptomattes_decode_to_the_covered_areas() {
     assert!(interior > 100 && edges > 20, "{interior} interior and {edges} edge pixels");
     let mean = edge_error / edges as f64;
     assert!(mean < 0.03, "mean coverage error at edges {mean}");
+
+    // the review's reader (`shatter preview`) picks what this decoder reads, most covered first,
+    // and draws the passes at the frame's size
+    let frame = RenderedFrame::read(&path).expect("the review reads the frame");
+    for (p, decoded) in fragments.coverage.iter().enumerate() {
+        let picked = frame.pick("ViewLayer.CryptoObject", p % w, p / w);
+        let as_map: HashMap<String, f32> = picked.iter().cloned().collect();
+        assert_eq!(&as_map, decoded, "pixel {p}");
+        assert!(picked.windows(2).all(|pair| pair[0].1 >= pair[1].1), "pixel {p}: {picked:?}");
+    }
+    for pass in ["beauty", "depth", "normal", "motion"] {
+        let png = frame.pass_png(ReviewPass::parse(pass).expect("a pass")).expect("the pass's channels");
+        let image = image::load_from_memory(&png).expect("a PNG").to_rgb8();
+        assert_eq!(image.dimensions(), (width, height), "{pass}");
+    }
 }

@@ -54,6 +54,9 @@ pub struct PageFrame {
     pub speed_m_s: Vec<f32>,
     /// The frame's fragments.
     pub fragments: Fragments,
+    /// Where particles lost bonds during the frame (post's debris points; none before post has
+    /// run, or outside the simulation), metres.
+    pub debris_m: Vec<[f32; 3]>,
 }
 
 impl PageFrame {
@@ -62,7 +65,8 @@ impl PageFrame {
     /// fragment count (u32 each); the largest fragment's mass share (f32); the fragment-size
     /// histogram's bin count b and b counts (u32 each; bin k holds fragments of 2^k to
     /// 2^(k+1) - 1 elements); then n positions (x, y, z f32, metres), n damages (f32), n speeds
-    /// (f32, m/s) and n fragment ids (u32).
+    /// (f32, m/s) and n fragment ids (u32); then the debris point count m (u32) and m positions
+    /// (x, y, z f32, metres).
     pub fn message(&self) -> Vec<u8> {
         let n = self.position_m.len();
         let histogram = size_histogram(&self.fragments.elements);
@@ -76,6 +80,8 @@ impl PageFrame {
         words(&self.position_m.iter().flatten().map(|v| v.to_bits()).collect::<Vec<u32>>());
         words(&self.damage.iter().chain(&self.speed_m_s).map(|v| v.to_bits()).collect::<Vec<u32>>());
         words(&self.fragments.fragment_of);
+        words(&[self.debris_m.len() as u32]);
+        words(&self.debris_m.iter().flatten().map(|v| v.to_bits()).collect::<Vec<u32>>());
         bytes
     }
 }
@@ -96,6 +102,7 @@ mod tests {
             damage: vec![0.25, 0.0, 0.0],
             speed_m_s: vec![5.0, 1.0, 0.0],
             fragments,
+            debris_m: vec![[7.0, 8.0, 9.0]],
         };
         let bytes = frame.message();
         let word = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().expect("4 bytes"));
@@ -107,7 +114,8 @@ mod tests {
         let floats: Vec<f32> = (44..44 + 4 * 15).step_by(4).map(float).collect();
         assert_eq!(floats[..6], [1.0, 3.0, 5.0, 2.0, 4.0, 6.0]);
         assert_eq!(floats[9..15], [0.25, 0.0, 0.0, 5.0, 1.0, 0.0]);
-        let ids: Vec<u32> = (104..bytes.len()).step_by(4).map(word).collect();
+        let ids: Vec<u32> = (104..116).step_by(4).map(word).collect();
         assert_eq!(ids, [0, 1, 0]);
+        assert_eq!((word(116), float(120), float(128), bytes.len()), (1, 7.0, 9.0, 132));
     }
 }

@@ -7,6 +7,7 @@
 //! - `preview_config`: the scene as edited, and the preview's config from it.
 //! - `preview_run`: one run of it, in its own folder.
 //! - `resolution`: the spacing that gives the particle count asked for.
+//! - `review`: the scene's own output folder, finished or being written: frames, plots, passes.
 //! - `page_frames`: the shot's frames as far as written, whichever stage writes each.
 //! - `frame_message`: one frame as the binary message the page draws.
 //! - `run_folder`: what the page is shown of an output folder: frames, fragments, broken bonds.
@@ -20,6 +21,7 @@ mod page_frames;
 mod preview_config;
 mod preview_run;
 mod resolution;
+mod review;
 mod run_folder;
 mod scene_file;
 mod server;

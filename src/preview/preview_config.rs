@@ -116,6 +116,7 @@ const EDITABLE: &[&str] = &[
     "sim.projectile[].velocity_m_s",
     "sim.projectile[].center_m",
     "lead_in.translate_m",
+    "lead_in.rotate_axis",
     "lead_in.rotate_deg",
     "lead_in.velocity_m_s",
     "sim.weakened_path[].threshold_factor",

@@ -5,12 +5,15 @@
 //! the lead-in's and the follow-through's carry their files' fragments.
 
 use std::sync::{Arc, Mutex, PoisonError};
+use std::time::SystemTime;
 
 use shatter_core::OutputLayout;
+use shatter_core::debris_points::read_point_cache;
 use shatter_core::fragments::FragmentFrame;
 use shatter_core::frames::{BreakLog, PointFrame};
 use shatter_core::particles::ParticleSet;
 use shatter_post::components::FragmentIds;
+use shatter_render::frame_review::RenderedFrame;
 
 use super::frame_message::{Fragments, PageFrame};
 use super::page_frames::{FrameSource, PageFrames};
@@ -35,6 +38,10 @@ struct Cache {
     sim_fragments: Vec<Arc<Fragments>>,
     /// The counter of fragments, after the last of `sim_fragments`.
     ids: Option<FragmentIds>,
+    /// The kinetic energy of the simulation's frames from frame 1 on, as far as read, joules.
+    kinetic_energy_j: Vec<f64>,
+    /// The rendered frame read last: its number, when it was written, and it.
+    rendered: Option<(u32, SystemTime, Arc<RenderedFrame>)>,
 }
 
 /// The particles at rest.
@@ -87,6 +94,51 @@ impl RunFolder {
             .collect()
     }
 
+    /// The kinetic energy of each of the simulation's first `frames` frames, joules (each frame
+    /// read once).
+    pub fn kinetic_energy_j(&self, frames: u32) -> Result<Vec<f64>, String> {
+        let rest = self.rest()?;
+        let known = self.cache().kinetic_energy_j.len() as u32;
+        for frame in known + 1..=frames {
+            let points = self.points(frame)?;
+            let speed_squared = |i: usize| (0..3).map(|a| f64::from(points.velocity[a][i]).powi(2)).sum::<f64>();
+            let energy = rest.mass_kg.iter().enumerate().map(|(i, m)| 0.5 * m * speed_squared(i)).sum();
+            // another request may have read it meanwhile
+            let mut cache = self.cache();
+            if cache.kinetic_energy_j.len() as u32 == frame - 1 {
+                cache.kinetic_energy_j.push(energy);
+            }
+        }
+        let cache = self.cache();
+        Ok(cache.kinetic_energy_j[..(frames as usize).min(cache.kinetic_energy_j.len())].to_vec())
+    }
+
+    /// The shot's frames of `frames` that are rendered (their EXR written).
+    pub fn rendered_frames(&self, frames: &PageFrames) -> Vec<u32> {
+        (1..=frames.count()).filter(|&frame| self.layout.render_frame(frame, "exr").is_file()).collect()
+    }
+
+    /// Shot frame `frame`'s render, read again only when it was written anew.
+    pub fn rendered(&self, frame: u32) -> Result<Arc<RenderedFrame>, String> {
+        let path = self.layout.render_frame(frame, "exr");
+        let written = std::fs::metadata(&path)
+            .and_then(|meta| meta.modified())
+            .map_err(|error| format!("{}: {error}", path.display()))?;
+        if let Some((number, at, rendered)) = &self.cache().rendered
+            && (*number, *at) == (frame, written)
+        {
+            return Ok(Arc::clone(rendered));
+        }
+        let rendered = Arc::new(RenderedFrame::read(&path).map_err(|error| error.to_string())?);
+        self.cache().rendered = Some((frame, written, Arc::clone(&rendered)));
+        Ok(rendered)
+    }
+
+    /// The output folder.
+    pub fn root(&self) -> &std::path::Path {
+        self.layout.root()
+    }
+
     /// Page frame `frame` as the page's message (see [`PageFrame::message`]); an error names
     /// the file that could not be read.
     pub fn frame_message(&self, frames: &PageFrames, frame: u32) -> Result<Vec<u8>, String> {
@@ -105,6 +157,7 @@ impl RunFolder {
                     damage: points.damage,
                     speed_m_s,
                     fragments: (*self.sim_fragments(local)?).clone(),
+                    debris_m: self.debris(local),
                 }
             }
             FrameSource::LeadIn(_) | FrameSource::Rigid(_) => self.rigid_frame(frames, frame, source)?,
@@ -143,6 +196,7 @@ impl RunFolder {
                 elements: fragments.elements,
                 mass_kg: fragments.mass_kg,
             },
+            debris_m: Vec::new(),
         })
     }
 
@@ -172,6 +226,11 @@ impl RunFolder {
             _ => fragments.meta.time_s,
         };
         Ok(Placed { time_s, position_m })
+    }
+
+    /// The debris points of the simulation's frame `frame`, once post has written them.
+    fn debris(&self, frame: u32) -> Vec<[f32; 3]> {
+        read_point_cache(&self.layout.debris_points(frame)).map(|debris| debris.position).unwrap_or_default()
     }
 
     /// The simulation's frame `frame`.

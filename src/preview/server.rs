@@ -9,6 +9,7 @@ use serde_json::json;
 use tiny_http::{Header, Method, Request, Response};
 
 use super::preview_run::RunStatus;
+use super::review;
 use super::session::Session;
 
 /// Request-handling threads: the page polls while it fetches frames.
@@ -20,6 +21,8 @@ const MAX_EDIT_BYTES: u64 = 64 * 1024;
 const PAGE: &[(&str, &str, &str)] = &[
     ("/", "text/html; charset=utf-8", include_str!("page/index.html")),
     ("/preview.js", "text/javascript; charset=utf-8", include_str!("page/preview.js")),
+    ("/aim.js", "text/javascript; charset=utf-8", include_str!("page/aim.js")),
+    ("/review.js", "text/javascript; charset=utf-8", include_str!("page/review.js")),
     ("/preview.css", "text/css; charset=utf-8", include_str!("page/preview.css")),
 ];
 
@@ -48,6 +51,11 @@ fn handle(mut request: Request, session: &Mutex<Session>) {
     let response = match (request.method(), path) {
         (Method::Get, "/api/state") => json_response(200, &state(session)),
         (Method::Get, "/api/frame") => frame(session, query),
+        // the review's reads run outside the session's lock (the folder's reader has its own)
+        (Method::Get, "/api/review") => answer(review::summary(&reviewed(session))),
+        (Method::Get, "/api/review/frame") => answer(review::frame(&reviewed(session), query)),
+        (Method::Get, "/api/review/image") => answer(review::image(&reviewed(session), query)),
+        (Method::Get, "/api/review/pick") => answer(review::pick(&reviewed(session), query)),
         (Method::Post, "/api/edit") => edit(&mut request, session),
         (Method::Get, "/api/diff") => match lock(session).save_preview() {
             Ok((diff, _)) => json_response(200, &json!({ "diff": diff })),
@@ -97,7 +105,9 @@ fn state(session: &Mutex<Session>) -> serde_json::Value {
         })
     });
     let bodies = bodies(&session.scene.config);
-    json!({ "scene": scene, "target_particles": target, "values": values, "error": error, "run": run, "bodies": bodies })
+    let review = session.review.page_frames().count() > 0;
+    json!({ "scene": scene, "target_particles": target, "values": values, "error": error, "run": run,
+            "bodies": bodies, "review": review })
 }
 
 /// What the page draws besides the particles: the floor's height, the projectiles and indenters
@@ -122,8 +132,7 @@ fn bodies(config: &shatter_core::PipelineConfig) -> serde_json::Value {
 /// `GET /api/frame?generation=G&frame=F`: page frame F's message, or 404 while it is not there
 /// (409 when the run asked for has been replaced, 503 when its files could not be read yet).
 fn frame(session: &Mutex<Session>, query: &str) -> Response<std::io::Cursor<Vec<u8>>> {
-    let number =
-        |name: &str| query.split('&').find_map(|pair| pair.strip_prefix(name)?.strip_prefix('=')?.parse::<u64>().ok());
+    let number = |name: &str| review::query_number(query, name);
     let (Some(generation), Some(frame)) = (number("generation"), number("frame")) else {
         return text_response(400, "generation and frame are needed");
     };
@@ -158,6 +167,19 @@ fn edit(request: &mut Request, session: &Mutex<Session>) -> Response<std::io::Cu
         Ok(generation) => json_response(200, &json!({ "generation": generation })),
         Err(message) => json_response(400, &json!({ "error": message })),
     }
+}
+
+/// The scene's output folder's reader.
+fn reviewed(session: &Mutex<Session>) -> super::run_folder::RunFolder {
+    lock(session).review.clone()
+}
+
+/// A review route's answer as a response.
+fn answer((status, kind, body): review::Answer) -> Response<std::io::Cursor<Vec<u8>>> {
+    Response::from_data(body)
+        .with_status_code(status)
+        .with_header(header("Content-Type", kind))
+        .with_header(header("Cache-Control", "no-store"))
 }
 
 /// The session, whatever a panicking worker left (its state stays consistent between requests).

@@ -7,6 +7,8 @@ use serde::Deserialize;
 use super::preview_config::{Edits, PreviewScene};
 use super::preview_run::PreviewRun;
 use super::resolution::Resolution;
+use super::run_folder::RunFolder;
+use shatter_core::OutputLayout;
 
 /// The start of a preview's scratch folder's name, followed by its process id.
 const SCRATCH_PREFIX: &str = "shatter-preview-";
@@ -37,6 +39,8 @@ pub struct Session {
     pub target: u64,
     /// The current run, if one could start.
     pub run: Option<PreviewRun>,
+    /// The scene's own output folder, offered for review (read, never written or locked).
+    pub review: RunFolder,
     /// Why the last run could not start.
     pub error: Option<String>,
     /// The runs' folder (removed with the session).
@@ -57,7 +61,9 @@ impl Session {
             .prefix(&format!("{SCRATCH_PREFIX}{}-", std::process::id()))
             .tempdir()
             .map_err(|error| format!("cannot make the preview's scratch folder: {error}"))?;
+        let review = RunFolder::new(OutputLayout::of(&scene.config), scene.config.material.density_kg_m3);
         let mut session = Session {
+            review,
             scene_text,
             edits: Edits::new(),
             scene,

@@ -3,7 +3,8 @@
 'use strict';
 
 const preview = {
-  generation: 0, // the run whose frames are held
+  mode: 'preview', // whose frames are shown: 'preview' (the live run) or 'review' (review.js)
+  generation: 0, // the run whose frames are held ('review' for the scene's output folder)
   frames: [], // its frames: see decode()
   leadIn: 0, // the run's lead-in frames, as the frames held were fetched
   handoff: null, // its simulation's last frame before the follow-through's, once known
@@ -86,7 +87,7 @@ for (const [buffer, name, size] of [[positionBuffer, 'position', 3], [valueBuffe
 const LINE_VERTEX = `#version 300 es
 in vec3 position;
 uniform mat4 viewProjection;
-void main() { gl_Position = viewProjection * vec4(position, 1.0); }`;
+void main() { gl_Position = viewProjection * vec4(position, 1.0); gl_PointSize = 3.0; }`;
 const LINE_FRAGMENT = `#version 300 es
 precision mediump float;
 uniform vec3 tint;
@@ -157,15 +158,18 @@ function cross(u, v) {
   return [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
 }
 
-function drawLines(points, tint, matrix) {
-  if (points.length === 0) return;
+// `points` (an array of [x, y, z], or a Float32Array of x, y, z) in one colour, as line segments
+// or as points
+function drawLines(points, tint, matrix, kind = gl.LINES) {
+  const flat = points instanceof Float32Array ? points : new Float32Array(points.flat());
+  if (flat.length === 0) return;
   gl.useProgram(lineProgram);
   gl.bindVertexArray(lineVao);
   gl.bindBuffer(gl.ARRAY_BUFFER, lineBuffer);
-  gl.bufferData(gl.ARRAY_BUFFER, new Float32Array(points.flat()), gl.DYNAMIC_DRAW);
+  gl.bufferData(gl.ARRAY_BUFFER, flat, gl.DYNAMIC_DRAW);
   gl.uniformMatrix4fv(gl.getUniformLocation(lineProgram, 'viewProjection'), false, matrix);
   gl.uniform3fv(gl.getUniformLocation(lineProgram, 'tint'), tint);
-  gl.drawArrays(gl.LINES, 0, points.length);
+  gl.drawArrays(kind, 0, flat.length / 3);
 }
 
 function drawBodies(frame, matrix) {
@@ -262,6 +266,8 @@ function draw() {
     gl.uniform1f(uniform('valueScale'), [2.5, 1 / maxSpeed, 0][mode]);
     gl.uniform1i(uniform('mode'), mode);
     gl.drawArrays(gl.POINTS, 0, frame.count);
+    // where particles lost bonds during the frame (post's debris points), over the particles
+    if ($('debris').checked) drawLines(frame.debris, [1.0, 0.95, 0.6], matrix, gl.POINTS);
     $('frame-label').textContent = `${frame.frame}: ${SOURCES[frame.source]}, ${seconds(frame.time)}`;
     if (preview.shown !== frame.frame) showFragments(frame);
     preview.shown = frame.frame;
@@ -278,7 +284,7 @@ canvas.addEventListener('pointerdown', (event) => {
 });
 canvas.addEventListener('pointerup', (event) => {
   // a click, not a drag, on the body aims the projectile there
-  if (drag && !drag.pan && drag.moved < 4 && event.button === 0) aimAt(event);
+  if (drag && !drag.pan && drag.moved < 4 && event.button === 0 && preview.mode === 'preview') aimAt(event);
   drag = null;
 });
 canvas.addEventListener('contextmenu', (event) => event.preventDefault());
@@ -303,74 +309,6 @@ canvas.addEventListener('wheel', (event) => {
   camera.distance *= Math.exp(event.deltaY * 0.001);
 }, { passive: false });
 
-// ---- aiming: a click on the body moves the impact point -----------------------------------
-
-// particle `i` of the shown frame in the canvas's CSS pixels, and its depth (tests click there)
-function project(i) {
-  const frame = shownFrame();
-  const m = viewProjection();
-  const p = [0, 1, 2].map((a) => frame.positions[3 * i + a]);
-  const clip = [0, 1, 2, 3].map((r) => m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r]);
-  const rect = canvas.getBoundingClientRect();
-  return {
-    x: rect.left + ((clip[0] / clip[3] + 1) / 2) * rect.width,
-    y: rect.top + ((1 - clip[1] / clip[3]) / 2) * rect.height,
-    depth: clip[2] / clip[3],
-    visible: clip[3] > 0,
-  };
-}
-preview.project = project;
-
-// the particle under the pointer: the nearest to the eye of those within a few pixels
-function pickParticle(event) {
-  const frame = shownFrame();
-  if (!frame) return -1;
-  let best = -1;
-  let bestDepth = Infinity;
-  for (let i = 0; i < frame.count; i++) {
-    const at = project(i);
-    if (at.visible && Math.hypot(at.x - event.clientX, at.y - event.clientY) <= 6 && at.depth < bestDepth) {
-      best = i;
-      bestDepth = at.depth;
-    }
-  }
-  return best;
-}
-
-// moves the first projectile so that it meets the body at the picked particle: along its own
-// direction, as far from that point as it was from the point it met before
-function aimAt(event) {
-  const particle = pickParticle(event);
-  const rest = preview.frames[preview.leadIn];
-  const values = preview.state && preview.state.values;
-  const key = 'sim.projectile[0].center_m';
-  if (particle < 0 || !rest || !values) return;
-  if (!values[key]) {
-    $('aim').textContent = 'the scene has no projectile to aim';
-    return;
-  }
-  const input = $('fields').querySelector(`input[name="${key}"]`);
-  const centre = JSON.parse(input.value);
-  const direction = normalise(JSON.parse($('fields').querySelector('input[name="sim.projectile[0].velocity_m_s"]').value));
-  const at = (i) => [0, 1, 2].map((a) => rest.positions[3 * i + a]);
-  // the point it met: of the particles nearest its line ahead of it (within half a spacing),
-  // the first along it
-  const line = [];
-  for (let i = 0; i < rest.count; i++) {
-    const d = at(i).map((v, a) => v - centre[a]);
-    const along = d[0] * direction[0] + d[1] * direction[1] + d[2] * direction[2];
-    if (along > 0) line.push([Math.hypot(...d.map((v, a) => v - along * direction[a])), along]);
-  }
-  const nearest = line.reduce((m, [off]) => Math.min(m, off), Infinity);
-  const limit = nearest + preview.state.run.spacing_m / 2;
-  const distance = line.reduce((m, [off, along]) => (off <= limit ? Math.min(m, along) : m), Infinity);
-  if (!Number.isFinite(distance)) return;
-  const target = at(particle);
-  input.value = JSON.stringify(target.map((v, a) => Number((v - distance * direction[a]).toPrecision(6))));
-  $('aim').textContent = `aimed at particle ${particle}`;
-  applyEdits();
-}
-
 // ---- the run: state and frames --------------------------------------------------------------
 
 const SOURCES = ['lead-in', 'simulation', 'follow-through'];
@@ -386,6 +324,8 @@ function decode(buffer) {
   const start = 36 + 4 * bins;
   const floats = new Float32Array(buffer, start, 5 * count);
   const fragment = new Uint32Array(buffer, start + 20 * count, count);
+  const debrisCount = view.getUint32(start + 24 * count, true);
+  const debris = new Float32Array(buffer, start + 24 * count + 4, 3 * debrisCount);
   const speed = floats.subarray(4 * count, 5 * count);
   return {
     frame: view.getUint32(8, true),
@@ -400,6 +340,7 @@ function decode(buffer) {
     speed,
     fragment,
     fragmentValues: Float32Array.from(fragment),
+    debris,
     maxSpeed: speed.reduce((m, v) => Math.max(m, v), 0),
   };
 }
@@ -431,7 +372,10 @@ async function fetchFrames(run) {
   try {
     while (preview.generation === run.generation && preview.frames.length < run.frames) {
       const next = preview.frames.length + 1;
-      const response = await fetch(`/api/frame?generation=${run.generation}&frame=${next}`);
+      const url = run.generation === 'review'
+        ? `/api/review/frame?frame=${next}`
+        : `/api/frame?generation=${run.generation}&frame=${next}`;
+      const response = await fetch(url, { cache: 'no-store' });
       if (!response.ok) break;
       const frame = decode(await response.arrayBuffer());
       // a simulation frame asked for before the handoff was known, and now past it, is dropped
@@ -453,8 +397,8 @@ function figure(name, value) {
 function showState(state) {
   $('scene').textContent = state.scene;
   const run = state.run;
-  const rows = [];
-  if (run) {
+  const rows = preview.mode === 'review' ? reviewFigures() : [];
+  if (run && preview.mode === 'preview') {
     const broken = run.broken_bonds.length ? run.broken_bonds[run.broken_bonds.length - 1] : 0;
     const frame = shownFrame();
     rows.push(figure('run', `${run.generation} (${run.status})`));
@@ -501,7 +445,9 @@ async function poll() {
     const response = await fetch('/api/state', { cache: 'no-store' });
     const state = await response.json();
     preview.state = state;
-    const run = state.run;
+    $('review').hidden = !state.review;
+    // the scene's output folder's frames in review mode (review.js), else the live run's
+    const run = preview.mode === 'review' ? await reviewRun() : state.run;
     if (run && (run.generation !== preview.generation || run.lead_in_frames !== preview.leadIn)) {
       preview.generation = run.generation;
       preview.leadIn = run.lead_in_frames;
@@ -516,7 +462,7 @@ async function poll() {
     }
     buildFields(state);
     showState(state);
-    if (state.run) fetchFrames(state.run);
+    if (run) fetchFrames(run);
   } catch (error) {
     // the server is away (restarting, or the connection dropped): the next poll resumes
   }
@@ -528,9 +474,10 @@ $('edits').addEventListener('submit', (event) => {
   applyEdits();
 });
 
-// sends the fields that differ from the run's; a refused edit shows the CLI's message
-async function applyEdits() {
-  const edits = {};
+// sends the fields that differ from the run's, and `extra` edits; a refused edit shows the CLI's
+// message
+async function applyEdits(extra = {}) {
+  const edits = { ...extra };
   try {
     for (const input of $('fields').querySelectorAll('input')) {
       if (input.value !== input.dataset.original) edits[input.name] = JSON.parse(input.value);
