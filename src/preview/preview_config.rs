@@ -107,7 +107,7 @@ impl PreviewScene {
 
 /// The keys the page offers for editing, where the scene has them: the material's strength and
 /// stiffness, each projectile's speed and start, the drop (the lead-in's lift, turn and speed),
-/// each weakened path's strength, the seed.
+/// each weakened path's strength, start, direction and length, the seed.
 const EDITABLE: &[&str] = &[
     "scene.seed",
     "material.critical_stretch",
@@ -120,6 +120,9 @@ const EDITABLE: &[&str] = &[
     "lead_in.rotate_deg",
     "lead_in.velocity_m_s",
     "sim.weakened_path[].threshold_factor",
+    "sim.weakened_path[].start_m",
+    "sim.weakened_path[].direction",
+    "sim.weakened_path[].steps",
 ];
 
 impl PreviewScene {
@@ -260,6 +263,23 @@ mod tests {
                 "sim.projectile[0].center_m = [0.0, 0.0, 0.006]"
             ]
         );
+    }
+
+    #[test]
+    fn a_weakened_paths_strength_route_and_length_are_offered() {
+        let text = format!(
+            "{TEST_SCENE}\n[[sim.weakened_path]]\nstart_m = [0.0, 0.0, 0.0]\ndirection = [1.0, 0.0, 0.0]\n\
+             plane_normal = [0.0, 0.0, 1.0]\nsteps = 5\nstep_length_m = 0.002\nradius_m = 0.0015\n\
+             threshold_factor = 0.6\n"
+        );
+        let mut edits = Edits::new();
+        edits.insert("sim.weakened_path[0].direction".into(), toml::Value::try_from([0.0, 1.0, 0.0]).expect("value"));
+        let scene = PreviewScene::new(Path::new("pipeline.toml"), &text, &edits).expect("scene");
+        let keys: Vec<String> = scene.editable_values().into_iter().map(|(key, _)| key).collect();
+        for key in ["threshold_factor", "start_m", "direction", "steps"] {
+            assert!(keys.contains(&format!("sim.weakened_path[0].{key}")), "{key}: {keys:?}");
+        }
+        assert_eq!(scene.config.sim.weakened_path[0].direction, [0.0, 1.0, 0.0]);
     }
 
     #[test]
