@@ -8,7 +8,7 @@ use std::path::Path;
 
 use exr::prelude::{AttributeValue, read_all_flat_layers_from_file};
 
-use crate::image_out::ImageError;
+use crate::image_out::{ImageError, tonemapped_srgb};
 
 /// A pass of a frame, drawn for the eye.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -95,13 +95,7 @@ impl RenderedFrame {
     /// `pass` as an 8-bit RGB PNG; None when the frame lacks its channels.
     pub fn pass_png(&self, pass: ReviewPass) -> Option<Vec<u8>> {
         let rgb = match pass {
-            ReviewPass::Beauty => {
-                let encode = |linear: f32| {
-                    let mapped = linear.max(0.0) / (1.0 + linear.max(0.0));
-                    if mapped <= 0.003_130_8 { 12.92 * mapped } else { 1.055 * mapped.powf(1.0 / 2.4) - 0.055 }
-                };
-                self.mapped(["R", "G", "B"], |v, _| encode(v))?
-            }
+            ReviewPass::Beauty => self.mapped(["R", "G", "B"], |v| tonemapped_srgb(v.max(0.0)))?,
             ReviewPass::Depth => {
                 let depth = self.channel("ViewLayer.Depth.Z")?;
                 let finite = depth.iter().copied().filter(|d| d.is_finite());
@@ -114,7 +108,7 @@ impl RenderedFrame {
             }
             ReviewPass::Normal => {
                 let axes = ["ViewLayer.Normal.X", "ViewLayer.Normal.Y", "ViewLayer.Normal.Z"];
-                self.mapped(axes, |v, _| 0.5 + 0.5 * v)?
+                self.mapped(axes, |v| 0.5 + 0.5 * v)?
             }
             ReviewPass::Motion => {
                 let (x, y) = (self.channel("ViewLayer.Vector.X")?, self.channel("ViewLayer.Vector.Y")?);
@@ -129,11 +123,11 @@ impl RenderedFrame {
         Some(png.into_inner())
     }
 
-    /// The three channels `names` per pixel through `map` (value, channel index), interleaved.
-    fn mapped(&self, names: [&str; 3], map: impl Fn(f32, usize) -> f32) -> Option<Vec<f32>> {
+    /// The three channels `names` per pixel through `map`, interleaved.
+    fn mapped(&self, names: [&str; 3], map: impl Fn(f32) -> f32) -> Option<Vec<f32>> {
         let channels = names.map(|name| self.channel(name));
         let [a, b, c] = [channels[0]?, channels[1]?, channels[2]?];
-        Some((0..a.len()).flat_map(|i| [map(a[i], 0), map(b[i], 1), map(c[i], 2)]).collect())
+        Some((0..a.len()).flat_map(|i| [map(a[i]), map(b[i]), map(c[i])]).collect())
     }
 
     /// The names matte `matte` holds at pixel (x, y), from the top-left, with their coverage,

@@ -290,6 +290,12 @@ pub fn read_exr(path: &Path) -> Result<(usize, usize, Vec<ExrChannel>), ImageErr
     Ok((layer.size.0, layer.size.1, channels))
 }
 
+/// A linear value tonemapped (Reinhard) and sRGB-encoded, as the PNG previews show it.
+pub(crate) fn tonemapped_srgb(linear: f32) -> f32 {
+    let mapped = linear / (1.0 + linear);
+    if mapped <= 0.003_130_8 { 12.92 * mapped } else { 1.055 * mapped.powf(1.0 / 2.4) - 0.055 }
+}
+
 /// Writes a tonemapped sRGB PNG preview: exposure, a filmic curve, sRGB encoding.
 pub fn write_png(
     path: &Path,
@@ -299,12 +305,7 @@ pub fn write_png(
     exposure_stops: f32,
 ) -> Result<(), ImageError> {
     let scale = exposure_stops.exp2();
-    let encode = |linear: f32| {
-        let x = linear * scale;
-        let mapped = x / (1.0 + x); // Reinhard
-        let srgb = if mapped <= 0.003_130_8 { 12.92 * mapped } else { 1.055 * mapped.powf(1.0 / 2.4) - 0.055 };
-        (srgb.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
-    };
+    let encode = |linear: f32| (tonemapped_srgb(linear * scale).clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
     let mut rgb = Vec::with_capacity(width * height * 3);
     for p in pixels {
         rgb.extend(p.color.map(encode));

@@ -153,10 +153,10 @@ impl RunFolder {
                     frame,
                     source: source.code(),
                     time_s: points.time_s,
-                    position_m: (0..points.damage.len()).map(|i| [0, 1, 2].map(|a| points.position[a][i])).collect(),
+                    position_m: positions(&points),
                     damage: points.damage,
                     speed_m_s,
-                    fragments: (*self.sim_fragments(local)?).clone(),
+                    fragments: (*self.sim_fragments(local, frames.sim)?).clone(),
                     debris_m: self.debris(local),
                 }
             }
@@ -170,7 +170,7 @@ impl RunFolder {
     /// simulation left it (none before it).
     fn rigid_frame(&self, frames: &PageFrames, frame: u32, source: FrameSource) -> Result<PageFrame, String> {
         let fragments = self.fragments_file(source)?;
-        let here = self.placed(frames, frame)?;
+        let here = self.place(frames, source, &fragments)?;
         let other = if frame > 1 { frame - 1 } else { frame + 1 };
         let speed_m_s = match frames.locate(other) {
             Some(_) => {
@@ -206,10 +206,14 @@ impl RunFolder {
         let source = frames.locate(frame).ok_or_else(|| format!("frame {frame} is not there yet"))?;
         if let FrameSource::Sim(local) = source {
             let points = self.points(local)?;
-            let position_m = (0..points.damage.len()).map(|i| [0, 1, 2].map(|a| points.position[a][i])).collect();
-            return Ok(Placed { time_s: points.time_s, position_m });
+            return Ok(Placed { time_s: points.time_s, position_m: positions(&points) });
         }
-        let fragments = self.fragments_file(source)?;
+        self.place(frames, source, &self.fragments_file(source)?)
+    }
+
+    /// A lead-in or follow-through frame's particles, its `fragments` file's motions applied to
+    /// the rest positions, and its time from the simulation's start.
+    fn place(&self, frames: &PageFrames, source: FrameSource, fragments: &FragmentFrame) -> Result<Placed, String> {
         let rest = self.rest()?;
         let position_m = rest
             .position_m
@@ -266,7 +270,9 @@ impl RunFolder {
 
     /// The fragments of the simulation's frame `frame`: its break log's bonds broken through
     /// that frame, counted frame by frame from frame 1 as post counts them.
-    fn sim_fragments(&self, frame: u32) -> Result<Arc<Fragments>, String> {
+    /// Every frame up to the `through`th that the log holds is counted from the one read of it (a
+    /// page asks for the frames in turn).
+    fn sim_fragments(&self, frame: u32, through: u32) -> Result<Arc<Fragments>, String> {
         let mut cache = self.cache();
         if let Some(fragments) = cache.sim_fragments.get(frame as usize - 1) {
             return Ok(Arc::clone(fragments));
@@ -279,10 +285,14 @@ impl RunFolder {
             let particles = self.particles()?;
             cache.ids = Some(FragmentIds::new(&particles));
         }
-        while cache.sim_fragments.len() < frame as usize {
+        loop {
             let next = cache.sim_fragments.len() as u32 + 1;
             // frame 1 is the rest state; the log's blocks end at frames 2 on
-            if next > 1 && !blocks.iter().any(|block| block.frame == next) {
+            let logged = next == 1 || blocks.iter().any(|block| block.frame == next);
+            if next > frame && (next > through || !logged) {
+                break;
+            }
+            if !logged {
                 return Err(format!(
                     "{}: frame {next}'s breaks are not written yet",
                     self.layout.break_log().display()
@@ -298,6 +308,11 @@ impl RunFolder {
         }
         Ok(Arc::clone(&cache.sim_fragments[frame as usize - 1]))
     }
+}
+
+/// A point frame's positions, particle by particle.
+fn positions(points: &PointFrame) -> Vec<[f32; 3]> {
+    (0..points.damage.len()).map(|i| [0, 1, 2].map(|a| points.position[a][i])).collect()
 }
 
 fn distance(p: &[f32; 3], q: &[f32; 3]) -> f64 {

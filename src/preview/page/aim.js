@@ -3,10 +3,10 @@
 // preview.js's drawing state (its camera and frames).
 'use strict';
 
-// particle `i` of the shown frame in the canvas's CSS pixels, and its depth (tests click there)
-function project(i) {
+// particle `i` of the shown frame in the canvas's CSS pixels, and its depth (tests click there),
+// through the view's matrix `m`
+function project(i, m = viewProjection()) {
   const frame = shownFrame();
-  const m = viewProjection();
   const p = [0, 1, 2].map((a) => frame.positions[3 * i + a]);
   const clip = [0, 1, 2, 3].map((r) => m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r]);
   const rect = canvas.getBoundingClientRect();
@@ -25,8 +25,9 @@ function pickParticle(event) {
   if (!frame) return -1;
   let best = -1;
   let bestDepth = Infinity;
+  const matrix = viewProjection();
   for (let i = 0; i < frame.count; i++) {
-    const at = project(i);
+    const at = project(i, matrix);
     if (at.visible && Math.hypot(at.x - event.clientX, at.y - event.clientY) <= 6 && at.depth < bestDepth) {
       best = i;
       bestDepth = at.depth;
