@@ -11,10 +11,11 @@ use shatter_core::frames::{BreakLog, PointFrame};
 use shatter_core::lead_in::LeadIn;
 use shatter_core::particles::ParticleSet;
 use shatter_core::ply::PointCache;
+use shatter_core::reentry::Reentry;
 use shatter_core::rigid_checkpoint::RigidCheckpoint;
 use shatter_core::stage_file::{StageKind, read_header};
 use shatter_post::components::size_histogram;
-use shatter_rigid::world::RigidWorld;
+use shatter_rigid::checkpoint_world;
 
 use crate::Failure;
 
@@ -62,40 +63,14 @@ pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
                 summary
             }
             StageKind::LeadIn => serde_json::to_value(LeadIn::read(path)?)?,
-            StageKind::RigidCheckpoint => {
-                let checkpoint = RigidCheckpoint::read(path)?;
-                let meta = checkpoint.meta;
-                let mut summary = json!({"kind": "rigid_checkpoint", "handoff_frame": meta.handoff_frame,
-                       "handoff_time_s": meta.handoff_time_s, "frame": meta.frame, "last_frame": meta.last_frame,
-                       "rigid_steps": meta.steps, "every_piece_asleep": meta.asleep,
-                       "world_bytes": checkpoint.world.len()});
-                // what keeps a shot from settling: pieces still awake, and the deepest overlap
-                // (pieces by their index in the handoff's fragments; null is the floor or a sphere)
-                let world = RigidWorld::restore(&checkpoint.world)
-                    .map_err(|error| anyhow::anyhow!("{}: cannot restore the rigid world: {error}", path.display()))?;
-                let awake = world.awake_pieces();
-                summary["awake_pieces"] = json!(awake.len());
-                if !awake.is_empty() {
-                    // where the awake ones are: still sliding nearby, or flung far off
-                    let (velocities, centres) = (world.velocities(), world.centres());
-                    let speed = |i: &usize| velocities[*i].0.length();
-                    let reach = |i: &usize| centres[*i].with_y(0.0).length();
-                    let fastest = awake.iter().copied().max_by(|a, b| speed(a).total_cmp(&speed(b)));
-                    let farthest = awake.iter().map(reach).fold(0.0, f64::max);
-                    let airborne = awake.iter().filter(|&&i| world.clearance_m(i) > 0.0).count();
-                    // rolling (spin times its reach near speed) or sliding, and how big
-                    let spin = |i: &usize| velocities[*i].1.length();
-                    let masses = world.masses_kg();
-                    summary["awake"] = json!({"fastest_piece": fastest, "fastest_m_s": fastest.as_ref().map(speed),
-                        "fastest_spin_rad_s": fastest.as_ref().map(spin),
-                        "fastest_mass_kg": fastest.map(|i| masses[i]),
-                        "farthest_from_axis_m": farthest, "airborne": airborne});
-                }
-                if let Some((a, b, depth)) = world.overlaps().first() {
-                    summary["deepest_overlap"] = json!({"pieces": [a, b], "depth_m": depth});
-                }
+            StageKind::Reentry => {
+                let reentry = Reentry::read(path)?;
+                let mut summary = serde_json::to_value(&reentry.meta)?;
+                summary["kind"] = json!("reentry");
+                summary["elements"] = json!(reentry.members.len());
                 summary
             }
+            StageKind::RigidCheckpoint => rigid_checkpoint(path)?,
         }
     };
     let text = if json {
@@ -110,6 +85,47 @@ pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
         Err(error) if error.kind() != std::io::ErrorKind::BrokenPipe => Err(error.into()),
         _ => Ok(()),
     }
+}
+
+/// The follow-through's checkpoint: where it stands, what keeps the shot from settling, and its
+/// re-entries.
+fn rigid_checkpoint(path: &Path) -> Result<serde_json::Value, Failure> {
+    let checkpoint = RigidCheckpoint::read(path)?;
+    let meta = checkpoint.meta;
+    let mut summary = json!({"kind": "rigid_checkpoint", "handoff_frame": meta.handoff_frame,
+           "handoff_time_s": meta.handoff_time_s, "frame": meta.frame, "last_frame": meta.last_frame,
+           "rigid_steps": meta.steps, "every_piece_asleep": meta.asleep,
+           "world_bytes": checkpoint.world.len()});
+    // what keeps a shot from settling: pieces still awake, and the deepest overlap
+    // (pieces by their index in the handoff's fragments; null is the floor or a sphere)
+    let (world, reentries) = checkpoint_world(&checkpoint.world)
+        .map_err(|error| anyhow::anyhow!("{}: cannot restore the rigid world: {error}", path.display()))?;
+    if let Some(reentries) = reentries {
+        summary["reentries"] = json!({"started": reentries.started, "active": reentries.active,
+            "returned": reentries.returned, "time_s": reentries.time_s});
+    }
+    let awake = world.awake_pieces();
+    summary["awake_pieces"] = json!(awake.len());
+    if !awake.is_empty() {
+        // where the awake ones are: still sliding nearby, or flung far off
+        let (velocities, centres) = (world.velocities(), world.centres());
+        let speed = |i: &usize| velocities[*i].0.length();
+        let reach = |i: &usize| centres[*i].with_y(0.0).length();
+        let fastest = awake.iter().copied().max_by(|a, b| speed(a).total_cmp(&speed(b)));
+        let farthest = awake.iter().map(reach).fold(0.0, f64::max);
+        let airborne = awake.iter().filter(|&&i| world.clearance_m(i) > 0.0).count();
+        // rolling (spin times its reach near speed) or sliding, and how big
+        let spin = |i: &usize| velocities[*i].1.length();
+        let masses = world.masses_kg();
+        summary["awake"] = json!({"fastest_piece": fastest, "fastest_m_s": fastest.as_ref().map(speed),
+            "fastest_spin_rad_s": fastest.as_ref().map(spin),
+            "fastest_mass_kg": fastest.map(|i| masses[i]),
+            "farthest_from_axis_m": farthest, "airborne": airborne});
+    }
+    if let Some((a, b, depth)) = world.overlaps().first() {
+        summary["deepest_overlap"] = json!({"pieces": [a, b], "depth_m": depth});
+    }
+    Ok(summary)
 }
 
 /// A simulation's point cache, post's (a `fragment` column and no velocities), or post's debris

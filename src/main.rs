@@ -206,7 +206,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
         }
         Command::Rigid { config, options } => {
             let (config, _lock) = open_scene(&config, Access::Exclusive)?;
-            rigid::run(&config, &options)
+            rigid::run(&config, &options, &sim::SimArgs::default())
         }
         Command::Render { config, options } => {
             let (config, _lock) = open_scene(&config, Access::Shared)?;

@@ -12,7 +12,6 @@ use shatter_core::fragments::FragmentFrame;
 use shatter_core::shot::Shot;
 use shatter_core::sim_frames::SimFrames;
 use shatter_core::{OutputLayout, PipelineConfig};
-use shatter_sim::sim_driver::RunError;
 
 use crate::rigid::RigidArgs;
 use crate::sim::SimArgs;
@@ -154,7 +153,7 @@ const STEPS: [Step; 6] = [
         },
         up_to_date: |run, hash| Ok(run.stamps.matches("rigid", hash) && Shot::of(run.config, &run.layout).is_ok()),
         make: |run, _| {
-            rigid::run(run.config, &RigidArgs { resume: run.layout.rigid_checkpoint().is_file() })?;
+            rigid::run(run.config, &RigidArgs { resume: run.layout.rigid_checkpoint().is_file() }, run.options)?;
             Ok(String::new())
         },
         stamped: true,
@@ -194,18 +193,10 @@ fn preprocess_hash(run: &Run, _: &str) -> String {
     hash.finish()
 }
 
-/// Simulates, resuming from the checkpoint when there is one (from the start when it belongs to
-/// other settings).
+/// Simulates, resuming from the checkpoint when there is one.
 fn make_sim(run: &mut Run, _: &str) -> Result<String, Failure> {
     let frames = run.sim_frames()?;
-    let resume = run.layout.checkpoint().is_file();
-    match sim::run(run.config, &SimArgs { resume, ..run.options.clone() }) {
-        Err(failure) if is_checkpoint_mismatch(&failure) => {
-            eprintln!("note: the checkpoint belongs to other settings: simulating from the start");
-            sim::run(run.config, &SimArgs { resume: false, ..run.options.clone() })?;
-        }
-        result => result?,
-    }
+    sim::run_resuming(run.config, run.options)?;
     Ok(format!("{frames} frames"))
 }
 
@@ -265,13 +256,6 @@ pub fn run(config: &PipelineConfig, options: &SimArgs, until: Stage) -> Result<(
         upstream = hash;
     }
     summary(&done, config)
-}
-
-fn is_checkpoint_mismatch(failure: &Failure) -> bool {
-    failure
-        .error
-        .chain()
-        .any(|cause| matches!(cause.downcast_ref::<RunError>(), Some(RunError::CheckpointMismatch { .. })))
 }
 
 /// Prints time per stage, fragments, frames written and where they are.

@@ -10,7 +10,7 @@ use crate::Failure;
 use crate::progress_bars::for_stderr;
 
 /// Command-line choices of `shatter sim`.
-#[derive(Debug, Clone, clap::Args)]
+#[derive(Debug, Clone, Default, clap::Args)]
 pub struct SimArgs {
     /// Where to run: a hardware GPU when found, else the CPU (auto); or force one. A software GPU
     /// (Mesa lavapipe) counts only with SHATTER_GPU_ALLOW_SOFTWARE=1.
@@ -73,6 +73,27 @@ fn describe_step(report: &RunReport) -> String {
         true => format!("unset sim.dt_s: the largest power of two at most {fraction} x the stable dt"),
     };
     format!("dt {:.3e} s{name} ({source}; stable dt {:.3e} s)", report.dt_s, report.stable_dt_s)
+}
+
+/// Simulates, resuming from the checkpoint when there is one (from the start when it belongs to
+/// other settings).
+pub fn run_resuming(config: &PipelineConfig, options: &SimArgs) -> Result<(), Failure> {
+    let layout = shatter_core::OutputLayout::of(config);
+    let resume = layout.checkpoint().is_file();
+    match run(config, &SimArgs { resume, ..options.clone() }) {
+        Err(failure) if is_checkpoint_mismatch(&failure) => {
+            eprintln!("note: the checkpoint belongs to other settings: simulating from the start");
+            run(config, &SimArgs { resume: false, ..options.clone() })
+        }
+        result => result,
+    }
+}
+
+fn is_checkpoint_mismatch(failure: &Failure) -> bool {
+    failure
+        .error
+        .chain()
+        .any(|cause| matches!(cause.downcast_ref::<RunError>(), Some(RunError::CheckpointMismatch { .. })))
 }
 
 /// Runs the simulation stage.

@@ -22,6 +22,7 @@ mod rigid_cli;
 mod run_cli;
 mod samplers_cli;
 mod scenes;
+mod secondary_fracture;
 mod sim_cli;
 mod stage_dependencies;
 mod test_binaries;

@@ -16,6 +16,8 @@
 //!   rigid/lead_in.####.shp     lead-in: its frames (one fragment: the intact body)
 //!   rigid/fragments.####.shp   rigid: the follow-through's frames (after the handoff)
 //!   rigid/rigid.checkpoint.shp rigid: the rapier world (resume) and the shot's frame range
+//!   rigid/reentry.###.shp      rigid: pieces that hit hard, back to the simulation
+//!   reentry/###/               the simulation and post of re-entry ###, laid out as this folder
 //!   render/<scene>.####.exr    render (and .png previews)
 //!   stamps.json                `shatter run`: what each stage last finished with
 //!   shatter.lock               held by the command writing into the folder (pid inside)
@@ -140,6 +142,16 @@ impl OutputLayout {
         self.rigid_dir().join("rigid.checkpoint.shp")
     }
 
+    /// The request of re-entry `number` (from 1): the pieces that go back to the simulation.
+    pub fn reentry(&self, number: u32) -> PathBuf {
+        self.rigid_dir().join(format!("reentry.{number:03}.shp"))
+    }
+
+    /// The output folder of re-entry `number`'s simulation and post, laid out as a scene's.
+    pub fn reentry_dir(&self, number: u32) -> PathBuf {
+        self.root.join("reentry").join(format!("{number:03}"))
+    }
+
     /// The folder of rendered frames.
     pub fn render_dir(&self) -> PathBuf {
         self.root.join("render")
@@ -190,6 +202,8 @@ mod tests {
         assert_eq!(layout.lead_in_fragments(2), Path::new("out/plate/rigid/lead_in.0002.shp"));
         assert_eq!(layout.rigid_fragments(60), Path::new("out/plate/rigid/fragments.0060.shp"));
         assert_eq!(layout.rigid_checkpoint(), Path::new("out/plate/rigid/rigid.checkpoint.shp"));
+        assert_eq!(layout.reentry(2), Path::new("out/plate/rigid/reentry.002.shp"));
+        assert_eq!(layout.reentry_dir(2), Path::new("out/plate/reentry/002"));
         assert_eq!(layout.render_frame(240, "exr"), Path::new("out/plate/render/plate.0240.exr"));
         assert_eq!(layout.stamps(), Path::new("out/plate/stamps.json"));
         assert_eq!(layout.lock(), Path::new("out/plate/shatter.lock"));

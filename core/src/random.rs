@@ -33,6 +33,19 @@ impl SplitMix64 {
     }
 }
 
+/// The `count` indices of 0 .. n whose hash of (index, `seed`, `salt`) ranks lowest, ascending: a
+/// seeded choice that depends on neither order nor thread count.
+pub fn ranked_choice(n: usize, count: usize, seed: u64, salt: u64) -> Vec<usize> {
+    let mut ranked: Vec<(u64, usize)> = (0..n).map(|i| (splitmix64(seed ^ splitmix64(i as u64) ^ salt), i)).collect();
+    if count == 0 || n == 0 {
+        return Vec::new();
+    }
+    ranked.select_nth_unstable(count.min(n) - 1);
+    let mut chosen: Vec<usize> = ranked[..count.min(n)].iter().map(|(_, i)| *i).collect();
+    chosen.sort_unstable();
+    chosen
+}
+
 /// Maps 64 random bits to a uniform number in [0, 1) with 53 bits of precision.
 pub fn unit_interval(bits: u64) -> f64 {
     (bits >> 11) as f64 / (1u64 << 53) as f64
@@ -41,6 +54,16 @@ pub fn unit_interval(bits: u64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_ranked_choice_is_seeded_sorted_and_distinct() {
+        let chosen = ranked_choice(1000, 24, 3, 0x5a4d);
+        assert_eq!(chosen.len(), 24);
+        assert!(chosen.windows(2).all(|pair| pair[0] < pair[1]));
+        assert_eq!(chosen, ranked_choice(1000, 24, 3, 0x5a4d));
+        assert_ne!(chosen, ranked_choice(1000, 24, 4, 0x5a4d));
+        assert_eq!(ranked_choice(5, 9, 3, 0).len(), 5);
+    }
 
     #[test]
     fn the_generator_is_reproducible_and_uniform() {

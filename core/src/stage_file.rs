@@ -51,16 +51,20 @@ pub enum StageKind {
     /// `rigid/rigid.checkpoint.shp`: the follow-through's rigid-body world, written by
     /// `shatter rigid` for resume, and the shot's frame range.
     RigidCheckpoint,
+    /// `rigid/reentry.###.shp`: pieces that hit hard and go back to the simulation, written by
+    /// `shatter rigid`.
+    Reentry,
 }
 
 impl StageKind {
     /// Every kind this build knows.
-    pub const ALL: [StageKind; 5] = [
+    pub const ALL: [StageKind; 6] = [
         StageKind::Particles,
         StageKind::Checkpoint,
         StageKind::Fragments,
         StageKind::LeadIn,
         StageKind::RigidCheckpoint,
+        StageKind::Reentry,
     ];
 
     /// The four-byte tag in the header.
@@ -71,6 +75,7 @@ impl StageKind {
             StageKind::Fragments => *b"FRAG",
             StageKind::LeadIn => *b"LEAD",
             StageKind::RigidCheckpoint => *b"RIGD",
+            StageKind::Reentry => *b"RENT",
         }
     }
 
@@ -79,7 +84,7 @@ impl StageKind {
         match self {
             // particles 2: trimtopes carry the parts of their faces inside the mesh
             StageKind::Particles => 2,
-            StageKind::Checkpoint | StageKind::Fragments | StageKind::LeadIn | StageKind::RigidCheckpoint => 1,
+            _ => 1,
         }
     }
 
@@ -91,6 +96,7 @@ impl StageKind {
             StageKind::Fragments => "fragments",
             StageKind::LeadIn => "lead-in",
             StageKind::RigidCheckpoint => "rigid checkpoint",
+            StageKind::Reentry => "re-entry",
         }
     }
 

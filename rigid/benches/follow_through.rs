@@ -30,7 +30,7 @@ use shatter_core::particles::ParticleSet;
 use shatter_core::rigid_checkpoint::RigidCheckpoint;
 use shatter_core::{OutputLayout, PipelineConfig};
 use shatter_geometry::PointKdTree;
-use shatter_rigid::rigid_driver::hand_over;
+use shatter_rigid::hand_over;
 use shatter_rigid::shapes::ElementGeometry;
 
 const FRAME_S: f64 = 1.0 / 24.0;

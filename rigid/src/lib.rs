@@ -10,20 +10,25 @@
 //! - [`world`]: the rapier world: pieces, floor, projectiles; stepping; snapshots.
 //! - [`lead_in_driver`]: the `shatter lead-in` stage: the intact body's flight to its first
 //!   contact.
-//! - [`handoff`]: when the fracture has quieted.
+//! - [`handoff`]: when the fracture has quieted; [`hand_over`]: particles to bodies.
+//! - [`reentries`]: pieces that hit hard go back to the simulation and return broken.
 //! - [`rigid_driver`]: the `shatter rigid` stage: handoff, frames, checkpoints, resume.
 //! - [`shot_usd`]: the USD of the whole shot, lead-in to rest.
 
 mod contact_rules;
+mod hand_over;
 mod handoff;
 mod lead_in_driver;
 pub mod mass;
 mod plane_contacts;
-pub mod rigid_driver;
+mod reentries;
+mod rigid_driver;
 pub mod shapes;
 mod shot_usd;
 mod velocity_fit;
 pub mod world;
 
+pub use hand_over::hand_over;
 pub use lead_in_driver::{LeadInReport, run_lead_in};
-pub use rigid_driver::{RigidError, RigidReport, run_rigid};
+pub use reentries::{ReentryReport, ReentryState};
+pub use rigid_driver::{RigidError, RigidReport, checkpoint_world, run_rigid};

@@ -5,7 +5,9 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use rapier3d_f64::math::{Matrix, Rotation, Vector};
+use rapier3d_f64::math::{Rotation, Vector};
+use serde::{Deserialize, Serialize};
+
 use shatter_core::config::RigidConfig;
 use shatter_core::digest;
 use shatter_core::fragments::{FragmentFrame, FragmentMeta, compose_affine_with_motion};
@@ -21,12 +23,11 @@ use shatter_core::stage_file::StageFileError;
 use shatter_core::timeline::Timeline;
 use shatter_core::{OutputLayout, PipelineConfig, Progress};
 
-use crate::handoff::{cracks_stopped, members_of_pieces, pieces_calm};
-use crate::mass::{element_mass_props, piece_mass_props};
-use crate::shapes::ElementGeometry;
+use crate::hand_over::{hand_over, vectors};
+use crate::handoff::{cracks_stopped, pieces_calm};
+use crate::reentries::{Reentries, ReentryReport, ReentryState, Stop};
 use crate::shot_usd::write_shot_usd;
-use crate::velocity_fit::{ParticleMotion, fit, momenta};
-use crate::world::{KinematicSphere, PieceBody, RigidWorld, WorldSettings};
+use crate::world::{KinematicSphere, RigidWorld, WorldSettings};
 
 /// Why the follow-through failed.
 #[derive(Debug, thiserror::Error)]
@@ -95,6 +96,11 @@ pub struct RigidReport {
     pub deepest_overlap_m: f64,
     /// Handoff bookkeeping (fresh runs only).
     pub conservation: Option<Conservation>,
+    /// The re-entries whose pieces came back in this run.
+    pub reentries: Vec<ReentryReport>,
+    /// The re-entry whose simulation and post must run before the follow-through can go on:
+    /// the run stopped there (see [`crate::reentries`]).
+    pub awaiting_reentry: Option<u32>,
     /// Wall time, seconds.
     pub wall_s: f64,
 }
@@ -130,16 +136,14 @@ pub fn run_rigid(config: &PipelineConfig, resume: bool, progress: &dyn Progress)
     let inputs = digest::rigid_inputs(post_inputs, config);
     let clock = Clock::of(config, rigid, &layout)?;
     let last_frame = clock.last_frame;
+    let with_reentries = rigid.secondary_fracture.as_ref().is_some_and(|s| s.enabled());
 
     let previous = resume.then(|| RigidCheckpoint::read(&layout.rigid_checkpoint()).ok()).flatten();
-    let (mut world, meta, handoff, conservation, reason) = match previous {
+    let (mut world, meta, handoff, conservation, reason, saved_state) = match previous {
         Some(checkpoint) if checkpoint.meta.inputs == inputs && checkpoint.meta.last_frame == last_frame => {
-            let world = RigidWorld::restore(&checkpoint.world).map_err(|error| RigidError::Snapshot {
-                path: layout.rigid_checkpoint(),
-                what: format!("cannot restore the rigid world: {error}"),
-            })?;
+            let (world, state) = restore(&layout, &checkpoint.world, with_reentries)?;
             let handoff = read_fragments(&layout, checkpoint.meta.handoff_frame, &particles, post_inputs)?;
-            (world, checkpoint.meta, handoff, None, "resumed".to_string())
+            (world, checkpoint.meta, handoff, None, "resumed".to_string(), state)
         }
         _ => {
             let (frame, reason) =
@@ -156,53 +160,123 @@ pub fn run_rigid(config: &PipelineConfig, resume: bool, progress: &dyn Progress)
                 asleep: false,
                 inputs,
             };
-            (world, meta, handoff, Some(conservation), reason)
+            (world, meta, handoff, Some(conservation), reason, None)
         }
     };
-    let mut meta = meta;
-    let total = last_frame - meta.frame;
-    progress.start("rigid", u64::from(total));
-    let mut asleep_from = None;
-    let first = meta.frame + 1;
-    for frame in first..=last_frame {
-        if !meta.asleep {
-            meta.steps += world.advance(clock.step_s(&meta, frame), rigid.max_step_s);
-            meta.asleep = world.all_asleep();
-        }
-        if meta.asleep && asleep_from.is_none() {
-            asleep_from = Some(frame);
-        }
-        let time_s = clock.time_s(&meta, frame);
-        rigid_frame(&handoff, &world, frame, time_s, inputs).write(&layout.rigid_fragments(frame))?;
-        meta.frame = frame;
-        if (frame - meta.handoff_frame).is_multiple_of(rigid.checkpoint_every_frames) || frame == last_frame {
-            write_checkpoint(&layout, &meta, &world)?;
-        }
-        progress.advance(1);
-        progress
-            .message(&format!("frame {frame}/{last_frame}{}", if meta.asleep { ", every piece asleep" } else { "" }));
-    }
-    let awake_at_end = world.awake_pieces().len();
-    if first > last_frame {
-        write_checkpoint(&layout, &meta, &world)?;
-    }
-    progress.finish();
-    if config.post.usd {
-        write_shot_usd(config, &layout, &particles, &handoff, &clock.sim_frames)?;
-    }
-    Ok(RigidReport {
+    let mut reentries = Reentries::new(config, &layout, &particles, &handoff, inputs)?;
+    let mut report = RigidReport {
         handoff_frame: meta.handoff_frame,
         handoff_time_s: meta.handoff_time_s,
         handoff_reason: reason,
         last_frame,
         pieces: handoff.fragment_count(),
-        frames_written: last_frame + 1 - first,
-        asleep_from,
-        awake_at_end,
-        deepest_overlap_m: world.deepest_penetration_m(),
+        frames_written: 0,
+        asleep_from: None,
+        awake_at_end: 0,
+        deepest_overlap_m: 0.0,
         conservation,
-        wall_s: started.elapsed().as_secs_f64(),
-    })
+        reentries: Vec::new(),
+        awaiting_reentry: None,
+        wall_s: 0.0,
+    };
+    if let (Some(reentries), Some(state)) = (&mut reentries, saved_state) {
+        report.awaiting_reentry = reentries.resume(state)?;
+    }
+    let mut meta = meta;
+    let first = meta.frame + 1;
+    if report.awaiting_reentry.is_none() {
+        let run = FrameRun { layout: &layout, clock: &clock, rigid, inputs, progress };
+        report.awaiting_reentry = run.frames(&mut world, &mut meta, &handoff, reentries.as_mut(), &mut report)?;
+    }
+    report.frames_written = meta.frame + 1 - first;
+    report.awake_at_end = world.awake_pieces().len();
+    report.deepest_overlap_m = world.deepest_penetration_m();
+    // the pieces as re-entries left them: the shot's USD has a mesh for each, which before its
+    // split moves with the piece that held it
+    let pieces = reentries.as_ref().map_or(&handoff, |reentries| &reentries.table);
+    report.pieces = pieces.fragment_count();
+    if report.awaiting_reentry.is_none() {
+        if first > last_frame {
+            write_checkpoint(&layout, &meta, &world, reentries.as_ref().map(|r| &r.state))?;
+        }
+        if config.post.usd {
+            write_shot_usd(config, &layout, &particles, pieces, &clock.sim_frames)?;
+        }
+    }
+    if let Some(reentries) = reentries {
+        report.reentries = reentries.reports;
+    }
+    report.wall_s = started.elapsed().as_secs_f64();
+    Ok(report)
+}
+
+/// What the frame loop of a run shares.
+struct FrameRun<'a> {
+    layout: &'a OutputLayout,
+    clock: &'a Clock,
+    rigid: &'a RigidConfig,
+    inputs: u32,
+    progress: &'a dyn Progress,
+}
+
+impl FrameRun<'_> {
+    /// Simulates and writes the frames after `meta.frame`; stops early at a re-entry whose
+    /// simulation has not run yet, and returns its number.
+    fn frames(
+        &self,
+        world: &mut RigidWorld,
+        meta: &mut RigidMeta,
+        handoff: &FragmentFrame,
+        mut reentries: Option<&mut Reentries>,
+        report: &mut RigidReport,
+    ) -> Result<Option<u32>, RigidError> {
+        let last_frame = meta.last_frame;
+        self.progress.start("rigid", u64::from(last_frame - meta.frame));
+        for frame in meta.frame + 1..=last_frame {
+            let time_s = self.clock.time_s(meta, frame);
+            let poses = match reentries.as_deref_mut() {
+                None => {
+                    if !meta.asleep {
+                        meta.steps += world.advance(self.clock.step_s(meta, frame), self.rigid.max_step_s);
+                        meta.asleep = world.all_asleep();
+                    }
+                    world.poses()
+                }
+                Some(reentries) => {
+                    if !meta.asleep || !reentries.state.active.is_empty() {
+                        while let Stop::Started(number) = reentries.step_to(world, time_s, frame, &mut meta.steps)? {
+                            meta.frame = frame - 1;
+                            let bytes = write_checkpoint(self.layout, meta, world, Some(&reentries.state))?;
+                            // continue from the checkpoint's world, as a resumed run does
+                            *world = restore(self.layout, &bytes, true)?.0;
+                            if reentries.load_active()?.is_some() {
+                                self.progress.finish();
+                                return Ok(Some(number));
+                            }
+                        }
+                        meta.asleep = world.all_asleep() && reentries.state.active.is_empty();
+                    }
+                    reentries.frame_poses(world, time_s)?
+                }
+            };
+            if meta.asleep && report.asleep_from.is_none() {
+                report.asleep_from = Some(frame);
+            }
+            let table = reentries.as_deref().map_or(handoff, |reentries| &reentries.table);
+            rigid_frame(table, &poses, frame, time_s, self.inputs).write(&self.layout.rigid_fragments(frame))?;
+            meta.frame = frame;
+            if (frame - meta.handoff_frame).is_multiple_of(self.rigid.checkpoint_every_frames) || frame == last_frame {
+                write_checkpoint(self.layout, meta, world, reentries.as_deref().map(|r| &r.state))?;
+            }
+            self.progress.advance(1);
+            self.progress.message(&format!(
+                "frame {frame}/{last_frame}{}",
+                if meta.asleep { ", every piece asleep" } else { "" }
+            ));
+        }
+        self.progress.finish();
+        Ok(None)
+    }
 }
 
 /// When the follow-through's frames fall: a frame interval apart at real speed without
@@ -278,18 +352,67 @@ pub(crate) fn open_particles(config: &PipelineConfig) -> Result<(OutputLayout, P
     Ok((layout, particles, particles_checksum))
 }
 
-fn write_checkpoint(layout: &OutputLayout, meta: &RigidMeta, world: &RigidWorld) -> Result<(), RigidError> {
+/// A checkpoint's world, and the re-entries' state beside it when the shot has them.
+#[derive(Serialize, Deserialize)]
+struct WithReentries {
+    world: Vec<u8>,
+    reentries: ReentryState,
+}
+
+/// Writes the checkpoint; returns its world's bytes.
+fn write_checkpoint(
+    layout: &OutputLayout,
+    meta: &RigidMeta,
+    world: &RigidWorld,
+    reentries: Option<&ReentryState>,
+) -> Result<Vec<u8>, RigidError> {
     let path = layout.rigid_checkpoint();
-    let bytes = world.snapshot().map_err(|error| RigidError::Snapshot {
+    let failed = |error: rmp_serde::encode::Error| RigidError::Snapshot {
         path: path.clone(),
         what: format!("cannot serialise the rigid world: {error}"),
-    })?;
-    RigidCheckpoint { meta: meta.clone(), world: bytes }.write(&path)?;
-    Ok(())
+    };
+    let mut bytes = world.snapshot().map_err(failed)?;
+    if let Some(state) = reentries {
+        bytes = rmp_serde::to_vec_named(&WithReentries { world: bytes, reentries: state.clone() }).map_err(failed)?;
+    }
+    RigidCheckpoint { meta: meta.clone(), world: bytes.clone() }.write(&path)?;
+    Ok(bytes)
+}
+
+/// The world of a checkpoint's bytes, with the re-entries' state when it has one (for
+/// `shatter inspect`, which does not know the scene's settings).
+pub fn checkpoint_world(bytes: &[u8]) -> Result<(RigidWorld, Option<ReentryState>), String> {
+    match RigidWorld::restore(bytes) {
+        Ok(world) => Ok((world, None)),
+        Err(error) => {
+            let saved: WithReentries = rmp_serde::from_slice(bytes).map_err(|_| error.to_string())?;
+            Ok((RigidWorld::restore(&saved.world).map_err(|e| e.to_string())?, Some(saved.reentries)))
+        }
+    }
+}
+
+/// The world (and with `with_reentries` the re-entries' state) of a checkpoint's bytes.
+fn restore(
+    layout: &OutputLayout,
+    bytes: &[u8],
+    with_reentries: bool,
+) -> Result<(RigidWorld, Option<ReentryState>), RigidError> {
+    let failed = |what: String| RigidError::Snapshot {
+        path: layout.rigid_checkpoint(),
+        what: format!("cannot restore the rigid world: {what}"),
+    };
+    let (world, state) = match with_reentries {
+        false => (RigidWorld::restore(bytes), None),
+        true => {
+            let saved: WithReentries = rmp_serde::from_slice(bytes).map_err(|e| failed(e.to_string()))?;
+            (RigidWorld::restore(&saved.world), Some(saved.reentries))
+        }
+    };
+    Ok((world.map_err(|e| failed(e.to_string()))?, state))
 }
 
 /// Post's fragments of `frame`, checked against the particle file and post's inputs.
-fn read_fragments(
+pub(crate) fn read_fragments(
     layout: &OutputLayout,
     frame: u32,
     particles: &ParticleSet,
@@ -311,7 +434,7 @@ fn read_fragments(
 }
 
 /// The handoff frame and why (see [`crate::handoff`]).
-fn choose_handoff(
+pub(crate) fn choose_handoff(
     config: &PipelineConfig,
     rigid: &RigidConfig,
     simulated: u32,
@@ -348,79 +471,6 @@ fn choose_handoff(
         }
     }
     Ok((simulated, "the last simulated frame (the cracks never quieted)".into()))
-}
-
-fn vectors(points: &PointFrame) -> (Vec<Vector>, Vec<Vector>) {
-    let vector = |c: &[Vec<f32>; 3], i: usize| Vector::new(f64::from(c[0][i]), f64::from(c[1][i]), f64::from(c[2][i]));
-    let n = points.damage.len();
-    ((0..n).map(|i| vector(&points.position, i)).collect(), (0..n).map(|i| vector(&points.velocity, i)).collect())
-}
-
-/// The rigid world at the handoff: one body per fragment of `handoff` (posed as it says), with
-/// the momenta of the particles in `points`; and how well they were kept.
-pub fn hand_over(
-    config: &PipelineConfig,
-    rigid: &RigidConfig,
-    particles: &ParticleSet,
-    handoff: &FragmentFrame,
-    points: &PointFrame,
-) -> (RigidWorld, Conservation) {
-    let density = config.material.density_kg_m3;
-    let elements = element_mass_props(particles, density);
-    let pieces = handoff.fragment_count();
-    let rest = piece_mass_props(&elements, &handoff.fragment_of, pieces);
-    let geometry = ElementGeometry::of(particles);
-    let (position, velocity) = vectors(points);
-    let mass: Vec<f64> = elements.iter().map(|e| e.mass_kg).collect();
-    let members = members_of_pieces(&handoff.fragment_of, pieces);
-    let mut bodies = Vec::with_capacity(pieces);
-    let mut conservation = Conservation {
-        momentum_error: 0.0,
-        angular_momentum_error: 0.0,
-        particle_energy_j: 0.0,
-        rigid_part_j: 0.0,
-        body_energy_j: 0.0,
-    };
-    let (mut particle_p, mut particle_l, mut body_p, mut body_l) =
-        (Vector::ZERO, Vector::ZERO, Vector::ZERO, Vector::ZERO);
-    for (piece, members) in members.iter().enumerate() {
-        let q = handoff.rotation[piece].map(f64::from);
-        let rotation = Rotation::from_xyzw(q[0], q[1], q[2], q[3]).normalize();
-        let translation = Vector::from_array(handoff.translation_m[piece]);
-        let r = Matrix::from_quat(rotation);
-        let centre = rotation * rest[piece].centre_m + translation;
-        let inertia = r * rest[piece].inertia() * r.transpose();
-        let m: Vec<f64> = members.iter().map(|&i| mass[i as usize]).collect();
-        let x: Vec<Vector> = members.iter().map(|&i| position[i as usize]).collect();
-        let v: Vec<Vector> = members.iter().map(|&i| velocity[i as usize]).collect();
-        let motion = ParticleMotion { mass_kg: &m, position_m: &x, velocity_m_s: &v };
-        let fitted = fit(&motion, centre, inertia);
-        let (p, l) = momenta(&motion);
-
-        particle_p += p;
-        particle_l += l;
-        body_p += fitted.linear_m_s * rest[piece].mass_kg;
-        body_l += inertia * fitted.angular_rad_s + centre.cross(fitted.linear_m_s * rest[piece].mass_kg);
-        conservation.particle_energy_j += fitted.particle_energy_j;
-        conservation.rigid_part_j += fitted.rigid_part_j;
-        conservation.body_energy_j += fitted.body_energy_j;
-        bodies.push(PieceBody {
-            mass: rest[piece],
-            rotation,
-            translation_m: translation,
-            linear_m_s: fitted.linear_m_s,
-            angular_rad_s: fitted.angular_rad_s,
-            shape: geometry.piece_shape(members, rigid.hull_volume_factor).shared_shape(),
-            dust: members.len() <= rigid.dust_max_elements as usize,
-        });
-    }
-    let relative = |a: Vector, b: Vector| if b.length() > 0.0 { (a - b).length() / b.length() } else { a.length() };
-    conservation.momentum_error = relative(body_p, particle_p);
-    conservation.angular_momentum_error = relative(body_l, particle_l);
-    let spheres = kinematic_spheres(config, handoff.meta.time_s);
-    let settings = world_settings(config, rigid, particles.meta.lambda_m);
-    let floor = config.sim.floor.as_ref().map(|floor| floor.height_m);
-    (RigidWorld::new(&settings, floor, &spheres, &bodies), conservation)
 }
 
 /// The rigid world's settings for a shot of particles `lambda_m` apart.
@@ -460,26 +510,33 @@ pub(crate) fn kinematic_spheres(config: &PipelineConfig, time_s: f64) -> Vec<Kin
 /// piece.
 pub const LENGTH_UNIT_SPACINGS: f64 = 10.0;
 
-/// The fragments file of a rigid frame: the handoff's fragments at the bodies' poses.
-fn rigid_frame(handoff: &FragmentFrame, world: &RigidWorld, frame: u32, time_s: f64, inputs: u32) -> FragmentFrame {
-    let poses = world.poses();
+/// The fragments file of a rigid frame: the pieces of `table` (the handoff's, or as re-entries
+/// left them) at `poses`.
+fn rigid_frame(
+    table: &FragmentFrame,
+    poses: &[(Rotation, Vector)],
+    frame: u32,
+    time_s: f64,
+    inputs: u32,
+) -> FragmentFrame {
     FragmentFrame {
-        meta: FragmentMeta { frame, step: handoff.meta.step, time_s, smoothed: false, inputs: Some(inputs) },
-        fragment_of: handoff.fragment_of.clone(),
+        meta: FragmentMeta { frame, step: table.meta.step, time_s, smoothed: false, inputs: Some(inputs) },
+        fragment_of: table.fragment_of.clone(),
         rotation: poses.iter().map(|(r, _)| [r.x as f32, r.y as f32, r.z as f32, r.w as f32]).collect(),
         translation_m: poses.iter().map(|(_, t)| t.to_array()).collect(),
-        elements: handoff.elements.clone(),
-        mass_kg: handoff.mass_kg.clone(),
-        // deformed elements keep the handoff's shapes and move with their bodies since then
-        element_affine: handoff.element_affine.as_ref().map(|affine| {
+        elements: table.elements.clone(),
+        mass_kg: table.mass_kg.clone(),
+        // deformed elements keep the shapes they had when their piece became rigid and move
+        // with their bodies since then
+        element_affine: table.element_affine.as_ref().map(|affine| {
             affine
                 .iter()
-                .zip(&handoff.fragment_of)
+                .zip(&table.fragment_of)
                 .map(|(map, &f)| {
                     let f = f as usize;
                     let (r, t) = &poses[f];
                     let to = ([r.x as f32, r.y as f32, r.z as f32, r.w as f32], t.to_array());
-                    compose_affine_with_motion(map, (handoff.rotation[f], handoff.translation_m[f]), to)
+                    compose_affine_with_motion(map, (table.rotation[f], table.translation_m[f]), to)
                 })
                 .collect()
         }),

@@ -1,7 +1,8 @@
 //! The USD of a shot with a follow-through, `rigid/shot.usda`: every frame of the shot, from
-//! the lead-in's first to the follow-through's last, one mesh per piece of the handoff (the
-//! follow-through's rigid bodies), each with the transform of the fragment that holds it in
-//! each frame's fragments file, so a DCC reads the follow-through exactly as the simulated
+//! the lead-in's first to the follow-through's last, one mesh per piece of the follow-through
+//! (its rigid bodies: the handoff's, or the parts a re-entry broke them into), each with the
+//! transform of the fragment that holds it in each frame's fragments file (so a part moves with
+//! the piece it broke from until it breaks off), so a DCC reads the follow-through exactly as the simulated
 //! frames; with post's debris points at the simulated frames and each frame's physical time.
 
 use shatter_core::debris_points::{DebrisFrame, read_point_cache};
@@ -15,18 +16,19 @@ use shatter_core::{OutputLayout, ParticleSet, PipelineConfig};
 
 use crate::rigid_driver::RigidError;
 
-/// Writes `layout.rigid_usd()` for the finished follow-through whose pieces are `handoff`'s.
+/// Writes `layout.rigid_usd()` for the finished follow-through whose pieces at its end are
+/// `last`'s.
 pub(crate) fn write_shot_usd(
     config: &PipelineConfig,
     layout: &OutputLayout,
     particles: &ParticleSet,
-    handoff: &FragmentFrame,
+    last: &FragmentFrame,
     sim_frames: &SimFrames,
 ) -> Result<(), RigidError> {
     let shot = Shot::of(config, layout).map_err(RigidError::Input)?;
-    let pieces = handoff.fragment_count();
-    let meshes = piece_surfaces(particles, &handoff.fragment_of, pieces);
-    let elements = element_of_pieces(&handoff.fragment_of, pieces);
+    let pieces = last.fragment_count();
+    let meshes = piece_surfaces(particles, &last.fragment_of, pieces);
+    let elements = element_of_pieces(&last.fragment_of, pieces);
     let mut transforms = Vec::with_capacity(shot.last as usize);
     let mut debris = Vec::with_capacity(shot.last as usize);
     // physical m/s to metres per playback second at the simulated frames (the others emit none)

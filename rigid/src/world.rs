@@ -12,6 +12,11 @@ use crate::contact_rules::{ContactRules, pair_depth, pair_key};
 use crate::mass::MassProps;
 use crate::plane_contacts;
 
+mod impacts;
+mod piece_swaps;
+
+pub use impacts::{Impact, ImpactWatch, Stepped, Struck, critical_speed_m_s};
+
 /// Half the floor slab's width, metres: far beyond any shot.
 const FLOOR_HALF_WIDTH_M: f64 = 1.0e3;
 /// Half the floor slab's thickness, metres: nothing falls through a metre of floor.
@@ -269,26 +274,61 @@ impl RigidWorld {
 
     /// Advances `duration_s` in equal steps no longer than `max_step_s`; returns the steps taken.
     pub fn advance(&mut self, duration_s: f64, max_step_s: f64) -> u64 {
-        let steps = (duration_s / max_step_s).ceil().max(1.0);
-        let dt = duration_s / steps;
-        self.world.integration_parameters.dt = dt;
+        let steps = self.step_for(duration_s, max_step_s, None).steps;
+        self.end_interval(duration_s);
+        steps
+    }
+
+    /// Steps through `duration_s` in equal steps no longer than `max_step_s`; with `watch`,
+    /// stops after the first step in which a watched piece hits something hard. Call
+    /// [`RigidWorld::end_interval`] after the interval's last step.
+    pub fn step_for(&mut self, duration_s: f64, max_step_s: f64, watch: Option<&ImpactWatch>) -> Stepped {
+        let steps = (duration_s / max_step_s).ceil().max(1.0) as u64;
+        let dt_s = duration_s / steps as f64;
+        self.set_step(dt_s);
+        for step in 1..=steps {
+            let before = watch.map(|watch| self.motions_of(watch));
+            self.world.step_with_events(&self.rules, &());
+            self.rules.shrink_allowances(&self.world.narrow_phase);
+            if let (Some(watch), Some(before)) = (watch, before)
+                && let Some(impact) = self.hardest_impact(watch, &before)
+            {
+                return Stepped { steps: step, dt_s, impact: Some(impact) };
+            }
+        }
+        Stepped { steps, dt_s, impact: None }
+    }
+
+    /// Takes `steps` steps of exactly `dt_s` (the steps a [`RigidWorld::step_for`] took before
+    /// its impact, replayed from the same world).
+    pub fn step_exactly(&mut self, dt_s: f64, steps: u64) {
+        self.set_step(dt_s);
+        for _ in 0..steps {
+            self.world.step_with_events(&self.rules, &());
+            self.rules.shrink_allowances(&self.world.narrow_phase);
+        }
+    }
+
+    /// Sets the step length and the contacts' stiffness that goes with it.
+    fn set_step(&mut self, dt_s: f64) {
+        self.world.integration_parameters.dt = dt_s;
         // stiffer contacts than rapier's defaults (30 Hz between bodies, 60 Hz against the
         // floor): a pile of small pieces under gravity sinks into itself by hundredths of a
         // millimetre, not millimetres, and a light piece under a heavy shard is not pressed
         // into the floor; capped where the substeps would make them unstable
-        let substep_rate_hz = self.world.integration_parameters.num_solver_iterations as f64 / dt;
+        let substep_rate_hz = self.world.integration_parameters.num_solver_iterations as f64 / dt_s;
         let frequency_hz = CONTACT_FREQUENCY_HZ.min(substep_rate_hz / 8.0);
         self.world.integration_parameters.contact_softness.natural_frequency = frequency_hz;
         self.world.integration_parameters.static_contact_softness.natural_frequency = 2.0 * frequency_hz;
-        for _ in 0..steps as u64 {
-            self.world.step_with_events(&self.rules, &());
-            self.rules.shrink_allowances(&self.world.narrow_phase);
-        }
+    }
+
+    /// What follows an interval of `duration_s` of steps: pieces outside the region retired,
+    /// still piles put to sleep, touching pieces' spin damped.
+    pub fn end_interval(&mut self, duration_s: f64) {
         let (touching, piles) = self.contacts();
         self.retire_outside_bounds(&touching);
         self.settle(duration_s, piles);
         self.resist_rolling(&touching);
-        steps as u64
     }
 
     /// Which pieces touch anything (the floor, a sphere, another piece), and the piles that

@@ -37,7 +37,7 @@ pub fn threshold_factors(sim: &SimConfig, particles: &ParticleSet, seed: u64) ->
                 rest.len()
             )));
         }
-        rules.push(Box::new(shard_rule(shards, &rest, seed)));
+        rules.push(Box::new(shard_rule(shards, particles, &rest, seed)));
     }
     let bonds = &particles.bonds;
     let mut factors = vec![1.0f32; bonds.neighbor.len()];
@@ -203,19 +203,21 @@ fn segment_crosses_triangle(p: DVec3, q: DVec3, [a, b, c]: [DVec3; 3]) -> bool {
     (0.0..=1.0).contains(&u) && v >= 0.0 && u + v <= 1.0 && (0.0..=1.0).contains(&t)
 }
 
-/// Shards: `count` particles chosen by hashed rank become centres; each particle joins the nearest.
-fn shard_rule(shards: &ShardsConfig, rest: &[DVec3], seed: u64) -> impl Fn(usize, usize) -> f64 + Sync {
-    let count = shards.count as usize;
-    let mut ranked: Vec<(u64, usize)> =
-        (0..rest.len()).map(|i| (splitmix64(seed ^ splitmix64(i as u64) ^ 0x5a4d), i)).collect();
-    ranked.select_nth_unstable(count.saturating_sub(1));
-    let mut centres: Vec<usize> = ranked[..count].iter().map(|(_, i)| *i).collect();
-    centres.sort_unstable();
+/// Shards: each particle joins the nearest centre ([`ShardsConfig::centres`]: `count` particles
+/// chosen by hashed rank, or the centres the config gives).
+fn shard_rule(
+    shards: &ShardsConfig,
+    particles: &ParticleSet,
+    rest: &[DVec3],
+    seed: u64,
+) -> impl Fn(usize, usize) -> f64 + Sync {
+    let centres: Vec<DVec3> =
+        shards.centres(&particles.rest_position_m, seed).into_iter().map(DVec3::from_array).collect();
     let shard: Vec<u32> = rest
         .par_iter()
         .map(|p| {
             (0..centres.len())
-                .min_by(|a, b| p.distance_squared(rest[centres[*a]]).total_cmp(&p.distance_squared(rest[centres[*b]])))
+                .min_by(|a, b| p.distance_squared(centres[*a]).total_cmp(&p.distance_squared(centres[*b])))
                 .unwrap_or(0) as u32
         })
         .collect();

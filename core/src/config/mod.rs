@@ -19,6 +19,8 @@ mod relative_paths;
 pub mod render;
 pub mod rigid;
 mod scene;
+pub mod secondary_fracture;
+mod shards;
 pub mod sim;
 pub mod timeline;
 
@@ -34,5 +36,6 @@ pub use post::PostConfig;
 pub use render::RenderConfig;
 pub use rigid::RigidConfig;
 pub use scene::{MAX_FRAMES_PER_SECOND, MAX_SCENE_NAME_BYTES, SceneConfig};
+pub use secondary_fracture::SecondaryFractureConfig;
 pub use sim::SimConfig;
 pub use timeline::TimelineConfig;

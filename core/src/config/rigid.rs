@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use super::ConfigError;
 use super::checker::Checker;
+use super::secondary_fracture::SecondaryFractureConfig;
 
 /// `[rigid]`. Present, `shatter rigid` hands the fragments over to rigid bodies at the first
 /// frame that the handoff rule picks and simulates `follow_through_s` more seconds.
@@ -76,6 +77,10 @@ pub struct RigidConfig {
     pub rolling_resistance_m_s2: f64,
     /// A checkpoint (the rapier world, for resume) is written every this many frames.
     pub checkpoint_every_frames: u32,
+    /// `[rigid.secondary_fracture]`: hard impacts send pieces back to the simulation; absent,
+    /// pieces stay whole.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub secondary_fracture: Option<SecondaryFractureConfig>,
 }
 
 impl Default for RigidConfig {
@@ -101,6 +106,7 @@ impl Default for RigidConfig {
             rolling_damping_per_s: 4.0,
             rolling_resistance_m_s2: 0.2,
             checkpoint_every_frames: 24,
+            secondary_fracture: None,
         }
     }
 }
@@ -157,6 +163,9 @@ impl RigidConfig {
                 &shown,
                 || "must be [[x, y, z], [x, y, z]]: the lowest corner, then the highest, finite and apart on every axis".into(),
             )?;
+        }
+        if let Some(secondary) = &self.secondary_fracture {
+            secondary.validate(check)?;
         }
         let every = self.checkpoint_every_frames;
         check.that(every >= 1, "rigid.checkpoint_every_frames", &every.to_string(), || "must be at least 1".into())

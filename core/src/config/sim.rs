@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use super::ConfigError;
 use super::checker::Checker;
+pub use super::shards::ShardsConfig;
 
 /// The most frames a simulation may write.
 pub const MAX_FRAMES: u32 = 1_000_000;
@@ -385,30 +386,6 @@ pub struct SeamConfig {
     pub threshold_factor: f64,
 }
 
-/// `[sim.shards]`: `count` shard centres are picked among the particles (seeded); each particle
-/// belongs to the nearest; thresholds of bonds inside a shard are multiplied by `inside_factor`,
-/// across shards by `across_factor`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ShardsConfig {
-    /// Number of shards.
-    pub count: u32,
-    /// Threshold multiplier for bonds within a shard.
-    #[serde(default = "default_inside_factor")]
-    pub inside_factor: f64,
-    /// Threshold multiplier for bonds between shards.
-    #[serde(default = "default_across_factor")]
-    pub across_factor: f64,
-}
-
-fn default_inside_factor() -> f64 {
-    2.0
-}
-
-fn default_across_factor() -> f64 {
-    0.5
-}
-
 impl SimConfig {
     /// Resolves relative paths (seam meshes) against the config file's folder.
     pub(super) fn resolve_paths(&mut self, base: &std::path::Path) {
@@ -581,6 +558,14 @@ impl SimConfig {
             })?;
             check.positive("sim.shards.inside_factor", shards.inside_factor, "a multiplier")?;
             check.positive("sim.shards.across_factor", shards.across_factor, "a multiplier")?;
+            let centres = shards.centres_m.len();
+            check.that(
+                centres == 0
+                    || (centres == shards.count as usize && shards.centres_m.iter().flatten().all(|c| c.is_finite())),
+                "sim.shards.centres_m",
+                &format!("({centres} centres)"),
+                || format!("must be empty or sim.shards.count ({}) finite points", shards.count),
+            )?;
         }
         Ok(())
     }

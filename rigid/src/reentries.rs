@@ -1,0 +1,551 @@
+//! Pieces that break again (`[rigid.secondary_fracture]`): the follow-through watches the
+//! contacts of every piece of at least `min_elements` elements; at a hard one (see
+//! [`crate::world::critical_speed_m_s`]) it steps back to the step before, takes the piece out of
+//! the rigid world and writes it as a re-entry for the simulation: `rigid/reentry.###.shp`, the
+//! piece's particles and intact bonds as a particle file of their own and its rigid motion as a
+//! lead-in handoff, both in `reentry/###/`. Once the simulation and post have run there
+//! ([`shatter_core::reentry::pass_config`]), the handoff rule picks the re-entry's end, and the
+//! pieces it broke into come back as rigid bodies at that time: the largest keeps the piece's id,
+//! the others take new ids after the last. The other pieces fly on meanwhile.
+
+use rapier3d_f64::math::{Rotation, Vector};
+use serde::{Deserialize, Serialize};
+use shatter_core::config::{RigidConfig, SecondaryFractureConfig};
+use shatter_core::fragments::{AFFINE_RIGID, FragmentFrame};
+use shatter_core::frames::{BreakLog, PointFrame};
+use shatter_core::lead_in::LeadIn;
+use shatter_core::reentry::{Reentry, ReentryMeta, pass_config};
+use shatter_core::sim_frames::SimFrames;
+use shatter_core::{OutputLayout, ParticleSet, PipelineConfig, digest};
+
+use crate::hand_over::{Balance, MemberMotion, PieceMaker, conservation, vectors};
+use crate::handoff::members_of_pieces;
+use crate::rigid_driver::{Conservation, RigidError, choose_handoff, read_fragments, world_settings};
+use crate::world::{Impact, ImpactWatch, RigidWorld, Struck, WorldSettings, critical_speed_m_s};
+
+/// What the follow-through keeps of its re-entries between runs (in its checkpoint).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ReentryState {
+    /// The rigid world's time, seconds since the simulation's start.
+    pub time_s: f64,
+    /// Re-entries started.
+    pub started: u32,
+    /// Started and not yet back, in the order they started.
+    pub active: Vec<u32>,
+    /// Back, in the order they came back.
+    pub returned: Vec<u32>,
+}
+
+/// What a re-entry's return did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReentryReport {
+    /// Its number.
+    pub number: u32,
+    /// The piece that went back.
+    pub piece: u32,
+    /// What it hit.
+    pub hit: String,
+    /// The approach speed and the threshold it passed, m/s.
+    pub impact_speed_m_s: f64,
+    /// The threshold, m/s.
+    pub threshold_m_s: f64,
+    /// When it went back and when its pieces came back, seconds since the simulation's start.
+    pub start_time_s: f64,
+    /// When its pieces came back.
+    pub return_time_s: f64,
+    /// The pieces it came back as.
+    pub pieces: usize,
+    /// The return's handoff bookkeeping.
+    pub conservation: Conservation,
+}
+
+/// A re-entry's simulation, read back from its folder.
+struct Outcome {
+    reentry: Reentry,
+    /// Its fragments at its handoff (ids local to the re-entry).
+    handoff: FragmentFrame,
+    /// Its particles' positions and velocities there.
+    position_m: Vec<Vector>,
+    velocity_m_s: Vec<Vector>,
+    /// When its pieces come back, seconds since the simulation's start.
+    return_time_s: f64,
+    /// The bonds it broke, as canonical entries of the shot's particle file.
+    broken: Vec<usize>,
+    /// Its folder's layout and each of its frames' time since its start, up to the handoff.
+    layout: OutputLayout,
+    frame_times_s: Vec<f64>,
+}
+
+/// The follow-through's re-entries.
+pub(crate) struct Reentries<'a> {
+    config: &'a PipelineConfig,
+    rigid: &'a RigidConfig,
+    secondary: &'a SecondaryFractureConfig,
+    layout: &'a OutputLayout,
+    particles: &'a ParticleSet,
+    settings: WorldSettings,
+    maker: PieceMaker,
+    threshold_m_s: f64,
+    /// The follow-through's inputs digest.
+    inputs: u32,
+    /// The pieces now: each element's piece, and each piece's pose at which its elements'
+    /// affine maps hold (the handoff's, or its return's).
+    pub(crate) table: FragmentFrame,
+    /// Each bond entry of the shot's particle file, by its canonical index: broken.
+    broken: Vec<bool>,
+    pub(crate) state: ReentryState,
+    /// The active re-entries' outcomes.
+    outcomes: Vec<Outcome>,
+    /// The returns this run made.
+    pub(crate) reports: Vec<ReentryReport>,
+}
+
+/// Where the follow-through stands after stepping.
+pub(crate) enum Stop {
+    /// It reached the time asked for.
+    Reached,
+    /// A re-entry started (the checkpoint must be written now).
+    Started(u32),
+}
+
+impl<'a> Reentries<'a> {
+    /// The re-entries of a follow-through handed over at `handoff` (frame `handoff_frame`):
+    /// none yet, the bonds broken as the simulation left them.
+    pub(crate) fn new(
+        config: &'a PipelineConfig,
+        layout: &'a OutputLayout,
+        particles: &'a ParticleSet,
+        handoff: &FragmentFrame,
+        inputs: u32,
+    ) -> Result<Option<Reentries<'a>>, RigidError> {
+        let Some(rigid) = &config.rigid else { return Ok(None) };
+        let Some(secondary) = rigid.secondary_fracture.as_ref().filter(|s| s.enabled()) else { return Ok(None) };
+        let mut broken = vec![false; particles.bonds.neighbor.len()];
+        for block in BreakLog::read_through(&layout.break_log(), handoff.meta.frame)? {
+            for event in block.events {
+                broken[event.bond as usize] = true;
+            }
+        }
+        let threshold_m_s = secondary.threshold_scale
+            * critical_speed_m_s(
+                config.material.bulk_modulus_pa,
+                config.material.density_kg_m3,
+                particles.meta.mean_critical_stretch,
+            );
+        Ok(Some(Reentries {
+            config,
+            rigid,
+            secondary,
+            layout,
+            particles,
+            settings: world_settings(config, rigid, particles.meta.lambda_m),
+            maker: PieceMaker::new(particles, config.material.density_kg_m3, rigid),
+            threshold_m_s,
+            inputs,
+            table: handoff.clone(),
+            broken,
+            state: ReentryState { time_s: handoff.meta.time_s, started: 0, active: Vec::new(), returned: Vec::new() },
+            outcomes: Vec::new(),
+            reports: Vec::new(),
+        }))
+    }
+
+    /// Continues from a checkpoint's `state`: the returns it made applied again to the pieces
+    /// and bonds (the world has their bodies already), the active re-entries' outcomes read.
+    /// Returns the first active re-entry whose outcome is missing.
+    pub(crate) fn resume(&mut self, state: ReentryState) -> Result<Option<u32>, RigidError> {
+        for &number in &state.returned {
+            let Some(outcome) = self.read_outcome(number)? else {
+                return Err(RigidError::Input(format!(
+                    "{}: its simulation or post is missing; run `shatter rigid` again",
+                    self.layout.reentry_dir(number).display()
+                )));
+            };
+            self.apply(&outcome, None);
+        }
+        self.state = state;
+        self.load_active()
+    }
+
+    /// Reads the outcomes of the active re-entries not read yet; the first missing one.
+    pub(crate) fn load_active(&mut self) -> Result<Option<u32>, RigidError> {
+        for number in self.state.active.clone() {
+            if self.outcomes.iter().any(|o| o.reentry.meta.number == number) {
+                continue;
+            }
+            match self.read_outcome(number)? {
+                Some(outcome) => self.outcomes.push(outcome),
+                None => return Ok(Some(number)),
+            }
+        }
+        Ok(None)
+    }
+
+    /// Steps `world` to `until_s` (seconds since the simulation's start), bringing back the
+    /// pieces of re-entries that end before, and stopping at a hard contact; counts the steps
+    /// kept in `steps`.
+    pub(crate) fn step_to(
+        &mut self,
+        world: &mut RigidWorld,
+        until_s: f64,
+        frame: u32,
+        steps: &mut u64,
+    ) -> Result<Stop, RigidError> {
+        while self.state.time_s < until_s {
+            let returns = self.outcomes.iter().map(|o| o.return_time_s).fold(f64::INFINITY, f64::min);
+            let target_s = until_s.min(returns);
+            let duration_s = target_s - self.state.time_s;
+            if duration_s > 0.0 {
+                let watch = self.watch(world.piece_count());
+                let saved = world.snapshot().map_err(|e| self.snapshot_error(e.to_string()))?;
+                let stepped = world.step_for(duration_s, self.rigid.max_step_s, watch.as_ref());
+                if let Some(impact) = stepped.impact {
+                    // back to the step before the contact, then out of the world
+                    *world = RigidWorld::restore(&saved).map_err(|e| self.snapshot_error(e.to_string()))?;
+                    world.step_exactly(stepped.dt_s, stepped.steps - 1);
+                    *steps += stepped.steps - 1;
+                    let before_s = (stepped.steps - 1) as f64 * stepped.dt_s;
+                    world.end_interval(before_s);
+                    self.state.time_s += before_s;
+                    return self.start(world, impact, frame).map(Stop::Started);
+                }
+                world.end_interval(duration_s);
+                *steps += stepped.steps;
+            }
+            self.state.time_s = target_s;
+            self.bring_back(world, target_s);
+        }
+        Ok(Stop::Reached)
+    }
+
+    /// The contacts to watch: none once `max_reentries` have started.
+    fn watch(&self, pieces: usize) -> Option<ImpactWatch> {
+        if self.state.started >= self.secondary.max_reentries {
+            return None;
+        }
+        let away: Vec<u32> = self.outcomes.iter().flat_map(|o| o.reentry.meta.pieces.clone()).collect();
+        let watched = (0..pieces)
+            .map(|piece| self.table.elements[piece] >= self.secondary.min_elements && !away.contains(&(piece as u32)))
+            .collect();
+        Some(ImpactWatch { threshold_m_s: self.threshold_m_s, watched })
+    }
+
+    fn snapshot_error(&self, what: String) -> RigidError {
+        RigidError::Snapshot { path: self.layout.rigid_checkpoint(), what }
+    }
+
+    /// Starts a re-entry of `impact`'s piece: writes its request, particle file and start, and
+    /// takes the piece out of `world`.
+    fn start(&mut self, world: &mut RigidWorld, impact: Impact, frame: u32) -> Result<u32, RigidError> {
+        let number = self.state.started + 1;
+        let piece = impact.piece;
+        let members = members_of_pieces(&self.table.fragment_of, self.table.fragment_count()).swap_remove(piece);
+        let shard_centres_m = self
+            .config
+            .sim
+            .shards
+            .as_ref()
+            .map_or(Vec::new(), |shards| shards.centres(&self.particles.rest_position_m, self.config.scene.seed));
+        let (rotation, translation) = world.poses()[piece];
+        let (linear, angular) = world.velocities()[piece];
+        let body = BodyState { rotation, translation, centre: world.centres()[piece], linear, angular };
+        let lead_time_s = match self.config.lead_in {
+            Some(_) => LeadIn::read_for(self.layout).map_err(RigidError::Input)?.handoff_time_s,
+            None => 0.0,
+        };
+        let approach_s = match impact.struck {
+            Struck::Floor => self.approach_s(&body, &members),
+            Struck::Sphere => 0.0,
+        };
+        let start = body.after(approach_s, Vector::from_array(self.config.sim.gravity_m_s2));
+        let start_time_s = self.state.time_s + approach_s;
+        let q = start.rotation;
+        let meta = ReentryMeta {
+            number,
+            frame,
+            start_time_s,
+            pieces: vec![piece as u32],
+            hit: impact.struck.name().into(),
+            impact_speed_m_s: impact.speed_m_s,
+            threshold_m_s: self.threshold_m_s,
+            inputs: self.inputs,
+            shard_centres_m,
+        };
+        let pass = pass_config(self.config, &meta);
+        let pass_layout = OutputLayout::of(&pass);
+        create_dir(&pass_layout.rigid_dir())?;
+        let mut lead_in = LeadIn {
+            frames: 0,
+            handoff_time_s: lead_time_s + start_time_s,
+            rotation: [q.x, q.y, q.z, q.w],
+            translation_m: start.translation.to_array(),
+            centre_m: start.centre.to_array(),
+            velocity_m_s: start.linear.to_array(),
+            angular_velocity_rad_s: start.angular.to_array(),
+            steps: 0,
+            inputs: 0,
+        };
+        // the particle file names its start, so the simulation's digest of it (and every
+        // file made from it) changes with the start
+        let mut subset = self.particles.subset(&members, |entry| !self.broken[entry]);
+        let start_digest = crc32fast::hash(&rmp_serde::to_vec(&lead_in).unwrap_or_default());
+        subset.meta.scene_name = format!("{}, re-entry {number} (start {start_digest:08x})", subset.meta.scene_name);
+        subset.write(&pass_layout.particles())?;
+        let (_, checksum) = ParticleSet::read_with_checksum(&pass_layout.particles())?;
+        lead_in.inputs = digest::sim_inputs(checksum, &pass);
+        lead_in.write(&pass_layout.lead_in())?;
+        Reentry { meta, members }.write(&self.layout.reentry(number))?;
+        world.withdraw_piece(piece);
+        self.state.started = number;
+        self.state.active.push(number);
+        Ok(number)
+    }
+
+    /// How long `body` flies freely before its lowest particle is a tenth of a spacing above
+    /// the floor (0 when it is there already), seconds: the re-entry starts there, so the
+    /// simulation does not spend a rigid step's flight closing the gap.
+    fn approach_s(&self, body: &BodyState, members: &[u32]) -> f64 {
+        let Some(floor) = &self.config.sim.floor else { return 0.0 };
+        let target_m = floor.height_m + 0.1 * self.particles.meta.lambda_m;
+        let gravity = Vector::from_array(self.config.sim.gravity_m_s2);
+        let lowest = |time_s: f64| {
+            let at = body.after(time_s, gravity);
+            members
+                .iter()
+                .map(|&i| {
+                    let rest = Vector::from_array(self.particles.rest_position_m[i as usize].map(f64::from));
+                    (at.rotation * rest + at.translation).y
+                })
+                .fold(f64::INFINITY, f64::min)
+        };
+        if lowest(0.0) <= target_m {
+            return 0.0;
+        }
+        let mut high_s = self.rigid.max_step_s;
+        while lowest(high_s) > target_m {
+            high_s *= 2.0;
+            if high_s > 1.0 {
+                return 0.0;
+            }
+        }
+        let mut low_s = 0.0;
+        for _ in 0..48 {
+            let mid_s = 0.5 * (low_s + high_s);
+            if lowest(mid_s) > target_m { low_s = mid_s } else { high_s = mid_s }
+        }
+        low_s
+    }
+
+    /// Brings back the pieces of every active re-entry that ends at `time_s`.
+    fn bring_back(&mut self, world: &mut RigidWorld, time_s: f64) {
+        while let Some(index) = self.outcomes.iter().position(|o| o.return_time_s <= time_s) {
+            let outcome = self.outcomes.remove(index);
+            let number = outcome.reentry.meta.number;
+            let report = self.apply(&outcome, Some(world));
+            self.reports.extend(report);
+            self.state.active.retain(|&n| n != number);
+            self.state.returned.push(number);
+        }
+    }
+
+    /// Puts `outcome`'s pieces into the table (and, given a world, their bodies into it): each
+    /// fragment of its handoff continues the piece that went back when it holds the most of
+    /// its elements (its id at the re-entry's first frame), and takes a new id otherwise.
+    fn apply(&mut self, outcome: &Outcome, world: Option<&mut RigidWorld>) -> Option<ReentryReport> {
+        let members = &outcome.reentry.members;
+        let handoff = &outcome.handoff;
+        let piece = outcome.reentry.meta.pieces[0];
+        let local = members_of_pieces(&handoff.fragment_of, handoff.fragment_count());
+        // post's ids are stable: fragment 0 is the piece at the re-entry's first frame, and
+        // keeps its id on its largest part
+        let first_new = self.table.fragment_count();
+        let ids: Vec<usize> = (0..local.len())
+            .map(|fragment| if fragment == 0 { piece as usize } else { first_new + fragment - 1 })
+            .collect();
+        let added = local.len() - 1;
+        self.table.rotation.extend(std::iter::repeat_n([0.0, 0.0, 0.0, 1.0], added));
+        self.table.translation_m.extend(std::iter::repeat_n([0.0; 3], added));
+        self.table.elements.extend(std::iter::repeat_n(0, added));
+        self.table.mass_kg.extend(std::iter::repeat_n(0.0, added));
+        let mut bodies = Vec::with_capacity(local.len());
+        let mut parts: Vec<Balance> = Vec::with_capacity(local.len());
+        for (fragment, local_members) in local.iter().enumerate() {
+            let id = ids[fragment];
+            let global: Vec<u32> = local_members.iter().map(|&i| members[i as usize]).collect();
+            for (&g, &l) in global.iter().zip(local_members) {
+                self.table.fragment_of[g as usize] = id as u32;
+                if let (Some(affine), Some(from)) = (&mut self.table.element_affine, &handoff.element_affine) {
+                    affine[g as usize] = from.get(l as usize).copied().unwrap_or(AFFINE_RIGID);
+                }
+            }
+            self.table.rotation[id] = handoff.rotation[fragment];
+            self.table.translation_m[id] = handoff.translation_m[fragment];
+            self.table.elements[id] = handoff.elements[fragment];
+            self.table.mass_kg[id] = handoff.mass_kg[fragment];
+            if world.is_some() {
+                let x: Vec<Vector> = local_members.iter().map(|&i| outcome.position_m[i as usize]).collect();
+                let v: Vec<Vector> = local_members.iter().map(|&i| outcome.velocity_m_s[i as usize]).collect();
+                let motion = MemberMotion { members: &global, position_m: &x, velocity_m_s: &v };
+                let rest = self.maker.rest_of(&global);
+                let (body, part) =
+                    self.maker.body(&rest, (handoff.rotation[fragment], handoff.translation_m[fragment]), &motion);
+                bodies.push(body);
+                parts.push(part);
+            }
+        }
+        for &entry in &outcome.broken {
+            self.broken[entry] = true;
+        }
+        let world = world?;
+        for (fragment, body) in bodies.iter().enumerate() {
+            if fragment == 0 {
+                world.replace_piece(&self.settings, piece as usize, body);
+            } else {
+                let index = world.add_piece(&self.settings, body);
+                debug_assert_eq!(index, first_new + fragment - 1);
+            }
+        }
+        let meta = &outcome.reentry.meta;
+        Some(ReentryReport {
+            number: meta.number,
+            piece,
+            hit: meta.hit.clone(),
+            impact_speed_m_s: meta.impact_speed_m_s,
+            threshold_m_s: meta.threshold_m_s,
+            start_time_s: meta.start_time_s,
+            return_time_s: outcome.return_time_s,
+            pieces: local.len(),
+            conservation: conservation(&parts),
+        })
+    }
+
+    /// The outcome of re-entry `number`, when its simulation and post have run on this
+    /// request.
+    fn read_outcome(&self, number: u32) -> Result<Option<Outcome>, RigidError> {
+        let reentry = Reentry::read(&self.layout.reentry(number))?;
+        let pass = pass_config(self.config, &reentry.meta);
+        let layout = OutputLayout::of(&pass);
+        let Ok(frames) = SimFrames::read(&pass, &layout) else { return Ok(None) };
+        let count = frames.count();
+        if !layout.particles().is_file() || !layout.fragments(count).is_file() {
+            return Ok(None);
+        }
+        let (particles, checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
+        let post_inputs = digest::post_inputs(digest::sim_inputs(checksum, &pass), &pass);
+        if FragmentFrame::read(&layout.fragments(count))?.meta.inputs != Some(post_inputs) {
+            return Ok(None);
+        }
+        let (frame, _) = choose_handoff(&pass, self.rigid, count, &layout, &particles, post_inputs)?;
+        let handoff = read_fragments(&layout, frame, &particles, post_inputs)?;
+        let (position_m, velocity_m_s) = vectors(&PointFrame::read(&layout.frame_points(frame))?);
+        let mut broken = Vec::new();
+        for block in BreakLog::read_through(&layout.break_log(), frame)? {
+            for event in block.events {
+                broken.push(self.global_entry(&particles, &reentry.members, event.bond as usize));
+            }
+        }
+        let frame_times_s = frames.steps[..frame as usize].iter().map(|&steps| steps as f64 * frames.dt_s).collect();
+        Ok(Some(Outcome {
+            return_time_s: reentry.meta.start_time_s + handoff.meta.time_s,
+            reentry,
+            handoff,
+            position_m,
+            velocity_m_s,
+            broken,
+            layout,
+            frame_times_s,
+        }))
+    }
+
+    /// The canonical entry in the shot's particle file of the re-entry's bond `entry`.
+    fn global_entry(&self, subset: &ParticleSet, members: &[u32], entry: usize) -> usize {
+        let row = subset.bonds.offsets.partition_point(|&offset| offset as usize <= entry) - 1;
+        let (i, j) = (members[row], members[subset.bonds.neighbor[entry] as usize]);
+        let (low, high) = if i < j { (i, j) } else { (j, i) };
+        self.particles.bonds.find(low as usize, high).unwrap_or(0)
+    }
+
+    /// The poses of `world`'s pieces at `time_s`, those away in a re-entry as the re-entry's
+    /// frame nearest that time shows the fragment that continues them.
+    pub(crate) fn frame_poses(&self, world: &RigidWorld, time_s: f64) -> Result<Vec<(Rotation, Vector)>, RigidError> {
+        let mut poses = world.poses();
+        for outcome in &self.outcomes {
+            let since_s = time_s - outcome.reentry.meta.start_time_s;
+            let nearest = outcome
+                .frame_times_s
+                .iter()
+                .enumerate()
+                .min_by(|a, b| (a.1 - since_s).abs().total_cmp(&(b.1 - since_s).abs()))
+                .map_or(1, |(index, _)| index as u32 + 1);
+            let fragments = FragmentFrame::read(&outcome.layout.fragments(nearest))?;
+            let q = fragments.rotation[0].map(f64::from);
+            let pose = (
+                Rotation::from_xyzw(q[0], q[1], q[2], q[3]).normalize(),
+                Vector::from_array(fragments.translation_m[0]),
+            );
+            poses[outcome.reentry.meta.pieces[0] as usize] = pose;
+        }
+        Ok(poses)
+    }
+}
+
+/// A rigid body's pose and motion.
+#[derive(Debug, Clone, Copy)]
+struct BodyState {
+    rotation: Rotation,
+    translation: Vector,
+    centre: Vector,
+    linear: Vector,
+    angular: Vector,
+}
+
+impl BodyState {
+    /// The body after `time_s` of free flight under `gravity` (m/s^2), turning at its angular
+    /// velocity.
+    fn after(&self, time_s: f64, gravity: Vector) -> BodyState {
+        let centre = self.centre + self.linear * time_s + gravity * (0.5 * time_s * time_s);
+        let turn = Rotation::from_scaled_axis(self.angular * time_s);
+        let rotation = (turn * self.rotation).normalize();
+        // the centre of mass is fixed in the body: x = R X + t
+        let rest_centre = self.rotation.inverse() * (self.centre - self.translation);
+        BodyState {
+            rotation,
+            translation: centre - rotation * rest_centre,
+            centre,
+            linear: self.linear + gravity * time_s,
+            angular: self.angular,
+        }
+    }
+}
+
+fn create_dir(path: &std::path::Path) -> Result<(), RigidError> {
+    std::fs::create_dir_all(path)
+        .map_err(|error| RigidError::Input(format!("{}: cannot create: {error}", path.display())))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn free_flight_follows_the_parabola_and_turns_about_the_centre_of_mass() {
+        let rotation = Rotation::from_rotation_y(0.3);
+        let rest_centre = Vector::new(0.01, 0.02, -0.03);
+        let translation = Vector::new(0.5, 1.0, 0.0);
+        let body = BodyState {
+            rotation,
+            translation,
+            centre: rotation * rest_centre + translation,
+            linear: Vector::new(1.0, 2.0, 0.0),
+            angular: Vector::new(0.0, 0.0, 4.0),
+        };
+        let gravity = Vector::new(0.0, -9.81, 0.0);
+        let later = body.after(0.1, gravity);
+        let expected = body.centre + Vector::new(0.1, 0.2 - 0.5 * 9.81 * 0.01, 0.0);
+        assert!((later.centre - expected).length() < 1e-12);
+        assert!((later.linear - Vector::new(1.0, 2.0 - 0.981, 0.0)).length() < 1e-12);
+        // the rest centre still maps to the centre of mass, and the turn is 0.4 rad about z
+        assert!((later.rotation * rest_centre + later.translation - later.centre).length() < 1e-12);
+        assert!((rotation.angle_between(later.rotation) - 0.4).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,252 @@
+//! Pieces that break again (`[rigid.secondary_fracture]`): a glass slab dropped on its edge goes
+//! back to the simulation when it lands faster than its material's critical impact speed, and
+//! comes back in pieces; dropped well below that speed it lands whole without going back. The
+//! handoffs both ways keep momentum and never add kinetic energy; the pieces keep their ids; a
+//! run killed during a re-entry ends as one never killed, at any thread count.
+
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use shatter_core::fragments::FragmentFrame;
+use shatter_core::frames::{BreakLog, PointFrame};
+use shatter_core::lead_in::LeadIn;
+use shatter_core::particles::ParticleSet;
+use shatter_core::reentry::Reentry;
+use shatter_rigid::mass::{element_mass_props, piece_mass_props};
+use support::{shatter, stderr, tree_files};
+
+use crate::support;
+
+const GRAVITY_M_S2: f64 = 9.81;
+const BULK_MODULUS_PA: f64 = 14.9e9;
+const DENSITY_KG_M3: f64 = 2200.0;
+const FRACTURE_ENERGY_J_M2: f64 = 8.0;
+const HORIZON_M: f64 = 0.006;
+/// Half the diagonal of the slab's 4 cm square face: it stands on a corner edge.
+const HALF_DIAGONAL_M: f64 = 0.028_284_271_247_461_9;
+
+/// The critical impact speed of the rule (docs/DECISIONS.md#secondary-fracture): the mean
+/// critical stretch sqrt(5 G / (9 K delta)) times the P-wave speed sqrt(1.8 K / rho).
+fn critical_speed_m_s() -> f64 {
+    let stretch = (5.0 * FRACTURE_ENERGY_J_M2 / (9.0 * BULK_MODULUS_PA * HORIZON_M)).sqrt();
+    stretch * (1.8 * BULK_MODULUS_PA / DENSITY_KG_M3).sqrt()
+}
+
+/// A 4 x 4 x 0.6 cm glass slab of 2 mm cubes, turned to stand on an edge, whose lowest edge
+/// falls onto the floor at `speed_m_s`.
+fn scene(dir: &Path, speed_m_s: f64) {
+    let height_m = speed_m_s * speed_m_s / (2.0 * GRAVITY_M_S2);
+    let text = format!(
+        r#"
+[scene]
+name = "slab"
+output_dir = "out"
+seed = 3
+[geometry]
+source = "box"
+box_size_m = [0.04, 0.04, 0.006]
+sampler = "grid"
+spacing_m = 0.002
+horizon_factor = 3.0
+[geometry.transform]
+rotate_deg = [0.0, 0.0, 45.0]
+translate_m = [0.0, {}, 0.0]
+[material]
+density_kg_m3 = {DENSITY_KG_M3}
+bulk_modulus_pa = {BULK_MODULUS_PA}
+fracture_energy_j_m2 = {FRACTURE_ENERGY_J_M2}
+[sim]
+frames = 3
+steps_per_frame = 20
+gravity_m_s2 = [0.0, -{GRAVITY_M_S2}, 0.0]
+[sim.floor]
+height_m = 0.0
+[rigid]
+follow_through_s = {}
+[rigid.secondary_fracture]
+min_elements = 64
+[render]
+backend = "cpu"
+resolution = [64, 48]
+samples_per_pixel = 2
+"#,
+        height_m + HALF_DIAGONAL_M,
+        (2.0 * height_m / GRAVITY_M_S2).sqrt() + 0.25
+    );
+    std::fs::write(dir.join("pipeline.toml"), text).expect("config");
+}
+
+/// A number printed after `label` in `text`.
+fn figure(text: &str, label: &str) -> f64 {
+    let at = text.find(label).unwrap_or_else(|| panic!("no {label:?} in {text}")) + label.len();
+    let number: String =
+        text[at..].trim_start().chars().take_while(|c| !c.is_whitespace() && !matches!(c, ',' | ';')).collect();
+    number.parse().unwrap_or_else(|_| panic!("{number:?} after {label:?} is not a number"))
+}
+
+fn last_rigid_frame(out: &Path) -> FragmentFrame {
+    let mut frames: Vec<_> = std::fs::read_dir(out.join("rigid"))
+        .expect("rigid folder")
+        .map(|entry| entry.expect("entry").path())
+        .filter(|path| path.file_name().is_some_and(|name| name.to_string_lossy().starts_with("fragments.")))
+        .collect();
+    frames.sort();
+    FragmentFrame::read(frames.last().expect("a rigid frame")).expect("fragments")
+}
+
+#[test]
+fn a_slab_breaks_again_when_it_lands_above_its_critical_speed_and_not_below() {
+    let critical = critical_speed_m_s();
+    let hard = tempfile::tempdir().expect("tempdir");
+    scene(hard.path(), 4.0 * critical);
+    let output = shatter(&["--threads", "2", "run", "--until", "rigid"], hard.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
+    let out = hard.path().join("out");
+    let particles = ParticleSet::read(&out.join("particles.shp")).expect("particles");
+    let reentry = Reentry::read(&out.join("rigid/reentry.001.shp")).expect("the slab went back");
+    assert!(!out.join("rigid/reentry.002.shp").exists(), "one hard landing, one re-entry");
+    // the threshold is the rule's, from the particle file's critical stretch
+    let rule = particles.meta.mean_critical_stretch * (1.8 * BULK_MODULUS_PA / DENSITY_KG_M3).sqrt();
+    assert!((reentry.meta.threshold_m_s - rule).abs() <= 1e-12 * rule, "{:?}", reentry.meta);
+    assert!((reentry.meta.threshold_m_s - critical).abs() <= 1e-9 * critical, "{:?}", reentry.meta);
+    assert_eq!(reentry.meta.hit, "floor");
+    assert_eq!(reentry.meta.pieces, vec![0]);
+    let speed = reentry.meta.impact_speed_m_s;
+    assert!((speed / (4.0 * critical) - 1.0).abs() < 0.05, "landed at {speed} m/s, not {}", 4.0 * critical);
+    assert_eq!(reentry.members.len(), particles.len());
+
+    // it came back in pieces: the largest keeps id 0, the new ones follow
+    let before = FragmentFrame::read(&out.join(format!("rigid/fragments.{:04}.shp", reentry.meta.frame - 1)))
+        .expect("the frame before");
+    assert_eq!(before.fragment_count(), 1);
+    let after = last_rigid_frame(&out);
+    assert!(after.fragment_count() > 1, "the slab landed whole: {stdout}");
+    let largest = after.elements.iter().copied().max().expect("pieces");
+    assert_eq!(after.elements[0], largest, "piece 0 keeps its id on its largest part");
+    assert!(largest as usize > particles.len() / 2, "the slab chipped at its edge, not shattered");
+    // it cracked where it hit: the re-entry's first broken bonds lie at the edge it landed on
+    // (it falls without turning, so that edge is the lowest in the rest frame, which
+    // preprocess turned already)
+    let pass_particles = ParticleSet::read(&out.join("reentry/001/particles.shp")).expect("re-entry particles");
+    let blocks = BreakLog::read(&out.join("reentry/001/frames/breaks.log")).expect("re-entry break log");
+    let first = blocks.iter().find(|block| !block.events.is_empty()).expect("the re-entry broke bonds");
+    let lowest = particles.rest_position_m.iter().map(|p| p[1]).fold(f32::INFINITY, f32::min);
+    for event in &first.events {
+        let entry = event.bond;
+        let row = pass_particles.bonds.offsets.partition_point(|&offset| offset <= entry) - 1;
+        let height = pass_particles.rest_position_m[row][1] - lowest;
+        assert!(height < 0.01, "a first crack {height} m above the edge it landed on");
+    }
+
+    // the re-entry's line: momentum kept and no energy gained at its return
+    let line = stdout.lines().find(|line| line.contains("re-entry 1: piece 0")).expect("the re-entry's line");
+    assert!(figure(line, "momentum kept to") <= 1e-6, "{line}");
+    assert!(figure(line, "angular momentum to") <= 1e-6, "{line}");
+    let particle_energy = figure(line, "kinetic energy");
+    let body_energy = figure(line, "J in the particles,");
+    assert!(body_energy <= particle_energy * 1.01, "the bodies gained energy: {line}");
+
+    // and at its start: the particles move as the body did
+    let pass = out.join("reentry/001");
+    let start = LeadIn::read(&pass.join("rigid/lead_in.shp")).expect("start");
+    let first = PointFrame::read(&pass.join("frames/points.0001.ply")).expect("first frame");
+    let body = body_energy_of(&particles, &start);
+    let (momentum, energy) = particle_momentum_and_energy(&particles, &first);
+    let expected: Vec<f64> = start.velocity_m_s.iter().map(|v| v * body.0).collect();
+    let error = (0..3).map(|a| (momentum[a] - expected[a]).powi(2)).sum::<f64>().sqrt();
+    assert!(error <= 1e-6 * norm(&expected), "momentum {momentum:?} against the body's {expected:?}");
+    assert!(energy <= body.1 * 1.01 && energy >= body.1 * 0.95, "particles {energy} J, body {} J", body.1);
+
+    // well below the speed, no re-entry, and the slab lands whole
+    let soft = tempfile::tempdir().expect("tempdir");
+    scene(soft.path(), 0.5 * critical);
+    let output = shatter(&["run", "--until", "rigid"], soft.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let out = soft.path().join("out");
+    assert!(!out.join("rigid/reentry.001.shp").exists(), "a soft landing went back to the simulation");
+    assert!(!out.join("reentry").exists());
+    assert_eq!(last_rigid_frame(&out).fragment_count(), 1);
+}
+
+/// The slab's mass and the kinetic energy of its body moving as `start` says, J.
+fn body_energy_of(particles: &ParticleSet, start: &LeadIn) -> (f64, f64) {
+    let elements = element_mass_props(particles, DENSITY_KG_M3);
+    let rest = piece_mass_props(&elements, &vec![0; particles.len()], 1)[0];
+    let [x, y, z, w] = start.rotation;
+    let rotation = glam::DQuat::from_xyzw(x, y, z, w);
+    let r = glam::DMat3::from_quat(rotation);
+    // (rapier's glam and ours may differ in version: through arrays)
+    let rest_inertia = glam::DMat3::from_cols_array(&rest.inertia().to_cols_array());
+    let inertia = r * rest_inertia * r.transpose();
+    let omega = glam::DVec3::from_array(start.angular_velocity_rad_s);
+    let v = glam::DVec3::from_array(start.velocity_m_s);
+    (rest.mass_kg, 0.5 * rest.mass_kg * v.length_squared() + 0.5 * omega.dot(inertia * omega))
+}
+
+fn particle_momentum_and_energy(particles: &ParticleSet, frame: &PointFrame) -> ([f64; 3], f64) {
+    let mut momentum = [0.0; 3];
+    let mut energy = 0.0;
+    for i in 0..particles.len() {
+        let m = f64::from(particles.volume_m3[i]) * DENSITY_KG_M3;
+        let v = [0, 1, 2].map(|a| f64::from(frame.velocity[a][i]));
+        for a in 0..3 {
+            momentum[a] += m * v[a];
+        }
+        energy += 0.5 * m * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    }
+    (momentum, energy)
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|c| c * c).sum::<f64>().sqrt()
+}
+
+#[test]
+fn a_run_killed_during_a_reentry_ends_as_one_never_killed_at_any_thread_count() {
+    let speed = 4.0 * critical_speed_m_s();
+    let reference = tempfile::tempdir().expect("tempdir");
+    scene(reference.path(), speed);
+    let output = shatter(&["--threads", "2", "run", "--until", "rigid"], reference.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    // (the simulation's checkpoints name their backend, thread count included)
+    let skip = ["stamps.json", "shatter.lock", "sim.checkpoint.shp"];
+    let expected = tree_files(&reference.path().join("out"), &skip);
+    assert!(expected.iter().any(|(name, _)| name.starts_with("reentry/001/fragments/")), "the slab went back");
+
+    let single = tempfile::tempdir().expect("tempdir");
+    scene(single.path(), speed);
+    let output = shatter(&["--threads", "1", "run", "--until", "rigid"], single.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(tree_files(&single.path().join("out"), &skip) == expected, "1 and 2 threads differ");
+
+    let killed = tempfile::tempdir().expect("tempdir");
+    scene(killed.path(), speed);
+    let mut child = Command::new(env!("CARGO_BIN_EXE_shatter"))
+        .args(["--threads", "2", "run", "--until", "rigid"])
+        .current_dir(killed.path())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawn");
+    // kill mid-way through the re-entry's simulation
+    let mid = killed.path().join("out/reentry/001/frames/points.0012.ply");
+    let started = Instant::now();
+    while !mid.exists() && child.try_wait().expect("wait").is_none() && started.elapsed() < Duration::from_secs(120) {
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let was_running = child.try_wait().expect("wait").is_none();
+    child.kill().expect("SIGKILL");
+    child.wait().expect("reap");
+    assert!(was_running, "the run ended before its re-entry was half simulated");
+    assert!(!killed.path().join("out/rigid/fragments.0017.shp").exists(), "killed before the follow-through ended");
+    let output = shatter(&["--threads", "2", "run", "--until", "rigid"], killed.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let resumed = tree_files(&killed.path().join("out"), &skip);
+    let names = |files: &[(String, Vec<u8>)]| files.iter().map(|(name, _)| name.clone()).collect::<Vec<_>>();
+    assert_eq!(names(&resumed), names(&expected));
+    for ((name, bytes), (_, expected_bytes)) in resumed.iter().zip(&expected) {
+        assert!(bytes == expected_bytes, "{name} differs after kill -9 and resume");
+    }
+}
