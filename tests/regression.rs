@@ -66,6 +66,12 @@ const DRAGON_DROP: Shot =
 const VASE_DROP: Shot =
     Shot { scene: "vase_drop_small", key_frames: &[7, 18, 96], settles: true, shards: 10, blurred: &[7, 30] };
 
+/// The ceramic tile dropped on its corner: falling intact, landing on the corner (in slow
+/// motion), broken in three (the simulation's last frame, the impact), its pieces broken again
+/// as they slap the floor (re-entries, by the next frame), and at rest.
+const PLATE_DROP: Shot =
+    Shot { scene: "plate_drop_small", key_frames: &[5, 40, 49, 50, 85], settles: true, shards: 0, blurred: &[] };
+
 fn repository() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
@@ -126,6 +132,9 @@ fn render_key_frames(shot: &Shot, output: &Path) -> Vec<(u32, &'static str, imag
         // the floor (issue #18's acceptance)
         if shot.settles {
             assert!(report.asleep_from.is_some(), "{}: {} pieces awake at the end", shot.scene, report.awake_at_end);
+        }
+        if config.rigid.as_ref().is_some_and(|rigid| rigid.secondary_fracture.is_some()) {
+            assert!(layout.reentry(1).is_file(), "{}: no piece broke again", shot.scene);
         }
         assert!(report.deepest_overlap_m <= 1e-3, "{}: overlap {} m at the end", shot.scene, report.deepest_overlap_m);
     }
@@ -414,6 +423,11 @@ fn dragon_drop_key_frames_match_their_goldens() {
 #[test]
 fn vase_drop_key_frames_match_their_goldens() {
     check(&VASE_DROP);
+}
+
+#[test]
+fn plate_drop_key_frames_match_their_goldens_before_and_after_the_pieces_break_again() {
+    check(&PLATE_DROP);
 }
 
 /// True while SHATTER_BLESS=1 rewrites the goldens: the tests that only read them stand aside.

@@ -199,7 +199,8 @@ pub fn closest_hits(
         }
         return;
     }
-    let time = |r: usize| times.map_or(0.0, |times| times[r]);
+    // (a packet may hold fewer rays than PACKET: the rest have no time)
+    let time = |r: usize| times.and_then(|times| times.get(r)).copied().unwrap_or(0.0);
     let mut centres: Option<[AtCentre; PACKET]> = moving.then(|| {
         std::array::from_fn(|r| AtCentre::new(scene, origin, directions.get(r).copied().unwrap_or([0.0; 3]), time(r)))
     });

@@ -2,6 +2,8 @@
 //! withdrawn (held where it is, out of the simulation), and the pieces it breaks into come back
 //! in its place and after the last piece.
 
+use rapier3d_f64::prelude::RigidBodyHandle;
+
 use super::{PieceBody, RestWatch, RigidWorld, WorldSettings, insert_piece};
 
 impl RigidWorld {
@@ -15,7 +17,7 @@ impl RigidWorld {
     /// Puts `body` in the place of piece `piece` (a withdrawn one), as a new body.
     pub fn replace_piece(&mut self, settings: &WorldSettings, piece: usize, body: &PieceBody) {
         self.world.remove_body(self.pieces[piece]);
-        let handle = insert_piece(&mut self.world, settings, body);
+        let handle = self.insert_now(settings, body);
         self.pieces[piece] = handle;
         self.watch[piece] = RestWatch::new(&self.world.bodies[handle], body);
         // the pieces come back as neighbours a moment ago one body: their overlaps at the next
@@ -25,11 +27,22 @@ impl RigidWorld {
 
     /// Adds `body` as a new piece after the last; returns its index.
     pub fn add_piece(&mut self, settings: &WorldSettings, body: &PieceBody) -> usize {
-        let handle = insert_piece(&mut self.world, settings, body);
+        let handle = self.insert_now(settings, body);
         self.pieces.push(handle);
         self.watch.push(RestWatch::new(&self.world.bodies[handle], body));
         self.rules.at_handoff = true;
         self.pieces.len() - 1
+    }
+
+    /// Inserts `body` with its mass properties in force at once: rapier otherwise computes a new
+    /// body's centre of mass in the world at its next step, and a piece that goes back to the
+    /// simulation before one would leave with its pose's origin for its centre (and a velocity
+    /// field about the wrong point).
+    fn insert_now(&mut self, settings: &WorldSettings, body: &PieceBody) -> RigidBodyHandle {
+        let handle = insert_piece(&mut self.world, settings, body);
+        let colliders = &self.world.colliders;
+        self.world.bodies[handle].recompute_mass_properties_from_colliders(colliders);
+        handle
     }
 
     /// How many pieces the world holds (withdrawn and retired ones too).
