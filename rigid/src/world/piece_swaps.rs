@@ -50,3 +50,61 @@ impl RigidWorld {
         self.pieces.len()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use rapier3d_f64::prelude::*;
+
+    use super::*;
+    use crate::mass::MassProps;
+
+    fn settings() -> WorldSettings {
+        WorldSettings {
+            gravity_m_s2: [0.0, -9.81, 0.0],
+            length_unit_m: 0.01,
+            solver_iterations: 4,
+            floor_friction: 0.6,
+            floor_restitution: 0.2,
+            piece_friction: 0.5,
+            piece_restitution: 0.1,
+            max_mass_ratio: 200.0,
+            sleep_speed_m_s: 0.02,
+            sleep_after_s: 0.2,
+            bounds_m: None,
+            rolling_damping_per_s: 4.0,
+            rolling_resistance_m_s2: 0.2,
+        }
+    }
+
+    /// A 2 cm cube piece whose centre of mass is `centre_m` in its rest frame, posed at `pose`.
+    fn cube(centre_m: Vector, rotation: Rotation, translation_m: Vector) -> PieceBody {
+        let second = Matrix::from_diagonal(Vector::splat(0.1 * 0.01 * 0.01 / 3.0));
+        PieceBody {
+            mass: MassProps { mass_kg: 0.1, centre_m, second_moment: second },
+            rotation,
+            translation_m,
+            linear_m_s: Vector::new(0.0, -2.0, 0.0),
+            angular_rad_s: Vector::new(0.0, 0.0, 5.0),
+            shape: Some(SharedShape::cuboid(0.01, 0.01, 0.01)),
+            dust: false,
+        }
+    }
+
+    #[test]
+    fn a_piece_put_back_has_its_centre_of_mass_before_any_step() {
+        let settings = settings();
+        let first = cube(Vector::new(0.0, 0.3, 0.0), Rotation::IDENTITY, Vector::ZERO);
+        let mut world = RigidWorld::new(&settings, Some(0.0), &[], &[first]);
+        world.advance(0.01, 1.0 / 960.0);
+        world.withdraw_piece(0);
+        let rotation = Rotation::from_rotation_z(0.5);
+        let (centre, translation) = (Vector::new(0.05, 0.2, 0.0), Vector::new(0.1, 0.05, 0.0));
+        world.replace_piece(&settings, 0, &cube(centre, rotation, translation));
+        let added = world.add_piece(&settings, &cube(centre, rotation, translation + Vector::X));
+        assert_eq!(added, 1);
+        let centres = world.centres();
+        assert!((centres[0] - (rotation * centre + translation)).length() < 1e-12, "{:?}", centres[0]);
+        assert!((centres[1] - (rotation * centre + translation + Vector::X)).length() < 1e-12);
+        assert_eq!(world.piece_count(), 2);
+    }
+}
