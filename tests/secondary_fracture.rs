@@ -126,6 +126,13 @@ fn a_slab_breaks_again_when_it_lands_above_its_critical_speed_and_not_below() {
     let largest = after.elements.iter().copied().max().expect("pieces");
     assert_eq!(after.elements[0], largest, "piece 0 keeps its id on its largest part");
     assert!(largest as usize > particles.len() / 2, "the slab chipped at its edge, not shattered");
+    // the shot's USD names a prim for each piece by its id (as Cryptomatte names piece_<id>):
+    // piece 0, the slab before and its largest part after, and the new pieces
+    let usd = std::fs::read_to_string(out.join("rigid/shot.usda")).expect("the shot's USD");
+    for id in 0..after.fragment_count() {
+        assert!(usd.contains(&format!("def Mesh \"piece_{id:05}\"")), "no prim for piece {id}");
+    }
+    assert!(!usd.contains(&format!("def Mesh \"piece_{:05}\"", after.fragment_count())));
     // it cracked where it hit: the re-entry's first broken bonds lie at the edge it landed on
     // (it falls without turning, so that edge is the lowest in the rest frame, which
     // preprocess turned already)
