@@ -10,7 +10,7 @@
 //! - [`world`]: the rapier world: pieces, floor, projectiles; stepping; snapshots.
 //! - [`lead_in_driver`]: the `shatter lead-in` stage: the intact body's flight to its first
 //!   contact.
-//! - [`handoff`]: when the fracture has quieted; [`hand_over`]: particles to bodies.
+//! - [`handoff`]: when the fracture has quieted; [`mod@hand_over`]: particles to bodies.
 //! - [`reentries`]: pieces that hit hard go back to the simulation and return broken.
 //! - [`rigid_driver`]: the `shatter rigid` stage: handoff, frames, checkpoints, resume.
 //! - [`shot_usd`]: the USD of the whole shot, lead-in to rest.
