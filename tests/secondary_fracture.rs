@@ -133,6 +133,15 @@ fn a_slab_breaks_again_when_it_lands_above_its_critical_speed_and_not_below() {
         assert!(usd.contains(&format!("def Mesh \"piece_{id:05}\"")), "no prim for piece {id}");
     }
     assert!(!usd.contains(&format!("def Mesh \"piece_{:05}\"", after.fragment_count())));
+    // and its debris points: the re-entry's, at the frame its pieces came back by, none before
+    let points = &usd[usd.find("point3f[] points.timeSamples").expect("debris points")..];
+    let sample = |frame: u32| {
+        let at = points.find(&format!("\n            {frame}: [")).expect("a sample per frame");
+        points[at..].lines().nth(1).expect("the sample").trim().to_string()
+    };
+    let frame = reentry.meta.frame;
+    assert_eq!(sample(frame - 1), format!("{}: [],", frame - 1));
+    assert!(sample(frame).starts_with(&format!("{frame}: [(")), "no debris at frame {frame}: {}", sample(frame));
     // it cracked where it hit: the re-entry's first broken bonds lie at the edge it landed on
     // (it falls without turning, so that edge is the lowest in the rest frame, which
     // preprocess turned already)

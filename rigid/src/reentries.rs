@@ -11,6 +11,7 @@
 use rapier3d_f64::math::{Rotation, Vector};
 use serde::{Deserialize, Serialize};
 use shatter_core::config::{RigidConfig, SecondaryFractureConfig};
+use shatter_core::debris_points::{DebrisFrame, read_point_cache};
 use shatter_core::fragments::{AFFINE_RIGID, FragmentFrame};
 use shatter_core::frames::{BreakLog, PointFrame};
 use shatter_core::lead_in::LeadIn;
@@ -98,6 +99,22 @@ pub(crate) struct Reentries<'a> {
     outcomes: Vec<Outcome>,
     /// The returns this run made.
     pub(crate) reports: Vec<ReentryReport>,
+    /// Every re-entry whose pieces came back, in that order (this run's and those resumed).
+    returned: Vec<Returned>,
+}
+
+/// A re-entry whose pieces came back: where its debris points are and how its fragment ids
+/// became the shot's.
+struct Returned {
+    layout: OutputLayout,
+    /// Its handoff frame.
+    handoff_frame: u32,
+    /// The piece that went back (its fragment 0's id in the shot).
+    piece: u32,
+    /// The shot's id of its fragment 1 (its fragment k >= 1 is this + k - 1).
+    first_new: u32,
+    start_time_s: f64,
+    return_time_s: f64,
 }
 
 /// Where the follow-through stands after stepping.
@@ -147,6 +164,7 @@ impl<'a> Reentries<'a> {
             state: ReentryState { time_s: handoff.meta.time_s, started: 0, active: Vec::new(), returned: Vec::new() },
             outcomes: Vec::new(),
             reports: Vec::new(),
+            returned: Vec::new(),
         }))
     }
 
@@ -396,6 +414,14 @@ impl<'a> Reentries<'a> {
         for &entry in &outcome.broken {
             self.broken[entry] = true;
         }
+        self.returned.push(Returned {
+            layout: outcome.layout.clone(),
+            handoff_frame: handoff.meta.frame,
+            piece,
+            first_new: first_new as u32,
+            start_time_s: outcome.reentry.meta.start_time_s,
+            return_time_s: outcome.return_time_s,
+        });
         let world = world?;
         for (fragment, body) in bodies.iter().enumerate() {
             if fragment == 0 {
@@ -455,6 +481,39 @@ impl<'a> Reentries<'a> {
             layout,
             frame_times_s,
         }))
+    }
+
+    /// The debris points of the re-entries whose pieces came back after `after_s` and by
+    /// `until_s` (seconds since the simulation's start), appended to `debris`: their post's
+    /// points through their handoff, with the shot's fragment ids and break times.
+    pub(crate) fn debris_between(
+        &self,
+        after_s: f64,
+        until_s: f64,
+        debris: &mut DebrisFrame,
+    ) -> Result<(), RigidError> {
+        for returned in self.returned.iter().filter(|r| r.return_time_s > after_s && r.return_time_s <= until_s) {
+            let id = |k: i32| match k {
+                0 => returned.piece as i32,
+                k if k > 0 => returned.first_new as i32 + k - 1,
+                k => k,
+            };
+            for frame in 1..=returned.handoff_frame {
+                let path = returned.layout.debris_points(frame);
+                if !path.is_file() {
+                    continue;
+                }
+                let points = read_point_cache(&path)?;
+                debris.position.extend(points.position);
+                debris.velocity.extend(points.velocity);
+                debris.broken_bonds.extend(points.broken_bonds);
+                debris.fragment.extend(points.fragment.into_iter().map(id));
+                debris.other_fragment.extend(points.other_fragment.into_iter().map(id));
+                let start_s = returned.start_time_s;
+                debris.time_s.extend(points.time_s.into_iter().map(|t| (f64::from(t) + start_s) as f32));
+            }
+        }
+        Ok(())
     }
 
     /// The canonical entry in the shot's particle file of the re-entry's bond `entry`.

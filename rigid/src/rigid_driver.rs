@@ -200,7 +200,7 @@ pub fn run_rigid(config: &PipelineConfig, resume: bool, progress: &dyn Progress)
             write_checkpoint(&layout, &meta, &world, reentries.as_ref().map(|r| &r.state))?;
         }
         if config.post.usd {
-            write_shot_usd(config, &layout, &particles, pieces, &clock.sim_frames)?;
+            write_shot_usd(config, &layout, &particles, pieces, &clock.sim_frames, reentries.as_ref())?;
         }
     }
     if let Some(reentries) = reentries {

@@ -3,7 +3,8 @@
 //! (its rigid bodies: the handoff's, or the parts a re-entry broke them into), each with the
 //! transform of the fragment that holds it in each frame's fragments file (so a part moves with
 //! the piece it broke from until it breaks off), so a DCC reads the follow-through exactly as the simulated
-//! frames; with post's debris points at the simulated frames and each frame's physical time.
+//! frames; with post's debris points at the simulated frames (and a re-entry's at the frame its
+//! pieces come back by) and each frame's physical time.
 
 use shatter_core::debris_points::{DebrisFrame, read_point_cache};
 use shatter_core::fragments::FragmentFrame;
@@ -14,6 +15,7 @@ use shatter_core::surfaces::piece_surfaces;
 use shatter_core::usd::{PieceTransform, UsdShot, element_of_pieces, write_usda};
 use shatter_core::{OutputLayout, ParticleSet, PipelineConfig};
 
+use crate::reentries::Reentries;
 use crate::rigid_driver::RigidError;
 
 /// Writes `layout.rigid_usd()` for the finished follow-through whose pieces at its end are
@@ -24,6 +26,7 @@ pub(crate) fn write_shot_usd(
     particles: &ParticleSet,
     last: &FragmentFrame,
     sim_frames: &SimFrames,
+    reentries: Option<&Reentries>,
 ) -> Result<(), RigidError> {
     let shot = Shot::of(config, layout).map_err(RigidError::Input)?;
     let pieces = last.fragment_count();
@@ -34,12 +37,14 @@ pub(crate) fn write_shot_usd(
     // physical m/s to metres per playback second at the simulated frames (the others emit none)
     let mut speed = Vec::with_capacity(shot.last as usize);
     let mut times = Vec::with_capacity(shot.last as usize);
+    let mut previous_time_s = f64::NEG_INFINITY;
     for frame in 1..=shot.last {
         let path = shot.fragments(layout, frame);
         if let Some(message) = missing_input(&path, shot.locate(frame).0.command()) {
             return Err(RigidError::Input(message));
         }
         let fragments = FragmentFrame::read(&path)?;
+        let time_s = std::mem::replace(&mut previous_time_s, fragments.meta.time_s);
         times.push(shot.time_s(frame, fragments.meta.time_s));
         transforms.push(PieceTransform::of_pieces(&fragments, &elements));
         let none = DebrisFrame { frame, ..DebrisFrame::default() };
@@ -48,6 +53,15 @@ pub(crate) fn write_shot_usd(
                 let path = layout.debris_points(local);
                 debris.push(if path.is_file() { read_point_cache(&path)? } else { none });
                 speed.push(sim_frames.speed[local as usize - 1]);
+            }
+            (Source::Rigid, _) => {
+                // the debris of the re-entries whose pieces came back since the frame before
+                let mut points = none;
+                if let Some(reentries) = reentries {
+                    reentries.debris_between(time_s, fragments.meta.time_s, &mut points)?;
+                }
+                debris.push(points);
+                speed.push(1.0);
             }
             _ => {
                 debris.push(none);
