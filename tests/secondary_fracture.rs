@@ -1,7 +1,8 @@
 //! Pieces that break again (`[rigid.secondary_fracture]`): a glass slab dropped on its edge goes
 //! back to the simulation when it lands faster than its material's critical impact speed, and
 //! comes back in pieces; dropped well below that speed it lands whole without going back. The
-//! handoffs both ways keep momentum and never add kinetic energy; the pieces keep their ids; a
+//! handoffs both ways keep momentum and never add kinetic energy; the pieces keep their ids (in
+//! the fragments files, the USD and the Cryptomatte); a
 //! run killed during a re-entry ends as one never killed, at any thread count.
 
 use std::path::Path;
@@ -13,6 +14,8 @@ use shatter_core::frames::{BreakLog, PointFrame};
 use shatter_core::lead_in::LeadIn;
 use shatter_core::particles::ParticleSet;
 use shatter_core::reentry::Reentry;
+use shatter_render::cryptomatte::FRAGMENT_MATTE;
+use shatter_render::frame_review::RenderedFrame;
 use shatter_rigid::mass::{element_mass_props, piece_mass_props};
 use support::{shatter, stderr, tree_files};
 
@@ -68,8 +71,12 @@ follow_through_s = {}
 min_elements = 64
 [render]
 backend = "cpu"
-resolution = [64, 48]
+resolution = [256, 192]
 samples_per_pixel = 2
+[render.camera]
+position_m = [0.0, 0.1, 0.45]
+look_at_m = [0.0, 0.08, 0.0]
+fov_deg = 40.0
 "#,
         height_m + HALF_DIAGONAL_M,
         (2.0 * height_m / GRAVITY_M_S2).sqrt() + 0.25
@@ -133,6 +140,28 @@ fn a_slab_breaks_again_when_it_lands_above_its_critical_speed_and_not_below() {
         assert!(usd.contains(&format!("def Mesh \"piece_{id:05}\"")), "no prim for piece {id}");
     }
     assert!(!usd.contains(&format!("def Mesh \"piece_{:05}\"", after.fragment_count())));
+    // the Cryptomatte of the pieces names them by the same ids: the slab in the frame before it
+    // landed, its parts in the frame it landed in
+    let landed = reentry.meta.frame;
+    let frames = format!("{},{landed}", landed - 1);
+    let output = shatter(&["render", "--frames", &frames], hard.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let names = |frame: u32| {
+        let path = out.join(format!("render/slab.{frame:04}.exr"));
+        let image = RenderedFrame::read(&path).expect("a rendered frame");
+        let mut names = std::collections::BTreeSet::new();
+        for y in 0..image.height {
+            for x in 0..image.width {
+                names.extend(image.pick(FRAGMENT_MATTE, x, y).into_iter().map(|(name, _)| name));
+            }
+        }
+        names
+    };
+    assert_eq!(names(reentry.meta.frame - 1).into_iter().collect::<Vec<_>>(), vec!["piece_00000".to_string()]);
+    let parts = names(landed);
+    assert!(parts.contains("piece_00000") && parts.len() > 1, "{parts:?}");
+    let ids: Vec<String> = (0..after.fragment_count()).map(|id| format!("piece_{id:05}")).collect();
+    assert!(parts.iter().all(|name| ids.contains(name)), "{parts:?} are not the pieces' ids");
     // and its debris points: the re-entry's, at the frame its pieces came back by, none before
     let points = &usd[usd.find("point3f[] points.timeSamples").expect("debris points")..];
     let sample = |frame: u32| {
