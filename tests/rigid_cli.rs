@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use shatter_core::fragments::FragmentFrame;
 use shatter_core::particles::{Elements, ParticleSet};
 use shatter_core::rigid_checkpoint::RigidCheckpoint;
-use support::{shatter, stderr, tree_files};
+use support::{figure, shatter, stderr, tree_files};
 
 use crate::support;
 
@@ -50,14 +50,6 @@ samples_per_pixel = 2
 
 fn scene(dir: &Path, text: &str) {
     std::fs::write(dir.join("pipeline.toml"), text).expect("config");
-}
-
-/// A number printed after `label` on the rigid stage's summary.
-fn figure(stdout: &str, label: &str) -> f64 {
-    let at = stdout.find(label).unwrap_or_else(|| panic!("no {label:?} in {stdout}")) + label.len();
-    let text: String =
-        stdout[at..].trim_start().chars().take_while(|c| !c.is_whitespace() && !matches!(c, ',' | ';')).collect();
-    text.parse().unwrap_or_else(|_| panic!("{text:?} after {label:?} is not a number"))
 }
 
 /// The height at `frame` of a point `c` of the piece `piece`'s rest frame, metres.

@@ -17,7 +17,7 @@ use shatter_core::reentry::Reentry;
 use shatter_render::cryptomatte::FRAGMENT_MATTE;
 use shatter_render::frame_review::RenderedFrame;
 use shatter_rigid::mass::{element_mass_props, piece_mass_props};
-use support::{shatter, stderr, tree_files};
+use support::{figure, shatter, stderr, tree_files};
 
 use crate::support;
 
@@ -82,14 +82,6 @@ fov_deg = 40.0
         (2.0 * height_m / GRAVITY_M_S2).sqrt() + 0.25
     );
     std::fs::write(dir.join("pipeline.toml"), text).expect("config");
-}
-
-/// A number printed after `label` in `text`.
-fn figure(text: &str, label: &str) -> f64 {
-    let at = text.find(label).unwrap_or_else(|| panic!("no {label:?} in {text}")) + label.len();
-    let number: String =
-        text[at..].trim_start().chars().take_while(|c| !c.is_whitespace() && !matches!(c, ',' | ';')).collect();
-    number.parse().unwrap_or_else(|_| panic!("{number:?} after {label:?} is not a number"))
 }
 
 fn last_rigid_frame(out: &Path) -> FragmentFrame {

@@ -214,10 +214,14 @@ impl<'a> Reentries<'a> {
             let target_s = until_s.min(returns);
             let duration_s = target_s - self.state.time_s;
             if duration_s > 0.0 {
-                let watch = self.watch(world.piece_count());
-                let saved = world.snapshot().map_err(|e| self.snapshot_error(e.to_string()))?;
+                // the world is saved to step back to only while some piece is watched
+                let watch = self.watch(world.piece_count()).filter(|watch| watch.watched.contains(&true));
+                let saved = match watch {
+                    Some(_) => Some(world.snapshot().map_err(|e| self.snapshot_error(e.to_string()))?),
+                    None => None,
+                };
                 let stepped = world.step_for(duration_s, self.rigid.max_step_s, watch.as_ref());
-                if let Some(impact) = stepped.impact {
+                if let (Some(impact), Some(saved)) = (stepped.impact, saved) {
                     // back to the step before the contact, then out of the world
                     *world = RigidWorld::restore(&saved).map_err(|e| self.snapshot_error(e.to_string()))?;
                     world.step_exactly(stepped.dt_s, stepped.steps - 1);

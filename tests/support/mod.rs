@@ -55,6 +55,15 @@ pub fn shatter(args: &[&str], dir: &Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_shatter")).args(args).current_dir(dir).output().expect("shatter runs")
 }
 
+/// The number printed after `label` in `text` (a stage's summary line), up to a space, comma or
+/// semicolon.
+pub fn figure(text: &str, label: &str) -> f64 {
+    let at = text.find(label).unwrap_or_else(|| panic!("no {label:?} in {text}")) + label.len();
+    let number: String =
+        text[at..].trim_start().chars().take_while(|c| !c.is_whitespace() && !matches!(c, ',' | ';')).collect();
+    number.parse().unwrap_or_else(|_| panic!("{number:?} after {label:?} is not a number"))
+}
+
 /// A command's standard error as text.
 pub fn stderr(output: &Output) -> String {
     String::from_utf8_lossy(&output.stderr).into_owned()
