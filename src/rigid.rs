@@ -59,12 +59,12 @@ fn print_report(report: &RigidReport) {
     for reentry in &report.reentries {
         let c = reentry.conservation;
         println!(
-            "  re-entry {}: piece {} hit the {} at {:.2} m/s (hard from {:.2} m/s) at {:.4} s, back at {:.4} s as {} \
+            "  re-entry {}: piece {} hit {} at {:.2} m/s (hard from {:.2} m/s) at {:.4} s, back at {:.4} s as {} \
              pieces; momentum kept to {:.1e}, angular momentum to {:.1e}; kinetic energy {:.4e} J in the particles, \
              {:.4e} J in the bodies",
             reentry.number,
-            reentry.piece,
-            reentry.hit,
+            reentry.pieces_in[0],
+            if reentry.hit.starts_with("piece") { reentry.hit.clone() } else { format!("the {}", reentry.hit) },
             reentry.impact_speed_m_s,
             reentry.threshold_m_s,
             reentry.start_time_s,

@@ -36,6 +36,28 @@ fn critical_speed_m_s() -> f64 {
     stretch * (1.8 * BULK_MODULUS_PA / DENSITY_KG_M3).sqrt()
 }
 
+/// The scenes' glass, its simulation (three short frames, the floor at 0) and a follow-through
+/// of `follow_through_s` whose pieces break again.
+fn physics(follow_through_s: f64) -> String {
+    format!(
+        r#"[material]
+density_kg_m3 = {DENSITY_KG_M3}
+bulk_modulus_pa = {BULK_MODULUS_PA}
+fracture_energy_j_m2 = {FRACTURE_ENERGY_J_M2}
+[sim]
+frames = 3
+steps_per_frame = 20
+gravity_m_s2 = [0.0, -{GRAVITY_M_S2}, 0.0]
+[sim.floor]
+height_m = 0.0
+[rigid]
+follow_through_s = {follow_through_s}
+[rigid.secondary_fracture]
+min_elements = 64
+"#
+    )
+}
+
 /// A 4 x 4 x 0.6 cm glass slab of 2 mm cubes, turned to stand on an edge, whose lowest edge
 /// falls onto the floor at `speed_m_s`.
 fn scene(dir: &Path, speed_m_s: f64) {
@@ -55,20 +77,7 @@ horizon_factor = 3.0
 [geometry.transform]
 rotate_deg = [0.0, 0.0, 45.0]
 translate_m = [0.0, {}, 0.0]
-[material]
-density_kg_m3 = {DENSITY_KG_M3}
-bulk_modulus_pa = {BULK_MODULUS_PA}
-fracture_energy_j_m2 = {FRACTURE_ENERGY_J_M2}
-[sim]
-frames = 3
-steps_per_frame = 20
-gravity_m_s2 = [0.0, -{GRAVITY_M_S2}, 0.0]
-[sim.floor]
-height_m = 0.0
-[rigid]
-follow_through_s = {}
-[rigid.secondary_fracture]
-min_elements = 64
+{}
 [render]
 backend = "cpu"
 resolution = [256, 192]
@@ -79,7 +88,7 @@ look_at_m = [0.0, 0.08, 0.0]
 fov_deg = 40.0
 "#,
         height_m + HALF_DIAGONAL_M,
-        (2.0 * height_m / GRAVITY_M_S2).sqrt() + 0.25
+        physics((2.0 * height_m / GRAVITY_M_S2).sqrt() + 0.25)
     );
     std::fs::write(dir.join("pipeline.toml"), text).expect("config");
 }
@@ -93,6 +102,26 @@ fn last_rigid_frame(out: &Path) -> FragmentFrame {
     frames.sort();
     FragmentFrame::read(frames.last().expect("a rigid frame")).expect("fragments")
 }
+
+/// The visibility check of the shot's USD, in Python with `pxr`: the slab's whole
+/// (`piece_00000_before_<landed>`) is shown at the frame before it landed and not from then on,
+/// nor in the first frame (the simulation's, where the last frame's pieces are drawn); each of
+/// the pieces is hidden at the frame before and shown at the frame it landed and the first.
+const VISIBILITY_CHECK: &str = r#"
+import sys
+from pxr import Usd, UsdGeom
+stage = Usd.Stage.Open(sys.argv[1])
+landed, pieces = int(sys.argv[2]), int(sys.argv[3])
+def shown(name, frame):
+    prim = stage.GetPrimAtPath("/Shatter/" + name)
+    assert prim and prim.IsA(UsdGeom.Mesh), name
+    return UsdGeom.Imageable(prim).ComputeVisibility(frame) != UsdGeom.Tokens.invisible
+whole = "piece_00000_before_%04d" % landed
+assert shown(whole, landed - 1) and not shown(whole, landed) and not shown(whole, 1), whole
+for name in ["piece_%05d" % k for k in range(pieces)]:
+    assert shown(name, 1) and not shown(name, landed - 1) and shown(name, landed), name
+print("visibility ok")
+"#;
 
 #[test]
 fn a_slab_breaks_again_when_it_lands_above_its_critical_speed_and_not_below() {
@@ -132,9 +161,18 @@ fn a_slab_breaks_again_when_it_lands_above_its_critical_speed_and_not_below() {
         assert!(usd.contains(&format!("def Mesh \"piece_{id:05}\"")), "no prim for piece {id}");
     }
     assert!(!usd.contains(&format!("def Mesh \"piece_{:05}\"", after.fragment_count())));
+    // the slab is drawn whole until the frame it landed in, its parts from then on (and in the
+    // simulation's frames, as for the first fracture): read by Pixar's usd-core
+    let landed = reentry.meta.frame;
+    let usd_path = out.join("rigid/shot.usda");
+    let args = [landed, after.fragment_count() as u32].map(|n| n.to_string());
+    let check = Command::new("python3")
+        .args(["-c", VISIBILITY_CHECK, &usd_path.to_string_lossy(), &args[0], &args[1]])
+        .output()
+        .expect("python3 runs");
+    assert!(check.status.success(), "{}", String::from_utf8_lossy(&check.stderr));
     // the Cryptomatte of the pieces names them by the same ids: the slab in the frame before it
     // landed, its parts in the frame it landed in
-    let landed = reentry.meta.frame;
     let frames = format!("{},{landed}", landed - 1);
     let output = shatter(&["render", "--frames", &frames], hard.path());
     assert!(output.status.success(), "{}", stderr(&output));
@@ -286,4 +324,131 @@ fn a_run_killed_during_a_reentry_ends_as_one_never_killed_at_any_thread_count() 
     for ((name, bytes), (_, expected_bytes)) in resumed.iter().zip(&expected) {
         assert!(bytes == expected_bytes, "{name} differs after kill -9 and resume");
     }
+}
+
+/// The OBJ of a box of half-sizes `half` about `centre`, turned by `turn_rad` about z, its
+/// vertices numbered from `first` + 1, its faces wound outward.
+fn obj_box(centre: [f64; 3], half: [f64; 3], turn_rad: f64, first: usize) -> String {
+    let mut text = String::new();
+    let (sin, cos) = turn_rad.sin_cos();
+    for corner in 0..8 {
+        let offset = [0, 1, 2].map(|axis| if corner >> axis & 1 == 1 { half[axis] } else { -half[axis] });
+        let x = centre[0] + cos * offset[0] - sin * offset[1];
+        let y = centre[1] + sin * offset[0] + cos * offset[1];
+        text.push_str(&format!("v {x} {y} {}\n", centre[2] + offset[2]));
+    }
+    // corners by bits (x, y, z); each face's quad wound counter-clockwise from outside
+    for quad in [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]] {
+        let [a, b, c, d] = quad.map(|k| k + first + 1);
+        text.push_str(&format!("f {a} {b} {c}\nf {a} {c} {d}\n"));
+    }
+    text
+}
+
+/// Two glass bodies of 2 mm cubes: a 6 x 0.6 x 6 cm plate lying on the floor, and the 4 x 4 x
+/// 0.6 cm slab standing on a corner edge above its middle, high enough that it lands on the plate
+/// at `speed_m_s`; one re-entry at most.
+fn two_slabs_scene(dir: &Path, speed_m_s: f64) {
+    let plate_top_m = 0.0065;
+    let height_m = speed_m_s * speed_m_s / (2.0 * GRAVITY_M_S2);
+    let plate = obj_box([0.0, 0.5 * (0.0005 + plate_top_m), 0.0], [0.03, 0.5 * (plate_top_m - 0.0005), 0.03], 0.0, 0);
+    let centre_m = plate_top_m + height_m + HALF_DIAGONAL_M;
+    let slab = obj_box([0.0, centre_m, 0.0], [0.02, 0.02, 0.003], std::f64::consts::FRAC_PI_4, 8);
+    std::fs::write(dir.join("two_slabs.obj"), plate + &slab).expect("mesh");
+    let text = format!(
+        r#"
+[scene]
+name = "two_slabs"
+output_dir = "out"
+seed = 3
+[geometry]
+source = "two_slabs.obj"
+sampler = "grid"
+spacing_m = 0.002
+horizon_factor = 3.0
+{}max_reentries = 1
+"#,
+        physics((2.0 * height_m / GRAVITY_M_S2).sqrt() + 0.05)
+    );
+    std::fs::write(dir.join("pipeline.toml"), text).expect("config");
+}
+
+#[test]
+fn two_pieces_that_meet_hard_go_back_together_and_keep_their_ids() {
+    // between two pieces the velocity jump is shared: hard at twice the critical speed
+    let hard_m_s = 2.0 * critical_speed_m_s();
+    let dir = tempfile::tempdir().expect("tempdir");
+    two_slabs_scene(dir.path(), 2.0 * hard_m_s);
+    let output = shatter(&["--threads", "2", "run", "--until", "rigid"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
+    let out = dir.path().join("out");
+    let particles = ParticleSet::read(&out.join("particles.shp")).expect("particles");
+    let handoff = FragmentFrame::read(&out.join("fragments/fragments.0001.shp")).expect("the first frame");
+    assert_eq!(handoff.fragment_count(), 2, "two bodies from the start");
+    // which of the two is the slab that falls: the higher one
+    let height = |piece: u32| {
+        let ys = (0..particles.len()).filter(|&i| handoff.fragment_of[i] == piece);
+        ys.map(|i| particles.rest_position_m[i][1]).fold(f32::NEG_INFINITY, f32::max)
+    };
+    let slab = u32::from(height(1) > height(0));
+    let reentry = Reentry::read(&out.join("rigid/reentry.001.shp")).expect("the two went back");
+    assert_eq!(reentry.meta.pieces, vec![0, 1], "both pieces in the contact go back");
+    assert_eq!(reentry.meta.hit, "piece 1");
+    assert!((reentry.meta.threshold_m_s - hard_m_s).abs() <= 1e-9 * hard_m_s, "{:?}", reentry.meta);
+    let speed = reentry.meta.impact_speed_m_s;
+    assert!((speed / (2.0 * hard_m_s) - 1.0).abs() < 0.05, "met at {speed} m/s, not {}", 2.0 * hard_m_s);
+    assert_eq!(reentry.members.len(), particles.len());
+
+    // each body's particles start with its own motion: the plate at rest, the slab falling
+    let pass = out.join("reentry/001");
+    let start = LeadIn::read(&pass.join("rigid/lead_in.shp")).expect("start");
+    assert_eq!(start.others.len(), 1);
+    let first = PointFrame::read(&pass.join("frames/points.0001.ply")).expect("first frame");
+    let start_velocity = |body: u32| {
+        let motion = if body == 0 { start.motion() } else { start.others[0] };
+        motion.velocity_m_s[1]
+    };
+    // (body k is piece k: the pieces go back in ascending order)
+    for body in 0..2 {
+        let expected = if body == slab { -2.0 * hard_m_s } else { 0.0 };
+        assert!(
+            (start_velocity(body) - expected).abs() < 0.05 * 2.0 * hard_m_s,
+            "body {body}: {}",
+            start_velocity(body)
+        );
+        let mean = (0..particles.len())
+            .filter(|&i| start.body_of[i] == body)
+            .map(|i| f64::from(first.velocity[1][i]))
+            .sum::<f64>()
+            / start.body_of.iter().filter(|&&b| b == body).count() as f64;
+        assert!((mean - expected).abs() < 0.1 * 2.0 * hard_m_s, "body {body}'s particles move at {mean} m/s");
+    }
+
+    // they come back: momentum kept, no energy gained; each keeps its id, new ones after 1
+    let line = stdout.lines().find(|line| line.contains("re-entry 1: piece 0 hit piece 1")).expect("the line");
+    assert!(figure(line, "momentum kept to") <= 1e-6, "{line}");
+    assert!(figure(line, "angular momentum to") <= 1e-6, "{line}");
+    let (particle_energy, body_energy) = (figure(line, "kinetic energy"), figure(line, "J in the particles,"));
+    assert!(body_energy <= particle_energy * 1.01, "the bodies gained energy: {line}");
+    let after = last_rigid_frame(&out);
+    assert!(after.fragment_count() > 2, "the slab landed on the plate whole: {stdout}");
+    // every new piece lies within one of the two (no bond joined them), and each of the two
+    // keeps its id on its largest part
+    let mut within = std::collections::BTreeMap::new();
+    for (&new, &old) in after.fragment_of.iter().zip(&handoff.fragment_of) {
+        assert_eq!(*within.entry(new).or_insert(old), old, "piece {new} spans both bodies");
+    }
+    for (&part, &piece) in &within {
+        let (size, kept) = (after.elements[part as usize], after.elements[piece as usize]);
+        assert!(size <= kept, "piece {piece} kept its id on {kept} elements, its part {part} has {size}");
+    }
+
+    // well below the speed the slab lands on the plate without going back
+    let soft = tempfile::tempdir().expect("tempdir");
+    two_slabs_scene(soft.path(), 0.5 * hard_m_s);
+    let output = shatter(&["run", "--until", "rigid"], soft.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(!soft.path().join("out/rigid/reentry.001.shp").exists(), "a soft landing went back");
+    assert_eq!(last_rigid_frame(&soft.path().join("out")).fragment_count(), 2);
 }

@@ -79,7 +79,8 @@ impl Reentry {
 /// `reentry/###/`, where the follow-through left the pieces' particle file and their motion
 /// as a lead-in handoff; it has `rigid.secondary_fracture.frames` frames of its `steps_per_frame`
 /// steps, no timeline (the re-entry is over in milliseconds), no starting velocity beyond the
-/// pieces' own, no grips, the shot's shard centres (`reentry`'s), and no USD. `config` must
+/// pieces' own, no grips, the shot's shard centres (`reentry`'s), and no USD; two pieces that
+/// met touch through a contact at least as stiff as the material's bulk modulus. `config` must
 /// have `[rigid.secondary_fracture]`.
 pub fn pass_config(config: &PipelineConfig, reentry: &ReentryMeta) -> PipelineConfig {
     let mut pass = config.clone();
@@ -93,6 +94,12 @@ pub fn pass_config(config: &PipelineConfig, reentry: &ReentryMeta) -> PipelineCo
     // a grip holds the body before the fracture; a piece in flight is free
     pass.sim.grip.clear();
     pass.post.usd = false;
+    if reentry.pieces.len() > 1 {
+        // two pieces meet through the contact force between unbonded particles: as stiff as the
+        // material, so it carries an impact's pressure within a tenth of the contact distance
+        // (docs/DECISIONS.md#secondary-fracture)
+        pass.sim.contact.stiffness_pa = pass.sim.contact.stiffness_pa.max(config.material.bulk_modulus_pa);
+    }
     if let Some(rigid) = &mut pass.rigid
         && let Some(secondary) = rigid.secondary_fracture.take()
     {
@@ -150,11 +157,15 @@ mod tests {
             shard_centres_m: vec![[0.0; 3], [0.001, 0.0, 0.0]],
         };
         let pass = pass_config(&config, &meta);
-        assert_eq!(pass.sim.shards.as_ref().map(|shards| shards.centres_m.clone()), Some(meta.shard_centres_m));
+        assert_eq!(pass.sim.shards.as_ref().map(|shards| shards.centres_m.clone()), Some(meta.shard_centres_m.clone()));
         assert_eq!(pass.output_dir(), Path::new("out/reentry/003"));
         assert!(pass.lead_in.is_some() && pass.timeline.is_none());
         assert_eq!((pass.sim.frames, pass.sim.steps_per_frame), (12, 100));
         assert_eq!(pass.sim.initial_velocity_m_s, [0.0; 3]);
         assert!(pass.rigid.as_ref().is_some_and(|rigid| rigid.secondary_fracture.is_none()));
+        assert_eq!(pass.sim.contact, config.sim.contact);
+        // two pieces that met: their contact as stiff as the material
+        let pass = pass_config(&config, &ReentryMeta { pieces: vec![0, 1], ..meta });
+        assert_eq!(pass.sim.contact.stiffness_pa, 14.9e9);
     }
 }

@@ -124,6 +124,8 @@ mod tests {
             angular_velocity_rad_s: [0.0; 3],
             steps: 0,
             inputs: 0,
+            others: Vec::new(),
+            body_of: Vec::new(),
         }
     }
 

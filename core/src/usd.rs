@@ -1,8 +1,11 @@
 //! A USD (usda) export of the shot: one mesh per final piece, in the rest frame, with a
 //! time-sampled transform per frame, so Blender, Houdini or usdview play the fracture. A piece's
 //! transform at a frame is that of the fragment holding it then (pieces only ever split off).
+//! A piece that broke again in the follow-through is drawn whole until it broke: a mesh of its
+//! own, shown at those frames only, while the parts it broke into are hidden.
 
 use std::fmt::Write as _;
+use std::ops::Range;
 use std::path::Path;
 
 use glam::{DMat3, DQuat, DVec3};
@@ -61,11 +64,28 @@ fn matrix(transform: &PieceTransform) -> [[f64; 4]; 4] {
     ]
 }
 
+/// A piece drawn whole over some frames before it broke again (the parts it broke into are
+/// hidden then): `/Shatter/piece_<piece>_before_<frame>`, `frame` the first it is not shown at.
+#[derive(Debug, Clone)]
+pub struct WholeMesh {
+    /// The id of the piece (its transform's column in `UsdShot::transforms`).
+    pub piece: usize,
+    /// The piece's outer faces while whole, in the rest frame.
+    pub mesh: SurfaceMesh,
+    /// The frames (indices into `UsdShot::transforms`) it is shown at.
+    pub shown: Range<usize>,
+}
+
 /// A shot to write as USD.
 #[derive(Debug, Clone, Copy)]
 pub struct UsdShot<'a> {
     /// One mesh per piece, in the rest frame.
     pub meshes: &'a [SurfaceMesh],
+    /// The frames (indices into `transforms`) at which each piece of `meshes` is hidden inside a
+    /// whole of `wholes`; empty (for all, or a piece) when it is shown at every frame.
+    pub hidden: &'a [Range<usize>],
+    /// The pieces drawn whole before they broke again.
+    pub wholes: &'a [WholeMesh],
     /// `transforms[frame index][piece]`.
     pub transforms: &'a [Vec<PieceTransform>],
     /// The time code of the first frame.
@@ -92,7 +112,18 @@ pub struct UsdShot<'a> {
 /// makes them metres per playback second as USD defines them) and the primvars `brokenBonds`,
 /// `fragment`, `otherFragment`.
 pub fn write_usda(path: &Path, shot: &UsdShot) -> std::io::Result<()> {
-    let UsdShot { meshes, transforms, first_frame, fps, debris, width_m, velocity_scale, physical_time_s } = *shot;
+    let UsdShot {
+        meshes,
+        hidden,
+        wholes,
+        transforms,
+        first_frame,
+        fps,
+        debris,
+        width_m,
+        velocity_scale,
+        physical_time_s,
+    } = *shot;
     let last_frame = first_frame + transforms.len().saturating_sub(1) as u32;
     let mut text = String::new();
     let _ = write!(
@@ -112,8 +143,22 @@ pub fn write_usda(path: &Path, shot: &UsdShot) -> std::io::Result<()> {
     let mut out = Vec::with_capacity(1 << 20);
     out.extend_from_slice(text.as_bytes());
     // Each piece's prim (and each frame of the debris) formatted in parallel, joined in order.
-    let prims: Vec<String> =
-        meshes.par_iter().enumerate().map(|(piece, mesh)| piece_prim(piece, mesh, transforms, first_frame)).collect();
+    let frames = FrameSpan { first_frame, count: transforms.len() };
+    let prims: Vec<String> = meshes
+        .par_iter()
+        .enumerate()
+        .map(|(piece, mesh)| {
+            let hidden = hidden.get(piece).cloned().unwrap_or_default();
+            let shown = |index: usize| !hidden.contains(&index);
+            let visibility = if hidden.is_empty() { String::new() } else { frames.visibility(shown) };
+            piece_prim(&format!("piece_{piece:05}"), mesh, piece, transforms, first_frame, &visibility)
+        })
+        .chain(wholes.par_iter().map(|whole| {
+            let name = format!("piece_{:05}_before_{:04}", whole.piece, frames.frame(whole.shown.end));
+            let visibility = frames.visibility(|index| whole.shown.contains(&index));
+            piece_prim(&name, &whole.mesh, whole.piece, transforms, first_frame, &visibility)
+        }))
+        .collect();
     for prim in prims {
         out.extend_from_slice(prim.as_bytes());
     }
@@ -125,10 +170,43 @@ pub fn write_usda(path: &Path, shot: &UsdShot) -> std::io::Result<()> {
     crate::atomic_file::write_atomically(path, &[&out])
 }
 
-/// The prim of piece `piece`: its mesh at rest, its transform at each frame, its face subsets.
-fn piece_prim(piece: usize, mesh: &SurfaceMesh, transforms: &[Vec<PieceTransform>], first_frame: u32) -> String {
+/// The shot's frames: their count and the time code of the first.
+#[derive(Debug, Clone, Copy)]
+struct FrameSpan {
+    first_frame: u32,
+    count: usize,
+}
+
+impl FrameSpan {
+    /// The time code of frame index `index`.
+    fn frame(self, index: usize) -> u32 {
+        self.first_frame + index as u32
+    }
+
+    /// A prim's `visibility`, time-sampled at the first frame and wherever `shown` changes.
+    fn visibility(self, shown: impl Fn(usize) -> bool) -> String {
+        let token = |index: usize| if shown(index) { "inherited" } else { "invisible" };
+        let mut text = String::from("        token visibility.timeSamples = {\n");
+        for index in (0..self.count).filter(|&index| index == 0 || shown(index) != shown(index - 1)) {
+            let _ = writeln!(text, "            {}: \"{}\",", self.frame(index), token(index));
+        }
+        text.push_str("        }\n");
+        text
+    }
+}
+
+/// The prim `name`: `mesh` at rest, the transform of piece `piece` at each frame, the
+/// `visibility` samples given (empty for none), its face subsets.
+fn piece_prim(
+    name: &str,
+    mesh: &SurfaceMesh,
+    piece: usize,
+    transforms: &[Vec<PieceTransform>],
+    first_frame: u32,
+    visibility: &str,
+) -> String {
     let mut prim = String::new();
-    let _ = writeln!(prim, "    def Mesh \"piece_{piece:05}\"\n    {{");
+    let _ = writeln!(prim, "    def Mesh \"{name}\"\n    {{");
     prim.push_str("        uniform token subdivisionScheme = \"none\"\n");
     prim.push_str("        uniform bool doubleSided = 0\n");
     prim.push_str("        int[] faceVertexCounts = [");
@@ -145,6 +223,7 @@ fn piece_prim(piece: usize, mesh: &SurfaceMesh, transforms: &[Vec<PieceTransform
         let _ = writeln!(prim, "            {}: ({}),", first_frame + index as u32, rows.join(", "));
     }
     prim.push_str("        }\n        uniform token[] xformOpOrder = [\"xformOp:transform\"]\n");
+    prim.push_str(visibility);
     prim.push_str(&face_subsets(mesh));
     prim.push_str("    }\n");
     prim

@@ -344,6 +344,8 @@ impl<'a> FrameTracking<'a> {
         let times: Vec<f64> = lead_in_times.into_iter().chain(self.sim_times.iter().map(|t| sim_start_s + t)).collect();
         let shot = UsdShot {
             meshes: &meshes,
+            hidden: &[],
+            wholes: &[],
             transforms: &transforms,
             first_frame: 1,
             fps,

@@ -291,6 +291,8 @@ impl<'a> Flight<'a> {
             angular_velocity_rad_s: w.to_array(),
             steps,
             inputs: self.inputs,
+            others: Vec::new(),
+            body_of: Vec::new(),
         }
     }
 }

@@ -1,12 +1,14 @@
 //! Pieces that break again (`[rigid.secondary_fracture]`): the follow-through watches the
 //! contacts of every piece of at least `min_elements` elements; at a hard one (see
-//! [`crate::world::critical_speed_m_s`]) it steps back to the step before, takes the piece out of
-//! the rigid world and writes it as a re-entry for the simulation: `rigid/reentry.###.shp`, the
-//! piece's particles and intact bonds as a particle file of their own and its rigid motion as a
-//! lead-in handoff, both in `reentry/###/`. Once the simulation and post have run there
+//! [`crate::world::critical_speed_m_s`]) it steps back to the step before, takes the piece (or
+//! the two pieces that met) out of the rigid world and writes it as a re-entry for the
+//! simulation: `rigid/reentry.###.shp`, the pieces' particles and intact bonds as a particle file
+//! of their own and their rigid motions as a lead-in handoff, both in `reentry/###/`. Once the simulation and post have run there
 //! ([`shatter_core::reentry::pass_config`]), the handoff rule picks the re-entry's end, and the
 //! pieces it broke into come back as rigid bodies at that time: the largest keeps the piece's id,
 //! the others take new ids after the last. The other pieces fly on meanwhile.
+
+use std::collections::BTreeMap;
 
 use rapier3d_f64::math::{Rotation, Vector};
 use serde::{Deserialize, Serialize};
@@ -14,7 +16,7 @@ use shatter_core::config::{RigidConfig, SecondaryFractureConfig};
 use shatter_core::debris_points::{DebrisFrame, read_point_cache};
 use shatter_core::fragments::{AFFINE_RIGID, FragmentFrame};
 use shatter_core::frames::{BreakLog, PointFrame};
-use shatter_core::lead_in::LeadIn;
+use shatter_core::lead_in::{BodyMotion, LeadIn};
 use shatter_core::reentry::{Reentry, ReentryMeta, pass_config};
 use shatter_core::sim_frames::SimFrames;
 use shatter_core::{OutputLayout, ParticleSet, PipelineConfig, digest};
@@ -23,6 +25,10 @@ use crate::hand_over::{Balance, MemberMotion, PieceMaker, conservation, vectors}
 use crate::handoff::members_of_pieces;
 use crate::rigid_driver::{Conservation, RigidError, choose_handoff, read_fragments, world_settings};
 use crate::world::{Impact, ImpactWatch, RigidWorld, Struck, WorldSettings, critical_speed_m_s};
+
+mod approach;
+
+use approach::{Approach, BodyState};
 
 /// What the follow-through keeps of its re-entries between runs (in its checkpoint).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -42,9 +48,9 @@ pub struct ReentryState {
 pub struct ReentryReport {
     /// Its number.
     pub number: u32,
-    /// The piece that went back.
-    pub piece: u32,
-    /// What it hit.
+    /// The pieces that went back.
+    pub pieces_in: Vec<u32>,
+    /// What the first hit.
     pub hit: String,
     /// The approach speed and the threshold it passed, m/s.
     pub impact_speed_m_s: f64,
@@ -109,10 +115,8 @@ struct Returned {
     layout: OutputLayout,
     /// Its handoff frame.
     handoff_frame: u32,
-    /// The piece that went back (its fragment 0's id in the shot).
-    piece: u32,
-    /// The shot's id of its fragment 1 (its fragment k >= 1 is this + k - 1).
-    first_new: u32,
+    /// The shot's id of each of its fragments at its handoff.
+    ids: Vec<u32>,
     start_time_s: f64,
     return_time_s: f64,
 }
@@ -256,57 +260,64 @@ impl<'a> Reentries<'a> {
         RigidError::Snapshot { path: self.layout.rigid_checkpoint(), what }
     }
 
-    /// Starts a re-entry of `impact`'s piece: writes its request, particle file and start, and
-    /// takes the piece out of `world`.
+    /// Starts a re-entry of `impact`'s pieces: writes its request, particle file and start, and
+    /// takes the pieces out of `world`.
     fn start(&mut self, world: &mut RigidWorld, impact: Impact, frame: u32) -> Result<u32, RigidError> {
         let number = self.state.started + 1;
-        let piece = impact.piece;
-        let members = members_of_pieces(&self.table.fragment_of, self.table.fragment_count()).swap_remove(piece);
+        let pieces = impact.pieces();
+        let mut all = members_of_pieces(&self.table.fragment_of, self.table.fragment_count());
+        let members: Vec<Vec<u32>> = pieces.iter().map(|&piece| std::mem::take(&mut all[piece])).collect();
         let shard_centres_m = self
             .config
             .sim
             .shards
             .as_ref()
             .map_or(Vec::new(), |shards| shards.centres(&self.particles.rest_position_m, self.config.scene.seed));
-        let (rotation, translation) = world.poses()[piece];
-        let (linear, angular) = world.velocities()[piece];
-        let body = BodyState { rotation, translation, centre: world.centres()[piece], linear, angular };
+        let (poses, velocities, centres) = (world.poses(), world.velocities(), world.centres());
+        let bodies: Vec<BodyState> = pieces
+            .iter()
+            .map(|&piece| BodyState {
+                rotation: poses[piece].0,
+                translation: poses[piece].1,
+                centre: centres[piece],
+                linear: velocities[piece].0,
+                angular: velocities[piece].1,
+            })
+            .collect();
         let lead_time_s = match self.config.lead_in {
             Some(_) => LeadIn::read_for(self.layout).map_err(RigidError::Input)?.handoff_time_s,
             None => 0.0,
         };
-        let approach_s = match impact.struck {
-            Struck::Floor => self.approach_s(&body, &members),
-            Struck::Sphere => 0.0,
+        let gravity = Vector::from_array(self.config.sim.gravity_m_s2);
+        let approach = Approach {
+            particles: self.particles,
+            members: &members,
+            bodies: &bodies,
+            gravity,
+            max_step_s: self.rigid.max_step_s,
         };
-        let start = body.after(approach_s, Vector::from_array(self.config.sim.gravity_m_s2));
+        let approach_s = match (impact.struck, &self.config.sim.floor) {
+            (Struck::Floor, Some(floor)) => approach.to_floor_s(floor.height_m),
+            (Struck::Piece(_), _) => approach.to_each_other_s(self.contact_distance_m()),
+            _ => 0.0,
+        };
+        let starts: Vec<BodyState> = bodies.iter().map(|body| body.after(approach_s, gravity)).collect();
         let start_time_s = self.state.time_s + approach_s;
-        let q = start.rotation;
         let meta = ReentryMeta {
             number,
             frame,
             start_time_s,
-            pieces: vec![piece as u32],
-            hit: impact.struck.name().into(),
+            pieces: pieces.iter().map(|&piece| piece as u32).collect(),
+            hit: impact.struck.name(),
             impact_speed_m_s: impact.speed_m_s,
-            threshold_m_s: self.threshold_m_s,
+            threshold_m_s: impact.threshold_m_s(self.threshold_m_s),
             inputs: self.inputs,
             shard_centres_m,
         };
+        let (members, mut lead_in) = handoff_of(&members, &starts, lead_time_s + start_time_s);
         let pass = pass_config(self.config, &meta);
         let pass_layout = OutputLayout::of(&pass);
         create_dir(&pass_layout.rigid_dir())?;
-        let mut lead_in = LeadIn {
-            frames: 0,
-            handoff_time_s: lead_time_s + start_time_s,
-            rotation: [q.x, q.y, q.z, q.w],
-            translation_m: start.translation.to_array(),
-            centre_m: start.centre.to_array(),
-            velocity_m_s: start.linear.to_array(),
-            angular_velocity_rad_s: start.angular.to_array(),
-            steps: 0,
-            inputs: 0,
-        };
         // the particle file names its start, so the simulation's digest of it (and every
         // file made from it) changes with the start
         let mut subset = self.particles.subset(&members, |entry| !self.broken[entry]);
@@ -317,45 +328,18 @@ impl<'a> Reentries<'a> {
         lead_in.inputs = digest::sim_inputs(checksum, &pass);
         lead_in.write(&pass_layout.lead_in())?;
         Reentry { meta, members }.write(&self.layout.reentry(number))?;
-        world.withdraw_piece(piece);
+        for &piece in &pieces {
+            world.withdraw_piece(piece);
+        }
         self.state.started = number;
         self.state.active.push(number);
         Ok(number)
     }
 
-    /// How long `body` flies freely before its lowest particle is a tenth of a spacing above
-    /// the floor (0 when it is there already), seconds: the re-entry starts there, so the
-    /// simulation does not spend a rigid step's flight closing the gap.
-    fn approach_s(&self, body: &BodyState, members: &[u32]) -> f64 {
-        let Some(floor) = &self.config.sim.floor else { return 0.0 };
-        let target_m = floor.height_m + 0.1 * self.particles.meta.lambda_m;
-        let gravity = Vector::from_array(self.config.sim.gravity_m_s2);
-        let lowest = |time_s: f64| {
-            let at = body.after(time_s, gravity);
-            members
-                .iter()
-                .map(|&i| {
-                    let rest = Vector::from_array(self.particles.rest_position_m[i as usize].map(f64::from));
-                    (at.rotation * rest + at.translation).y
-                })
-                .fold(f64::INFINITY, f64::min)
-        };
-        if lowest(0.0) <= target_m {
-            return 0.0;
-        }
-        let mut high_s = self.rigid.max_step_s;
-        while lowest(high_s) > target_m {
-            high_s *= 2.0;
-            if high_s > 1.0 {
-                return 0.0;
-            }
-        }
-        let mut low_s = 0.0;
-        for _ in 0..48 {
-            let mid_s = 0.5 * (low_s + high_s);
-            if lowest(mid_s) > target_m { low_s = mid_s } else { high_s = mid_s }
-        }
-        low_s
+    /// The simulation's contact distance d_c, metres (`sim.contact.distance_m`, by default
+    /// half the spacing).
+    fn contact_distance_m(&self) -> f64 {
+        self.config.sim.contact.distance_m.unwrap_or(0.5 * self.particles.meta.lambda_m)
     }
 
     /// Brings back the pieces of every active re-entry that ends at `time_s`.
@@ -370,21 +354,26 @@ impl<'a> Reentries<'a> {
         }
     }
 
-    /// Puts `outcome`'s pieces into the table (and, given a world, their bodies into it): each
-    /// fragment of its handoff continues the piece that went back when it holds the most of
-    /// its elements (its id at the re-entry's first frame), and takes a new id otherwise.
+    /// Puts `outcome`'s pieces into the table (and, given a world, their bodies into it): the
+    /// largest of the fragments of its handoff that hold a piece's elements continues the piece
+    /// and keeps its id, and the others take new ids after the last, in order.
     fn apply(&mut self, outcome: &Outcome, world: Option<&mut RigidWorld>) -> Option<ReentryReport> {
         let members = &outcome.reentry.members;
         let handoff = &outcome.handoff;
-        let piece = outcome.reentry.meta.pieces[0];
         let local = members_of_pieces(&handoff.fragment_of, handoff.fragment_count());
-        // post's ids are stable: fragment 0 is the piece at the re-entry's first frame, and
-        // keeps its id on its largest part
+        let continuing = self.continuing(members, handoff);
         let first_new = self.table.fragment_count();
+        let mut next = first_new;
         let ids: Vec<usize> = (0..local.len())
-            .map(|fragment| if fragment == 0 { piece as usize } else { first_new + fragment - 1 })
+            .map(|fragment| match continuing.iter().find(|&(_, &f)| f as usize == fragment) {
+                Some((&piece, _)) => piece,
+                None => {
+                    next += 1;
+                    next - 1
+                }
+            })
             .collect();
-        let added = local.len() - 1;
+        let added = next - first_new;
         self.table.rotation.extend(std::iter::repeat_n([0.0, 0.0, 0.0, 1.0], added));
         self.table.translation_m.extend(std::iter::repeat_n([0.0; 3], added));
         self.table.elements.extend(std::iter::repeat_n(0, added));
@@ -421,24 +410,23 @@ impl<'a> Reentries<'a> {
         self.returned.push(Returned {
             layout: outcome.layout.clone(),
             handoff_frame: handoff.meta.frame,
-            piece,
-            first_new: first_new as u32,
+            ids: ids.iter().map(|&id| id as u32).collect(),
             start_time_s: outcome.reentry.meta.start_time_s,
             return_time_s: outcome.return_time_s,
         });
         let world = world?;
-        for (fragment, body) in bodies.iter().enumerate() {
-            if fragment == 0 {
-                world.replace_piece(&self.settings, piece as usize, body);
+        for (&id, body) in ids.iter().zip(&bodies) {
+            if id < first_new {
+                world.replace_piece(&self.settings, id, body);
             } else {
                 let index = world.add_piece(&self.settings, body);
-                debug_assert_eq!(index, first_new + fragment - 1);
+                debug_assert_eq!(index, id);
             }
         }
         let meta = &outcome.reentry.meta;
         Some(ReentryReport {
             number: meta.number,
-            piece,
+            pieces_in: meta.pieces.clone(),
             hit: meta.hit.clone(),
             impact_speed_m_s: meta.impact_speed_m_s,
             threshold_m_s: meta.threshold_m_s,
@@ -497,11 +485,7 @@ impl<'a> Reentries<'a> {
         debris: &mut DebrisFrame,
     ) -> Result<(), RigidError> {
         for returned in self.returned.iter().filter(|r| r.return_time_s > after_s && r.return_time_s <= until_s) {
-            let id = |k: i32| match k {
-                0 => returned.piece as i32,
-                k if k > 0 => returned.first_new as i32 + k - 1,
-                k => k,
-            };
+            let id = |k: i32| usize::try_from(k).ok().and_then(|k| returned.ids.get(k)).map_or(k, |&id| id as i32);
             for frame in 1..=returned.handoff_frame {
                 let path = returned.layout.debris_points(frame);
                 if !path.is_file() {
@@ -528,8 +512,23 @@ impl<'a> Reentries<'a> {
         self.particles.bonds.find(low as usize, high).unwrap_or(0)
     }
 
+    /// The fragment of a re-entry's `fragments` (its particles the shot's `members`) that
+    /// continues each piece that went back: the largest holding its elements (the lowest id of
+    /// equals). A fragment lies within one piece: no bond joined two pieces that met.
+    fn continuing(&self, members: &[u32], fragments: &FragmentFrame) -> BTreeMap<usize, u32> {
+        let mut continuing: BTreeMap<usize, u32> = BTreeMap::new();
+        for (&global, &fragment) in members.iter().zip(&fragments.fragment_of) {
+            let best = continuing.entry(self.table.fragment_of[global as usize] as usize).or_insert(fragment);
+            let size = |f: u32| fragments.elements[f as usize];
+            if (size(fragment), std::cmp::Reverse(fragment)) > (size(*best), std::cmp::Reverse(*best)) {
+                *best = fragment;
+            }
+        }
+        continuing
+    }
+
     /// The poses of `world`'s pieces at `time_s`, those away in a re-entry as the re-entry's
-    /// frame nearest that time shows the fragment that continues them.
+    /// frame nearest that time shows the fragment that continues each.
     pub(crate) fn frame_poses(&self, world: &RigidWorld, time_s: f64) -> Result<Vec<(Rotation, Vector)>, RigidError> {
         let mut poses = world.poses();
         for outcome in &self.outcomes {
@@ -541,74 +540,55 @@ impl<'a> Reentries<'a> {
                 .min_by(|a, b| (a.1 - since_s).abs().total_cmp(&(b.1 - since_s).abs()))
                 .map_or(1, |(index, _)| index as u32 + 1);
             let fragments = FragmentFrame::read(&outcome.layout.fragments(nearest))?;
-            let q = fragments.rotation[0].map(f64::from);
-            let pose = (
-                Rotation::from_xyzw(q[0], q[1], q[2], q[3]).normalize(),
-                Vector::from_array(fragments.translation_m[0]),
-            );
-            poses[outcome.reentry.meta.pieces[0] as usize] = pose;
+            for (piece, fragment) in self.continuing(&outcome.reentry.members, &fragments) {
+                let q = fragments.rotation[fragment as usize].map(f64::from);
+                poses[piece] = (
+                    Rotation::from_xyzw(q[0], q[1], q[2], q[3]).normalize(),
+                    Vector::from_array(fragments.translation_m[fragment as usize]),
+                );
+            }
         }
         Ok(poses)
     }
 }
 
-/// A rigid body's pose and motion.
-#[derive(Debug, Clone, Copy)]
-struct BodyState {
-    rotation: Rotation,
-    translation: Vector,
-    centre: Vector,
-    linear: Vector,
-    angular: Vector,
-}
-
-impl BodyState {
-    /// The body after `time_s` of free flight under `gravity` (m/s^2), turning at its angular
-    /// velocity.
-    fn after(&self, time_s: f64, gravity: Vector) -> BodyState {
-        let centre = self.centre + self.linear * time_s + gravity * (0.5 * time_s * time_s);
-        let turn = Rotation::from_scaled_axis(self.angular * time_s);
-        let rotation = (turn * self.rotation).normalize();
-        // the centre of mass is fixed in the body: x = R X + t
-        let rest_centre = self.rotation.inverse() * (self.centre - self.translation);
-        BodyState {
-            rotation,
-            translation: centre - rotation * rest_centre,
-            centre,
-            linear: self.linear + gravity * time_s,
-            angular: self.angular,
+/// The particles of pieces `members` (each ascending), merged in ascending order, and the start
+/// that hands their bodies `starts` to the simulation at `handoff_time_s` (seconds since the
+/// shot's start): the first piece's motion, and with several each particle's body.
+fn handoff_of(members: &[Vec<u32>], starts: &[BodyState], handoff_time_s: f64) -> (Vec<u32>, LeadIn) {
+    let mut tagged: Vec<(u32, u32)> =
+        members.iter().enumerate().flat_map(|(body, m)| m.iter().map(move |&i| (i, body as u32))).collect();
+    tagged.sort_unstable();
+    let motion = |body: &BodyState| {
+        let q = body.rotation;
+        BodyMotion {
+            rotation: [q.x, q.y, q.z, q.w],
+            translation_m: body.translation.to_array(),
+            centre_m: body.centre.to_array(),
+            velocity_m_s: body.linear.to_array(),
+            angular_velocity_rad_s: body.angular.to_array(),
         }
-    }
+    };
+    let first = motion(&starts[0]);
+    let others: Vec<BodyMotion> = starts[1..].iter().map(motion).collect();
+    let body_of = if others.is_empty() { Vec::new() } else { tagged.iter().map(|&(_, body)| body).collect() };
+    let lead_in = LeadIn {
+        frames: 0,
+        handoff_time_s,
+        rotation: first.rotation,
+        translation_m: first.translation_m,
+        centre_m: first.centre_m,
+        velocity_m_s: first.velocity_m_s,
+        angular_velocity_rad_s: first.angular_velocity_rad_s,
+        steps: 0,
+        inputs: 0,
+        others,
+        body_of,
+    };
+    (tagged.into_iter().map(|(i, _)| i).collect(), lead_in)
 }
 
 fn create_dir(path: &std::path::Path) -> Result<(), RigidError> {
     std::fs::create_dir_all(path)
         .map_err(|error| RigidError::Input(format!("{}: cannot create: {error}", path.display())))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn free_flight_follows_the_parabola_and_turns_about_the_centre_of_mass() {
-        let rotation = Rotation::from_rotation_y(0.3);
-        let rest_centre = Vector::new(0.01, 0.02, -0.03);
-        let translation = Vector::new(0.5, 1.0, 0.0);
-        let body = BodyState {
-            rotation,
-            translation,
-            centre: rotation * rest_centre + translation,
-            linear: Vector::new(1.0, 2.0, 0.0),
-            angular: Vector::new(0.0, 0.0, 4.0),
-        };
-        let gravity = Vector::new(0.0, -9.81, 0.0);
-        let later = body.after(0.1, gravity);
-        let expected = body.centre + Vector::new(0.1, 0.2 - 0.5 * 9.81 * 0.01, 0.0);
-        assert!((later.centre - expected).length() < 1e-12);
-        assert!((later.linear - Vector::new(1.0, 2.0 - 0.981, 0.0)).length() < 1e-12);
-        // the rest centre still maps to the centre of mass, and the turn is 0.4 rad about z
-        assert!((later.rotation * rest_centre + later.translation - later.centre).length() < 1e-12);
-        assert!((rotation.angle_between(later.rotation) - 0.4).abs() < 1e-9);
-    }
 }

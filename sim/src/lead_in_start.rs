@@ -1,19 +1,21 @@
 //! A simulation that starts from the lead-in's handoff (`[lead_in]`): the handoff read and
 //! checked to belong to this run, the projectiles' and indenters' paths moved to its time, and the
-//! body's rigid motion there, which sets the particles' first displacements and velocities.
+//! body's rigid motion there (each body's, for a re-entry of pieces that met), which sets the
+//! particles' first displacements and velocities.
 
 use shatter_core::layout::missing_input;
-use shatter_core::lead_in::LeadIn;
+use shatter_core::lead_in::{BodyMotion, LeadIn};
 use shatter_core::{OutputLayout, PipelineConfig};
 
 use crate::sim_driver::RunError;
 
 /// The lead-in's handoff, when the scene has `[lead_in]`: checked to belong to this particle
-/// file and these settings.
+/// file (of `particles` particles) and these settings.
 pub(crate) fn read_lead_in(
     config: &PipelineConfig,
     layout: &OutputLayout,
     inputs: u32,
+    particles: usize,
 ) -> Result<Option<LeadIn>, RunError> {
     if config.lead_in.is_none() {
         return Ok(None);
@@ -28,6 +30,13 @@ pub(crate) fn read_lead_in(
             "{}: made from another particle file or other [lead_in], [sim] or [material] settings; run `shatter \
              lead-in` again",
             path.display()
+        )));
+    }
+    if !lead_in.others.is_empty() && lead_in.body_of.len() != particles {
+        return Err(RunError::MissingInput(format!(
+            "{}: names the bodies of {} particles, not of the particle file's {particles}; run `shatter rigid` again",
+            path.display(),
+            lead_in.body_of.len()
         )));
     }
     Ok(Some(lead_in))
@@ -46,8 +55,39 @@ pub(crate) fn paths_from_handoff(config: &PipelineConfig, handoff_time_s: f64) -
     physics
 }
 
-/// The body's rigid motion at the lead-in's handoff, applied to particles by rest position.
-pub(crate) struct RigidMotion {
+/// The bodies' rigid motions at the lead-in's handoff, applied to particles by index and rest
+/// position.
+pub(crate) struct HandoffMotion {
+    bodies: Vec<RigidMotion>,
+    /// Each particle's body; empty for one body.
+    body_of: Vec<u32>,
+}
+
+impl HandoffMotion {
+    /// The motions `lead_in` hands off.
+    pub(crate) fn of(lead_in: &LeadIn) -> HandoffMotion {
+        let bodies = std::iter::once(lead_in.motion()).chain(lead_in.others.iter().copied());
+        HandoffMotion { bodies: bodies.map(|body| RigidMotion::of(&body)).collect(), body_of: lead_in.body_of.clone() }
+    }
+
+    /// The motion of particle `i`.
+    fn body(&self, i: usize) -> &RigidMotion {
+        &self.bodies[self.body_of.get(i).map_or(0, |&body| body as usize)]
+    }
+
+    /// The displacement that moves particle `i`, at rest position `rest`, to where it is.
+    pub(crate) fn displacement(&self, i: usize, rest: [f32; 3]) -> [f32; 3] {
+        self.body(i).displacement(rest)
+    }
+
+    /// Particle `i`'s velocity: its body's v + w x (x - c), plus `extra`.
+    pub(crate) fn velocity(&self, i: usize, rest: [f32; 3], extra: [f32; 3]) -> [f32; 3] {
+        self.body(i).velocity(rest, extra)
+    }
+}
+
+/// A body's rigid motion at the lead-in's handoff, applied to particles by rest position.
+struct RigidMotion {
     rotation: [[f64; 3]; 3],
     translation: [f64; 3],
     centre: [f64; 3],
@@ -56,9 +96,9 @@ pub(crate) struct RigidMotion {
 }
 
 impl RigidMotion {
-    /// The motion `lead_in` hands off.
-    pub(crate) fn of(lead_in: &LeadIn) -> RigidMotion {
-        let [x, y, z, w] = lead_in.rotation;
+    /// The motion `body` gives.
+    fn of(body: &BodyMotion) -> RigidMotion {
+        let [x, y, z, w] = body.rotation;
         let rotation = [
             [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
             [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
@@ -66,10 +106,10 @@ impl RigidMotion {
         ];
         RigidMotion {
             rotation,
-            translation: lead_in.translation_m,
-            centre: lead_in.centre_m,
-            velocity: lead_in.velocity_m_s,
-            angular: lead_in.angular_velocity_rad_s,
+            translation: body.translation_m,
+            centre: body.centre_m,
+            velocity: body.velocity_m_s,
+            angular: body.angular_velocity_rad_s,
         }
     }
 
@@ -80,13 +120,13 @@ impl RigidMotion {
     }
 
     /// The displacement that moves a particle at rest position `rest` to where it is.
-    pub(crate) fn displacement(&self, rest: [f32; 3]) -> [f32; 3] {
+    fn displacement(&self, rest: [f32; 3]) -> [f32; 3] {
         let x = self.position(rest);
         [0, 1, 2].map(|a| (x[a] - f64::from(rest[a])) as f32)
     }
 
     /// v + w x (x - c), plus `sim.initial_velocity_m_s` as without a lead-in.
-    pub(crate) fn velocity(&self, rest: [f32; 3], extra: [f32; 3]) -> [f32; 3] {
+    fn velocity(&self, rest: [f32; 3], extra: [f32; 3]) -> [f32; 3] {
         let x = self.position(rest);
         let r = [0, 1, 2].map(|a| x[a] - self.centre[a]);
         let w = self.angular;

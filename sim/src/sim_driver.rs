@@ -24,7 +24,7 @@ use shatter_gpu::GpuError;
 use crate::SimError;
 use crate::backend::{Backend, DeviceError};
 use crate::backend_choice::{BackendError, create_backend};
-use crate::lead_in_start::{RigidMotion, paths_from_handoff, read_lead_in};
+use crate::lead_in_start::{HandoffMotion, paths_from_handoff, read_lead_in};
 use crate::model::lightest_kg;
 use crate::previous_run::PreviousRun;
 use crate::simd_path::SimdPath;
@@ -320,7 +320,7 @@ impl RunInputs {
         let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
         memory::check(&memory::sim_need(&SetSize::of(&particles)))?;
         let inputs = digest::sim_inputs(particles_checksum, config);
-        let lead_in = read_lead_in(config, &layout, inputs)?;
+        let lead_in = read_lead_in(config, &layout, inputs, particles.len())?;
         let settings_hash = digest::sim_settings(config);
         Ok(RunInputs { layout, particles, particles_checksum, settings_hash, inputs, lead_in })
     }
@@ -444,9 +444,9 @@ fn start_fresh(config: &PipelineConfig, inputs: &RunInputs, simulation: &mut dyn
     let log = BreakLog::create(&inputs.layout.break_log())?;
     let initial_velocity = config.sim.initial_velocity_m_s.map(|v| v as f32);
     if let Some(lead_in) = &inputs.lead_in {
-        let motion = RigidMotion::of(lead_in);
-        simulation.set_displacement(&|_, rest| motion.displacement(rest))?;
-        simulation.set_velocity(&|_, rest| motion.velocity(rest, initial_velocity))?;
+        let motion = HandoffMotion::of(lead_in);
+        simulation.set_displacement(&|i, rest| motion.displacement(i, rest))?;
+        simulation.set_velocity(&|i, rest| motion.velocity(i, rest, initial_velocity))?;
     } else if initial_velocity != [0.0; 3] {
         simulation.set_velocity(&|_, _| initial_velocity)?;
     }

@@ -6,7 +6,11 @@
 //! P-wave modulus, K + 4 G / 3 = 1.8 K for the bond-based model's Poisson ratio of 1/4. The
 //! bonds at the contact reach their critical stretch s0 when v / c_p = s0: the critical
 //! approach speed is s0 c_p. Two pieces of one material meeting share the velocity jump
-//! equally, so between pieces it is twice that, in relative speed.
+//! equally, so between pieces it is twice that, in relative speed. A contact between two pieces
+//! is watched when both are: a piece too small to be watched is too small to load the other's
+//! bonds as a half-space of its own material would.
+
+use std::collections::BTreeMap;
 
 use rapier3d_f64::prelude::*;
 
@@ -37,14 +41,17 @@ pub enum Struck {
     Floor,
     /// A projectile or an indenter.
     Sphere,
+    /// Another watched piece (its index).
+    Piece(usize),
 }
 
 impl Struck {
     /// As the re-entry file names it.
-    pub fn name(self) -> &'static str {
+    pub fn name(self) -> String {
         match self {
-            Struck::Floor => "floor",
-            Struck::Sphere => "projectile or indenter",
+            Struck::Floor => "floor".into(),
+            Struck::Sphere => "projectile or indenter".into(),
+            Struck::Piece(other) => format!("piece {other}"),
         }
     }
 }
@@ -52,13 +59,40 @@ impl Struck {
 /// A hard contact.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Impact {
-    /// The piece.
+    /// The piece (the lower index of two pieces that met).
     pub piece: usize,
     /// What it hit.
     pub struck: Struck,
-    /// The approach speed at the contact before the step, m/s.
+    /// The approach speed at the contact before the step, m/s (between two pieces, their
+    /// relative speed).
     pub speed_m_s: f64,
 }
+
+impl Impact {
+    /// The pieces in the contact, ascending.
+    pub fn pieces(&self) -> Vec<usize> {
+        match self.struck {
+            Struck::Piece(other) => vec![self.piece, other],
+            Struck::Floor | Struck::Sphere => vec![self.piece],
+        }
+    }
+
+    /// The approach speed that is hard for this contact, m/s, given the one against something
+    /// rigid: that against the floor or a sphere, twice it between two pieces.
+    pub fn threshold_m_s(&self, rigid_threshold_m_s: f64) -> f64 {
+        let factor = if matches!(self.struck, Struck::Piece(_)) { PIECE_THRESHOLD_FACTOR } else { 1.0 };
+        factor * rigid_threshold_m_s
+    }
+
+    /// How many times its threshold the contact's speed is.
+    fn severity(&self, rigid_threshold_m_s: f64) -> f64 {
+        self.speed_m_s / self.threshold_m_s(rigid_threshold_m_s)
+    }
+}
+
+/// Between two pieces of one material the velocity jump is shared equally: hard at twice the
+/// approach speed against something rigid.
+const PIECE_THRESHOLD_FACTOR: f64 = 2.0;
 
 /// What [`RigidWorld::step_for`] did.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -87,41 +121,62 @@ impl RigidWorld {
             .collect()
     }
 
-    /// The fastest approach of a watched piece to the floor or a sphere in the step just
-    /// taken, measured with the pieces' motions `before` it, when it passes the threshold.
+    /// The hardest contact of a watched piece with the floor, a sphere or another watched
+    /// piece in the step just taken (the most times its threshold), measured with the pieces'
+    /// motions `before` it, when it passes its threshold.
     pub(super) fn hardest_impact(&self, watch: &ImpactWatch, before: &[Option<Motion>]) -> Option<Impact> {
         let index = self.piece_index();
         let mut hardest: Option<Impact> = None;
         for pair in self.world.narrow_phase.contact_pairs().filter(|pair| pair.has_any_active_contact()) {
-            let pieces = [pair.collider1, pair.collider2].map(|collider| self.piece_of(&index, collider));
-            let (piece, other, sign) = match pieces {
-                [Some(piece), None] => (piece, pair.collider2, 1.0),
-                [None, Some(piece)] => (piece, pair.collider1, -1.0),
-                _ => continue,
-            };
-            let Some((linear, angular)) = before[piece] else { continue };
-            let struck = if self.is_floor(other) { Struck::Floor } else { Struck::Sphere };
-            let other_velocity = self
-                .world
-                .colliders
-                .get(other)
-                .and_then(|c| c.parent())
-                .map_or(Vector::ZERO, |b| self.world.bodies[b].linvel());
-            let body = &self.world.bodies[self.pieces[piece]];
+            let colliders = [pair.collider1, pair.collider2];
+            let Some((piece, struck)) = self.contact_kind(&index, colliders, before) else { continue };
+            // each side's velocity at a point, as it moved before the step: a watched piece's
+            // motion then, a sphere's velocity, the floor's none
+            let side = colliders.map(|collider| {
+                let body = self.world.colliders.get(collider).and_then(|c| c.parent());
+                let motion = self.piece_of(&index, collider).and_then(|piece| before[piece]);
+                let centre = body.map_or(Vector::ZERO, |b| self.world.bodies[b].center_of_mass());
+                let linear = body.map_or(Vector::ZERO, |b| self.world.bodies[b].linvel());
+                move |point: Vector| match motion {
+                    Some((v, w)) => v + w.cross(point - centre),
+                    None => linear,
+                }
+            });
             for manifold in pair.manifolds() {
                 for contact in &manifold.data.solver_contacts {
                     let (a, b) = manifold.data.solver_contact_world_points(contact, &self.world.bodies);
                     let point = (a + b) * 0.5;
-                    let velocity = linear + angular.cross(point - body.center_of_mass());
                     // the normal points from the pair's first collider to its second
-                    let speed_m_s = sign * (velocity - other_velocity).dot(manifold.data.normal);
-                    if speed_m_s > watch.threshold_m_s && hardest.is_none_or(|h| speed_m_s > h.speed_m_s) {
-                        hardest = Some(Impact { piece, struck, speed_m_s });
+                    let speed_m_s = (side[0](point) - side[1](point)).dot(manifold.data.normal);
+                    let impact = Impact { piece, struck, speed_m_s };
+                    let severity = impact.severity(watch.threshold_m_s);
+                    if severity > 1.0 && hardest.is_none_or(|h| severity > h.severity(watch.threshold_m_s)) {
+                        hardest = Some(impact);
                     }
                 }
             }
         }
         hardest
+    }
+
+    /// The watched piece of a contact between `colliders` and what it hit (for two watched
+    /// pieces, the lower index and the other), or None when it is not watched.
+    fn contact_kind(
+        &self,
+        index: &BTreeMap<(u32, u32), usize>,
+        colliders: [ColliderHandle; 2],
+        before: &[Option<Motion>],
+    ) -> Option<(usize, Struck)> {
+        let pieces = colliders.map(|collider| self.piece_of(index, collider));
+        let watched = |piece: usize| before[piece].is_some();
+        match pieces {
+            [Some(a), Some(b)] if watched(a) && watched(b) => Some((a.min(b), Struck::Piece(a.max(b)))),
+            [Some(piece), None] | [None, Some(piece)] if watched(piece) => {
+                let other = if pieces[0].is_some() { colliders[1] } else { colliders[0] };
+                Some((piece, if self.is_floor(other) { Struck::Floor } else { Struck::Sphere }))
+            }
+            _ => None,
+        }
     }
 
     /// Whether `collider` is the floor (its slab or the plane dust rests on).
