@@ -443,6 +443,13 @@ fn two_pieces_that_meet_hard_go_back_together_and_keep_their_ids() {
         let (size, kept) = (after.elements[part as usize], after.elements[piece as usize]);
         assert!(size <= kept, "piece {piece} kept its id on {kept} elements, its part {part} has {size}");
     }
+    // one thread gives the same files (the checkpoints name their thread count)
+    let single = tempfile::tempdir().expect("tempdir");
+    two_slabs_scene(single.path(), 2.0 * hard_m_s);
+    let output = shatter(&["--threads", "1", "run", "--until", "rigid"], single.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let skip = ["stamps.json", "shatter.lock", "sim.checkpoint.shp"];
+    assert!(tree_files(&single.path().join("out"), &skip) == tree_files(&out, &skip), "1 and 2 threads differ");
 
     // well below the speed the slab lands on the plate without going back
     let soft = tempfile::tempdir().expect("tempdir");
