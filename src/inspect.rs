@@ -62,7 +62,19 @@ pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
                 }
                 summary
             }
-            StageKind::LeadIn => serde_json::to_value(LeadIn::read(path)?)?,
+            StageKind::LeadIn => {
+                let lead_in = LeadIn::read(path)?;
+                let mut summary = serde_json::to_value(&lead_in)?;
+                if !lead_in.others.is_empty() {
+                    // a re-entry of pieces that met: each body's particles
+                    let mut counts = vec![0usize; lead_in.others.len() + 1];
+                    for &body in &lead_in.body_of {
+                        counts[body as usize] += 1;
+                    }
+                    summary["particles_per_body"] = json!(counts);
+                }
+                summary
+            }
             StageKind::Reentry => {
                 let reentry = Reentry::read(path)?;
                 let mut summary = serde_json::to_value(&reentry.meta)?;

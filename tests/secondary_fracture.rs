@@ -404,6 +404,12 @@ fn two_pieces_that_meet_hard_go_back_together_and_keep_their_ids() {
     let pass = out.join("reentry/001");
     let start = LeadIn::read(&pass.join("rigid/lead_in.shp")).expect("start");
     assert_eq!(start.others.len(), 1);
+    // inspect reads the start, with each body's particles
+    let output = shatter(&["inspect", "--json", "out/reentry/001/rigid/lead_in.shp"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let summary: serde_json::Value = serde_json::from_slice(&output.stdout).expect("json");
+    let per_body = |body: u32| start.body_of.iter().filter(|&&b| b == body).count();
+    assert_eq!(summary["particles_per_body"], serde_json::json!([per_body(0), per_body(1)]));
     let first = PointFrame::read(&pass.join("frames/points.0001.ply")).expect("first frame");
     let start_velocity = |body: u32| {
         let motion = if body == 0 { start.motion() } else { start.others[0] };
