@@ -85,7 +85,7 @@ const DRAGON_DROP: Shot = Shot {
 };
 /// The vase dropped from 80 cm: falling intact, at the impact, its shards on the floor (at
 /// least ten over 1% of its mass, dust under 10%: measured 20 and 4.3%), every piece asleep by
-/// the end (measured: from frame 75 of the follow-through's 82). Three of its re-entries run
+/// the end (measured: from frame 78 of the follow-through's 82). Three of its re-entries run
 /// (the preset's 16 took 80 s of the suite; `plate_drop` holds the cascade).
 const VASE_DROP: Shot = Shot {
     scene: "vase_drop_small",
