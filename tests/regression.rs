@@ -51,62 +51,33 @@ struct Shot {
     max_reentries: u32,
 }
 
-const GLASS_PLATE: Shot = Shot {
-    scene: "glass_plate_small",
-    key_frames: &[1, 12, 24],
-    settles: true,
-    shards: 0,
-    blurred: &[],
-    max_reentries: 0,
-};
-const VASE: Shot =
-    Shot { scene: "vase_small", key_frames: &[1, 6, 12], settles: true, shards: 0, blurred: &[], max_reentries: 0 };
-const DRAGON: Shot =
-    Shot { scene: "dragon_small", key_frames: &[1, 16, 32], settles: true, shards: 0, blurred: &[], max_reentries: 0 };
+impl Shot {
+    /// `scene`'s shot checked at `key_frames`: settling, no shard count, no blurred frames, the
+    /// preset's re-entries.
+    const fn of(scene: &'static str, key_frames: &'static [u32]) -> Shot {
+        Shot { scene, key_frames, settles: true, shards: 0, blurred: &[], max_reentries: 0 }
+    }
+}
+
+const GLASS_PLATE: Shot = Shot::of("glass_plate_small", &[1, 12, 24]);
+const VASE: Shot = Shot::of("vase_small", &[1, 6, 12]);
+const DRAGON: Shot = Shot::of("dragon_small", &[1, 16, 32]);
 /// The struck plate played on: intact, breaking (the simulation, in slow motion), its shards at
 /// rest on the floor (the follow-through, at real speed by the shot's end).
-const PLATE_SHOT: Shot = Shot {
-    scene: "glass_plate_shot_small",
-    key_frames: &[1, 24, 72],
-    settles: true,
-    shards: 0,
-    blurred: &[],
-    max_reentries: 0,
-};
+const PLATE_SHOT: Shot = Shot::of("glass_plate_shot_small", &[1, 24, 72]);
 /// The dragon dropped from 60 cm on its timeline: falling intact (the lead-in), just after the
 /// impact (the simulation, in slow motion), its pieces at rest (the follow-through).
-const DRAGON_DROP: Shot = Shot {
-    scene: "dragon_drop_small",
-    key_frames: &[8, 20, 96],
-    settles: true,
-    shards: 0,
-    blurred: &[],
-    max_reentries: 0,
-};
+const DRAGON_DROP: Shot = Shot::of("dragon_drop_small", &[8, 20, 96]);
 /// The vase dropped from 80 cm: falling intact, at the impact, its shards on the floor (at
 /// least ten over 1% of its mass, dust under 10%: measured 20 and 4.3%), every piece asleep by
 /// the end (measured: from frame 78 of the follow-through's 82). Three of its re-entries run
 /// (the preset's 16 took 80 s of the suite; `plate_drop` holds the cascade).
-const VASE_DROP: Shot = Shot {
-    scene: "vase_drop_small",
-    key_frames: &[7, 18, 96],
-    settles: true,
-    shards: 10,
-    blurred: &[7, 30],
-    max_reentries: 3,
-};
-
+const VASE_DROP: Shot =
+    Shot { shards: 10, blurred: &[7, 30], max_reentries: 3, ..Shot::of("vase_drop_small", &[7, 18, 96]) };
 /// The ceramic tile dropped on its corner: falling intact, landing on the corner (in slow
 /// motion), broken in three (the simulation's last frame, the impact), its pieces broken again
 /// as they slap the floor (re-entries, by the next frame), and at rest.
-const PLATE_DROP: Shot = Shot {
-    scene: "plate_drop_small",
-    key_frames: &[5, 40, 49, 50, 85],
-    settles: true,
-    shards: 0,
-    blurred: &[],
-    max_reentries: 0,
-};
+const PLATE_DROP: Shot = Shot::of("plate_drop_small", &[5, 40, 49, 50, 85]);
 
 fn repository() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

@@ -3,10 +3,11 @@
 //! [`crate::world::critical_speed_m_s`]) it steps back to the step before, takes the piece (or
 //! the two pieces that met) out of the rigid world and writes it as a re-entry for the
 //! simulation: `rigid/reentry.###.shp`, the pieces' particles and intact bonds as a particle file
-//! of their own and their rigid motions as a lead-in handoff, both in `reentry/###/`. Once the simulation and post have run there
-//! ([`shatter_core::reentry::pass_config`]), the handoff rule picks the re-entry's end, and the
-//! pieces it broke into come back as rigid bodies at that time: the largest keeps the piece's id,
-//! the others take new ids after the last. The other pieces fly on meanwhile.
+//! of their own and their rigid motions as a lead-in handoff, both in `reentry/###/`. Once the
+//! simulation and post have run there ([`shatter_core::reentry::pass_config`]), the handoff rule
+//! picks the re-entry's end, and the pieces it broke into come back as rigid bodies at that time:
+//! the largest part of each keeps its id, the others take new ids after the last. The other
+//! pieces fly on meanwhile.
 
 use std::collections::BTreeMap;
 

@@ -475,21 +475,7 @@ pub(crate) fn choose_handoff(
 
 /// The rigid world's settings for a shot of particles `lambda_m` apart.
 pub fn world_settings(config: &PipelineConfig, rigid: &RigidConfig, lambda_m: f64) -> WorldSettings {
-    WorldSettings {
-        gravity_m_s2: config.sim.gravity_m_s2,
-        length_unit_m: LENGTH_UNIT_SPACINGS * lambda_m,
-        solver_iterations: rigid.solver_iterations as usize,
-        floor_friction: rigid.floor_friction,
-        floor_restitution: rigid.floor_restitution,
-        piece_friction: rigid.piece_friction,
-        piece_restitution: rigid.piece_restitution,
-        sleep_speed_m_s: rigid.sleep_speed_m_s,
-        sleep_after_s: rigid.sleep_after_s,
-        max_mass_ratio: rigid.max_mass_ratio,
-        bounds_m: rigid.bounds_m,
-        rolling_damping_per_s: rigid.rolling_damping_per_s,
-        rolling_resistance_m_s2: rigid.rolling_resistance_m_s2,
-    }
+    WorldSettings::of(rigid, config.sim.gravity_m_s2, LENGTH_UNIT_SPACINGS * lambda_m)
 }
 
 /// The projectiles and indenters at simulated time `time_s`, on their straight paths.

@@ -6,6 +6,7 @@ use rapier3d_f64::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
+use shatter_core::config::RigidConfig;
 use shatter_core::disjoint_sets::DisjointSets;
 
 use crate::contact_rules::{ContactRules, pair_depth, pair_key};
@@ -59,6 +60,28 @@ pub struct WorldSettings {
     /// The constant part of rolling resistance: a touching piece's spin slows by this much
     /// speed at its farthest point every second, m/s^2, so that rocking stops in finite time.
     pub rolling_resistance_m_s2: f64,
+}
+
+impl WorldSettings {
+    /// The settings `[rigid]` gives, under `gravity_m_s2` with the solver's length unit
+    /// `length_unit_m`.
+    pub fn of(rigid: &RigidConfig, gravity_m_s2: [f64; 3], length_unit_m: f64) -> WorldSettings {
+        WorldSettings {
+            gravity_m_s2,
+            length_unit_m,
+            solver_iterations: rigid.solver_iterations as usize,
+            floor_friction: rigid.floor_friction,
+            floor_restitution: rigid.floor_restitution,
+            piece_friction: rigid.piece_friction,
+            piece_restitution: rigid.piece_restitution,
+            sleep_speed_m_s: rigid.sleep_speed_m_s,
+            sleep_after_s: rigid.sleep_after_s,
+            max_mass_ratio: rigid.max_mass_ratio,
+            bounds_m: rigid.bounds_m,
+            rolling_damping_per_s: rigid.rolling_damping_per_s,
+            rolling_resistance_m_s2: rigid.rolling_resistance_m_s2,
+        }
+    }
 }
 
 /// A piece as it enters the rigid world.

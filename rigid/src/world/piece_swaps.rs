@@ -55,25 +55,13 @@ impl RigidWorld {
 mod tests {
     use rapier3d_f64::prelude::*;
 
+    use shatter_core::config::RigidConfig;
+
     use super::*;
     use crate::mass::MassProps;
 
     fn settings() -> WorldSettings {
-        WorldSettings {
-            gravity_m_s2: [0.0, -9.81, 0.0],
-            length_unit_m: 0.01,
-            solver_iterations: 4,
-            floor_friction: 0.6,
-            floor_restitution: 0.2,
-            piece_friction: 0.5,
-            piece_restitution: 0.1,
-            max_mass_ratio: 200.0,
-            sleep_speed_m_s: 0.02,
-            sleep_after_s: 0.2,
-            bounds_m: None,
-            rolling_damping_per_s: 4.0,
-            rolling_resistance_m_s2: 0.2,
-        }
+        WorldSettings::of(&RigidConfig::default(), [0.0, -9.81, 0.0], 0.01)
     }
 
     /// A 2 cm cube piece whose centre of mass is `centre_m` in its rest frame, posed at `pose`.
