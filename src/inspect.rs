@@ -73,6 +73,13 @@ pub fn run(path: &Path, json: bool) -> Result<(), Failure> {
                     }
                     summary["particles_per_body"] = json!(counts);
                 }
+                if let Some(plastic) = &lead_in.plastic {
+                    // an elastoplastic re-entry's plastic state: how many bonds have flowed
+                    let flowed = plastic.extension_m.iter().filter(|e| **e != 0.0).count();
+                    let largest = plastic.extension_m.iter().fold(0.0f32, |most, e| most.max(e.abs()));
+                    summary["plastic_bond_entries"] = json!(flowed);
+                    summary["largest_plastic_extension_m"] = json!(largest);
+                }
                 summary
             }
             StageKind::Reentry => {

@@ -41,6 +41,21 @@ pub struct LeadIn {
     /// own section of the file; empty otherwise.
     #[serde(skip)]
     pub body_of: Vec<u32>,
+    /// For a re-entry of elastoplastic pieces: their permanent shape and plastic state, in
+    /// sections of their own; `None` otherwise.
+    #[serde(skip)]
+    pub plastic: Option<PlasticStart>,
+}
+
+/// Where a re-entry of elastoplastic pieces starts from, as their last simulation left them.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct PlasticStart {
+    /// Each particle's position in its body's rest frame, metres: the body's pose x = R X + t
+    /// takes it to where the particle is. Its rest position, but where the piece was deformed
+    /// for good.
+    pub shape_m: Vec<[f32; 3]>,
+    /// Each bond entry's plastic extension, metres, in the particle file's entry order.
+    pub extension_m: Vec<f32>,
 }
 
 /// A further body's pose and motion at the handoff, as the lead-in's own fields give body 0's.
@@ -87,6 +102,10 @@ impl LeadIn {
         if !self.others.is_empty() {
             out.write_rows("bodies", &self.body_of)?;
         }
+        if let Some(plastic) = &self.plastic {
+            out.write_rows("shape", plastic.shape_m.as_flattened())?;
+            out.write_rows("plastic", &plastic.extension_m)?;
+        }
         out.finish()
     }
 
@@ -116,6 +135,15 @@ impl LeadIn {
                 return Err(input.malformed("a particle's body is not one of its bodies".into()));
             }
         }
+        if !input.at_end() {
+            let shape: Vec<f32> = input.read_rows("shape")?;
+            let extension_m: Vec<f32> = input.read_rows("plastic")?;
+            if !shape.len().is_multiple_of(3) || shape.iter().chain(&extension_m).any(|v| !v.is_finite()) {
+                return Err(input.malformed("the pieces' shape or plastic extensions are not finite triples".into()));
+            }
+            let shape_m = shape.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
+            lead_in.plastic = Some(PlasticStart { shape_m, extension_m });
+        }
         input.finish()?;
         Ok(lead_in)
     }
@@ -139,6 +167,7 @@ mod tests {
             inputs: 7,
             others: Vec::new(),
             body_of: Vec::new(),
+            plastic: None,
         };
         let dir = tempfile::tempdir().expect("tempdir");
         let path = dir.path().join("lead_in.shp");
@@ -154,7 +183,19 @@ mod tests {
         LeadIn { body_of: vec![0, 2], ..two.clone() }.write(&path).expect("write");
         assert!(LeadIn::read(&path).expect_err("body").to_string().contains("not one of its bodies"));
         let spun = BodyMotion { rotation: [0.0, 0.0, 1.0, 1.0], ..other };
-        LeadIn { others: vec![spun], ..two }.write(&path).expect("write");
+        LeadIn { others: vec![spun], ..two.clone() }.write(&path).expect("write");
         assert!(LeadIn::read(&path).expect_err("pose").to_string().contains("not finite and unit"));
+        // elastoplastic pieces: their shape and plastic extensions, after the bodies
+        let shape_m = vec![[0.0, 0.001, 0.0], [0.002, 0.0, 0.0], [0.0, 0.0, 0.001], [0.001, 0.001, 0.0]];
+        let plastic = PlasticStart { shape_m, extension_m: vec![1e-6, 0.0, -2e-7] };
+        let bent = LeadIn { plastic: Some(plastic.clone()), ..two };
+        bent.write(&path).expect("write");
+        assert_eq!(LeadIn::read(&path).expect("read"), bent);
+        let one = LeadIn { plastic: Some(plastic.clone()), ..lead_in };
+        one.write(&path).expect("write");
+        assert_eq!(LeadIn::read(&path).expect("read"), one);
+        let bad = PlasticStart { extension_m: vec![f32::NAN], ..plastic };
+        LeadIn { plastic: Some(bad), ..one }.write(&path).expect("write");
+        assert!(LeadIn::read(&path).expect_err("nan").to_string().contains("not finite"));
     }
 }

@@ -126,6 +126,7 @@ mod tests {
             inputs: 0,
             others: Vec::new(),
             body_of: Vec::new(),
+            plastic: None,
         }
     }
 

@@ -293,6 +293,7 @@ impl<'a> Flight<'a> {
             inputs: self.inputs,
             others: Vec::new(),
             body_of: Vec::new(),
+            plastic: None,
         }
     }
 }

@@ -17,7 +17,7 @@ use shatter_core::config::{RigidConfig, SecondaryFractureConfig};
 use shatter_core::debris_points::{DebrisFrame, read_point_cache};
 use shatter_core::fragments::{AFFINE_RIGID, FragmentFrame};
 use shatter_core::frames::{BreakLog, PointFrame};
-use shatter_core::lead_in::{BodyMotion, LeadIn};
+use shatter_core::lead_in::LeadIn;
 use shatter_core::reentry::{Reentry, ReentryMeta, pass_config};
 use shatter_core::sim_frames::SimFrames;
 use shatter_core::{OutputLayout, ParticleSet, PipelineConfig, digest};
@@ -28,8 +28,12 @@ use crate::rigid_driver::{Conservation, RigidError, choose_handoff, read_fragmen
 use crate::world::{Impact, ImpactWatch, RigidWorld, Struck, WorldSettings, critical_speed_m_s};
 
 mod approach;
+mod plastic;
+mod start_file;
 
 use approach::{Approach, BodyState};
+use plastic::{Handoff, PlasticReturn, PlasticState};
+use start_file::StartFiles;
 
 /// What the follow-through keeps of its re-entries between runs (in its checkpoint).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -79,6 +83,8 @@ struct Outcome {
     return_time_s: f64,
     /// The bonds it broke, as canonical entries of the shot's particle file.
     broken: Vec<usize>,
+    /// Its pieces' plastic state, for the elastoplastic model.
+    plastic: Option<PlasticReturn>,
     /// Its folder's layout and each of its frames' time since its start, up to the handoff.
     layout: OutputLayout,
     frame_times_s: Vec<f64>,
@@ -101,6 +107,8 @@ pub(crate) struct Reentries<'a> {
     pub(crate) table: FragmentFrame,
     /// Each bond entry of the shot's particle file, by its canonical index: broken.
     broken: Vec<bool>,
+    /// The pieces' shapes and plastic extensions, for the elastoplastic model.
+    plastic: Option<PlasticState>,
     pub(crate) state: ReentryState,
     /// The active re-entries' outcomes.
     outcomes: Vec<Outcome>,
@@ -150,7 +158,7 @@ impl<'a> Reentries<'a> {
         }
         let threshold_m_s = secondary.threshold_scale
             * critical_speed_m_s(
-                config.material.bulk_modulus_pa,
+                config.material.p_wave_modulus_pa(),
                 config.material.density_kg_m3,
                 particles.meta.mean_critical_stretch,
             );
@@ -166,6 +174,7 @@ impl<'a> Reentries<'a> {
             inputs,
             table: handoff.clone(),
             broken,
+            plastic: PlasticState::of_shot(config, layout, particles, handoff)?,
             state: ReentryState { time_s: handoff.meta.time_s, started: 0, active: Vec::new(), returned: Vec::new() },
             outcomes: Vec::new(),
             reports: Vec::new(),
@@ -292,6 +301,7 @@ impl<'a> Reentries<'a> {
         let gravity = Vector::from_array(self.config.sim.gravity_m_s2);
         let approach = Approach {
             particles: self.particles,
+            shape_m: self.plastic.as_ref().map_or(&self.particles.rest_position_m, PlasticState::shape_m),
             members: &members,
             bodies: &bodies,
             gravity,
@@ -315,19 +325,13 @@ impl<'a> Reentries<'a> {
             inputs: self.inputs,
             shard_centres_m,
         };
-        let (members, mut lead_in) = handoff_of(&members, &starts, lead_time_s + start_time_s);
-        let pass = pass_config(self.config, &meta);
-        let pass_layout = OutputLayout::of(&pass);
-        create_dir(&pass_layout.rigid_dir())?;
-        // the particle file names its start, so the simulation's digest of it (and every
-        // file made from it) changes with the start
-        let mut subset = self.particles.subset(&members, |entry| !self.broken[entry]);
-        let start_digest = crc32fast::hash(&rmp_serde::to_vec(&lead_in).unwrap_or_default());
-        subset.meta.scene_name = format!("{}, re-entry {number} (start {start_digest:08x})", subset.meta.scene_name);
-        subset.write(&pass_layout.particles())?;
-        let (_, checksum) = ParticleSet::read_with_checksum(&pass_layout.particles())?;
-        lead_in.inputs = digest::sim_inputs(checksum, &pass);
-        lead_in.write(&pass_layout.lead_in())?;
+        let files = StartFiles {
+            config: self.config,
+            particles: self.particles,
+            broken: &self.broken,
+            plastic: self.plastic.as_ref(),
+        };
+        let members = files.write(&meta, &members, &starts, lead_time_s + start_time_s)?;
         Reentry { meta, members }.write(&self.layout.reentry(number))?;
         for &piece in &pieces {
             world.withdraw_piece(piece);
@@ -408,6 +412,9 @@ impl<'a> Reentries<'a> {
         for &entry in &outcome.broken {
             self.broken[entry] = true;
         }
+        if let (Some(state), Some(back)) = (&mut self.plastic, &outcome.plastic) {
+            state.absorb(&Handoff { members, position_m: &outcome.position_m, fragments: handoff }, back);
+        }
         self.returned.push(Returned {
             layout: outcome.layout.clone(),
             handoff_frame: handoff.meta.frame,
@@ -464,6 +471,10 @@ impl<'a> Reentries<'a> {
             }
         }
         let frame_times_s = frames.steps[..frame as usize].iter().map(|&steps| steps as f64 * frames.dt_s).collect();
+        let plastic = match self.plastic {
+            Some(_) => Some(PlasticState::read_return(&layout, self.particles, &particles, &reentry.members, frame)?),
+            None => None,
+        };
         Ok(Some(Outcome {
             return_time_s: reentry.meta.start_time_s + handoff.meta.time_s,
             reentry,
@@ -471,6 +482,7 @@ impl<'a> Reentries<'a> {
             position_m,
             velocity_m_s,
             broken,
+            plastic,
             layout,
             frame_times_s,
         }))
@@ -551,45 +563,4 @@ impl<'a> Reentries<'a> {
         }
         Ok(poses)
     }
-}
-
-/// The particles of pieces `members` (each ascending), merged in ascending order, and the start
-/// that hands their bodies `starts` to the simulation at `handoff_time_s` (seconds since the
-/// shot's start): the first piece's motion, and with several each particle's body.
-fn handoff_of(members: &[Vec<u32>], starts: &[BodyState], handoff_time_s: f64) -> (Vec<u32>, LeadIn) {
-    let mut tagged: Vec<(u32, u32)> =
-        members.iter().enumerate().flat_map(|(body, m)| m.iter().map(move |&i| (i, body as u32))).collect();
-    tagged.sort_unstable();
-    let motion = |body: &BodyState| {
-        let q = body.rotation;
-        BodyMotion {
-            rotation: [q.x, q.y, q.z, q.w],
-            translation_m: body.translation.to_array(),
-            centre_m: body.centre.to_array(),
-            velocity_m_s: body.linear.to_array(),
-            angular_velocity_rad_s: body.angular.to_array(),
-        }
-    };
-    let first = motion(&starts[0]);
-    let others: Vec<BodyMotion> = starts[1..].iter().map(motion).collect();
-    let body_of = if others.is_empty() { Vec::new() } else { tagged.iter().map(|&(_, body)| body).collect() };
-    let lead_in = LeadIn {
-        frames: 0,
-        handoff_time_s,
-        rotation: first.rotation,
-        translation_m: first.translation_m,
-        centre_m: first.centre_m,
-        velocity_m_s: first.velocity_m_s,
-        angular_velocity_rad_s: first.angular_velocity_rad_s,
-        steps: 0,
-        inputs: 0,
-        others,
-        body_of,
-    };
-    (tagged.into_iter().map(|(i, _)| i).collect(), lead_in)
-}
-
-fn create_dir(path: &std::path::Path) -> Result<(), RigidError> {
-    std::fs::create_dir_all(path)
-        .map_err(|error| RigidError::Input(format!("{}: cannot create: {error}", path.display())))
 }

@@ -1,21 +1,22 @@
 //! A simulation that starts from the lead-in's handoff (`[lead_in]`): the handoff read and
 //! checked to belong to this run, the projectiles' and indenters' paths moved to its time, and the
 //! body's rigid motion there (each body's, for a re-entry of pieces that met), which sets the
-//! particles' first displacements and velocities.
+//! particles' first displacements and velocities; for a re-entry of elastoplastic pieces, from
+//! their permanent shape, with their bonds' plastic extensions.
 
 use shatter_core::layout::missing_input;
 use shatter_core::lead_in::{BodyMotion, LeadIn};
-use shatter_core::{OutputLayout, PipelineConfig};
+use shatter_core::{OutputLayout, ParticleSet, PipelineConfig};
 
 use crate::sim_driver::RunError;
 
 /// The lead-in's handoff, when the scene has `[lead_in]`: checked to belong to this particle
-/// file (of `particles` particles) and these settings.
+/// file and these settings.
 pub(crate) fn read_lead_in(
     config: &PipelineConfig,
     layout: &OutputLayout,
     inputs: u32,
-    particles: usize,
+    particles: &ParticleSet,
 ) -> Result<Option<LeadIn>, RunError> {
     if config.lead_in.is_none() {
         return Ok(None);
@@ -32,12 +33,24 @@ pub(crate) fn read_lead_in(
             path.display()
         )));
     }
-    if !lead_in.others.is_empty() && lead_in.body_of.len() != particles {
-        return Err(RunError::MissingInput(format!(
-            "{}: names the bodies of {} particles, not of the particle file's {particles}; run `shatter rigid` again",
-            path.display(),
+    let stale = |what: String| RunError::MissingInput(format!("{}: {what}; run `shatter rigid` again", path.display()));
+    let count = particles.len();
+    if !lead_in.others.is_empty() && lead_in.body_of.len() != count {
+        return Err(stale(format!(
+            "names the bodies of {} particles, not of the particle file's {count}",
             lead_in.body_of.len()
         )));
+    }
+    if let Some(plastic) = &lead_in.plastic {
+        let entries = particles.bonds.neighbor.len();
+        if plastic.shape_m.len() != count || plastic.extension_m.len() != entries {
+            return Err(stale(format!(
+                "gives the shape of {} particles and the plastic extensions of {} bond entries, not the particle \
+                 file's {count} and {entries}",
+                plastic.shape_m.len(),
+                plastic.extension_m.len()
+            )));
+        }
     }
     Ok(Some(lead_in))
 }
@@ -57,32 +70,42 @@ pub(crate) fn paths_from_handoff(config: &PipelineConfig, handoff_time_s: f64) -
 
 /// The bodies' rigid motions at the lead-in's handoff, applied to particles by index and rest
 /// position.
-pub(crate) struct HandoffMotion {
+pub(crate) struct HandoffMotion<'a> {
     bodies: Vec<RigidMotion>,
     /// Each particle's body; empty for one body.
-    body_of: Vec<u32>,
+    body_of: &'a [u32],
+    /// Each particle's place in its body's rest frame; empty where it is its rest position.
+    shape_m: &'a [[f32; 3]],
 }
 
-impl HandoffMotion {
+impl HandoffMotion<'_> {
     /// The motions `lead_in` hands off.
-    pub(crate) fn of(lead_in: &LeadIn) -> HandoffMotion {
+    pub(crate) fn of(lead_in: &LeadIn) -> HandoffMotion<'_> {
         let bodies = std::iter::once(lead_in.motion()).chain(lead_in.others.iter().copied());
-        HandoffMotion { bodies: bodies.map(|body| RigidMotion::of(&body)).collect(), body_of: lead_in.body_of.clone() }
+        HandoffMotion {
+            bodies: bodies.map(|body| RigidMotion::of(&body)).collect(),
+            body_of: &lead_in.body_of,
+            shape_m: lead_in.plastic.as_ref().map_or(&[], |plastic| &plastic.shape_m),
+        }
     }
 
-    /// The motion of particle `i`.
-    fn body(&self, i: usize) -> &RigidMotion {
-        &self.bodies[self.body_of.get(i).map_or(0, |&body| body as usize)]
+    /// The motion of particle `i`, and where it sits in its body's rest frame.
+    fn body(&self, i: usize, rest: [f32; 3]) -> (&RigidMotion, [f32; 3]) {
+        let body = &self.bodies[self.body_of.get(i).map_or(0, |&body| body as usize)];
+        (body, self.shape_m.get(i).copied().unwrap_or(rest))
     }
 
     /// The displacement that moves particle `i`, at rest position `rest`, to where it is.
     pub(crate) fn displacement(&self, i: usize, rest: [f32; 3]) -> [f32; 3] {
-        self.body(i).displacement(rest)
+        let (body, at) = self.body(i, rest);
+        let x = body.position(at);
+        [0, 1, 2].map(|a| (x[a] - f64::from(rest[a])) as f32)
     }
 
     /// Particle `i`'s velocity: its body's v + w x (x - c), plus `extra`.
     pub(crate) fn velocity(&self, i: usize, rest: [f32; 3], extra: [f32; 3]) -> [f32; 3] {
-        self.body(i).velocity(rest, extra)
+        let (body, at) = self.body(i, rest);
+        body.velocity(at, extra)
     }
 }
 
@@ -113,21 +136,16 @@ impl RigidMotion {
         }
     }
 
-    /// Where a particle at rest position `rest` is: R X + t.
-    fn position(&self, rest: [f32; 3]) -> [f64; 3] {
-        let x = rest.map(f64::from);
+    /// Where a particle at `at` in the body's rest frame is: R X + t.
+    fn position(&self, at: [f32; 3]) -> [f64; 3] {
+        let x = at.map(f64::from);
         [0, 1, 2].map(|a| (0..3).map(|b| self.rotation[a][b] * x[b]).sum::<f64>() + self.translation[a])
     }
 
-    /// The displacement that moves a particle at rest position `rest` to where it is.
-    fn displacement(&self, rest: [f32; 3]) -> [f32; 3] {
-        let x = self.position(rest);
-        [0, 1, 2].map(|a| (x[a] - f64::from(rest[a])) as f32)
-    }
-
-    /// v + w x (x - c), plus `sim.initial_velocity_m_s` as without a lead-in.
-    fn velocity(&self, rest: [f32; 3], extra: [f32; 3]) -> [f32; 3] {
-        let x = self.position(rest);
+    /// v + w x (x - c) of a particle at `at` in the body's rest frame, plus
+    /// `sim.initial_velocity_m_s` as without a lead-in.
+    fn velocity(&self, at: [f32; 3], extra: [f32; 3]) -> [f32; 3] {
+        let x = self.position(at);
         let r = [0, 1, 2].map(|a| x[a] - self.centre[a]);
         let w = self.angular;
         let spin = [w[1] * r[2] - w[2] * r[1], w[2] * r[0] - w[0] * r[2], w[0] * r[1] - w[1] * r[0]];

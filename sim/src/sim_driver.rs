@@ -320,7 +320,7 @@ impl RunInputs {
         let (particles, particles_checksum) = ParticleSet::read_with_checksum(&layout.particles())?;
         memory::check(&memory::sim_need(&SetSize::of(&particles)))?;
         let inputs = digest::sim_inputs(particles_checksum, config);
-        let lead_in = read_lead_in(config, &layout, inputs, particles.len())?;
+        let lead_in = read_lead_in(config, &layout, inputs, &particles)?;
         let settings_hash = digest::sim_settings(config);
         Ok(RunInputs { layout, particles, particles_checksum, settings_hash, inputs, lead_in })
     }
@@ -444,6 +444,15 @@ fn start_fresh(config: &PipelineConfig, inputs: &RunInputs, simulation: &mut dyn
     let log = BreakLog::create(&inputs.layout.break_log())?;
     let initial_velocity = config.sim.initial_velocity_m_s.map(|v| v as f32);
     if let Some(lead_in) = &inputs.lead_in {
+        if let Some(plastic) = &lead_in.plastic {
+            // before the displacements, whose forces it changes
+            simulation.set_bond_state(&plastic.extension_m).map_err(|what| {
+                RunError::MissingInput(format!(
+                    "{}: {what}; run `shatter rigid` again",
+                    inputs.layout.lead_in().display()
+                ))
+            })?;
+        }
         let motion = HandoffMotion::of(lead_in);
         simulation.set_displacement(&|i, rest| motion.displacement(i, rest))?;
         simulation.set_velocity(&|i, rest| motion.velocity(i, rest, initial_velocity))?;

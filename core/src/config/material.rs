@@ -231,6 +231,15 @@ impl MaterialConfig {
         self.shear_modulus_pa.unwrap_or(0.6 * self.bulk_modulus_pa)
     }
 
+    /// The P-wave modulus M = K + 4 mu / 3, Pa, the stiffness of a longitudinal wave, c_p =
+    /// sqrt(M / rho): 1.8 K for PMB, whose Poisson ratio is 1/4.
+    pub fn p_wave_modulus_pa(&self) -> f64 {
+        match self.model {
+            MaterialModel::Pmb => 1.8 * self.bulk_modulus_pa,
+            MaterialModel::Elastoplastic => self.bulk_modulus_pa + 4.0 / 3.0 * self.shear_modulus_pa(),
+        }
+    }
+
     /// Young's modulus E = 9 K mu / (3 K + mu), Pa.
     pub fn youngs_modulus_pa(&self) -> f64 {
         let (k, mu) = (self.bulk_modulus_pa, self.shear_modulus_pa());
@@ -407,10 +416,16 @@ density_kg_m3 = 7800.0
             let material = &config.material;
             assert!((material.youngs_modulus_pa() / 200e9 - 1.0).abs() < 1e-12);
             assert!((material.poisson_ratio() - nu).abs() < 1e-12);
+            // the P-wave modulus from E and nu: E (1 - nu) / ((1 + nu) (1 - 2 nu))
+            let p_wave = 200e9 * (1.0 - nu) / ((1.0 + nu) * (1.0 - 2.0 * nu));
+            assert!((material.p_wave_modulus_pa() / p_wave - 1.0).abs() < 1e-12, "nu = {nu}");
         }
-        // PMB's moduli: nu = 1/4
+        // PMB's moduli: nu = 1/4, and a P-wave modulus of K + 4 (3 K / 5) / 3 = 1.8 K
         let config = parse("bulk_modulus_pa = 1e9\n").expect("valid");
         assert!((config.material.poisson_ratio() - 0.25).abs() < 1e-12);
+        let material = &config.material;
+        let from_shear = material.bulk_modulus_pa + 4.0 / 3.0 * material.shear_modulus_pa();
+        assert!((material.p_wave_modulus_pa() / from_shear - 1.0).abs() < 1e-12);
     }
 
     #[test]

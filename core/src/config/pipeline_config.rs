@@ -194,12 +194,6 @@ impl PipelineConfig {
         }
         if let Some(rigid) = &self.rigid {
             rigid.validate(&check)?;
-            check.that(
-                rigid.secondary_fracture.is_none() || self.material.model == material::MaterialModel::Pmb,
-                "rigid.secondary_fracture",
-                "(table)",
-                || "needs material.model = \"pmb\": a piece's plastic state does not go back to the simulation".into(),
-            )?;
             let frames = rigid.follow_through_s * self.scene.frames_per_second;
             check.that(
                 frames <= MAX_FOLLOW_THROUGH_FRAMES,

@@ -100,7 +100,7 @@ mod tests {
         }
         let plastic = "[material]\nmodel = \"elastoplastic\"\ndensity_kg_m3 = 7800.0\nbulk_modulus_pa = 160e9\n\
                        yield_stress_pa = 250e6\n";
-        let error = parse(&format!("{BASE}{plastic}[rigid.secondary_fracture]\n")).expect_err("elastoplastic");
-        assert!(error.contains("rigid.secondary_fracture") && error.contains("pmb"), "{error}");
+        // the elastoplastic model goes back with its plastic state
+        parse(&format!("{BASE}{plastic}[rigid.secondary_fracture]\n")).expect("elastoplastic");
     }
 }

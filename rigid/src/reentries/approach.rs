@@ -37,14 +37,11 @@ impl BodyState {
         }
     }
 
-    /// Where the particles `members` of `particles` are in this pose.
-    fn positions(&self, particles: &ParticleSet, members: &[u32]) -> Vec<Vector> {
+    /// Where the particles `members` are in this pose, each at `shape_m` in the rest frame.
+    fn positions(&self, shape_m: &[[f32; 3]], members: &[u32]) -> Vec<Vector> {
         members
             .iter()
-            .map(|&i| {
-                let rest = Vector::from_array(particles.rest_position_m[i as usize].map(f64::from));
-                self.rotation * rest + self.translation
-            })
+            .map(|&i| self.rotation * Vector::from_array(shape_m[i as usize].map(f64::from)) + self.translation)
             .collect()
     }
 }
@@ -52,6 +49,9 @@ impl BodyState {
 /// The pieces of a re-entry in flight: their particles and their bodies before the contact.
 pub(super) struct Approach<'a> {
     pub(super) particles: &'a ParticleSet,
+    /// Each particle's place in its piece's rest frame: its rest position, or where an
+    /// elastoplastic piece was deformed for good.
+    pub(super) shape_m: &'a [[f32; 3]],
     /// Each piece's particles.
     pub(super) members: &'a [Vec<u32>],
     /// Each piece's body.
@@ -68,7 +68,7 @@ impl Approach<'_> {
         let target_m = floor_height_m + 0.1 * self.particles.meta.lambda_m;
         let lowest = |time_s: f64| {
             let at = self.bodies[0].after(time_s, self.gravity);
-            at.positions(self.particles, &self.members[0]).iter().map(|x| x.y).fold(f64::INFINITY, f64::min)
+            at.positions(self.shape_m, &self.members[0]).iter().map(|x| x.y).fold(f64::INFINITY, f64::min)
         };
         self.last_before(|time_s| lowest(time_s) <= target_m)
     }
@@ -81,11 +81,7 @@ impl Approach<'_> {
         let reach_m = contact_m + 0.1 * self.particles.meta.lambda_m;
         let close = |time_s: f64| {
             let [a, b] = [0, 1].map(|k| self.bodies[k].after(time_s, self.gravity));
-            within(
-                &a.positions(self.particles, &self.members[0]),
-                &b.positions(self.particles, &self.members[1]),
-                reach_m,
-            )
+            within(&a.positions(self.shape_m, &self.members[0]), &b.positions(self.shape_m, &self.members[1]), reach_m)
         };
         let direction = if close(0.0) { -1.0 } else { 1.0 };
         self.last_apart(|time_s| !close(time_s), direction)
