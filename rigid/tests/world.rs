@@ -114,6 +114,15 @@ fn free_fall_follows_the_parabola() {
     }
     let trail = (world.centres()[0] - expected).y;
     assert!((trail - g.y * t * dt / 8.0).abs() < 1e-9, "{trail} vs {}", g.y * t * dt / 8.0);
+    // fast: no speed limit (rapier's default would hold it at 400 length units a second, 20 m/s)
+    let fast = Vector::new(0.0, -30.0, 0.0);
+    let piece = box_piece(Vector::ZERO, half, Vector::new(0.0, 100.0, 0.0), fast - g * (0.5 * dt), 2200.0);
+    let mut world = RigidWorld::new(&flying, None, &[], &[piece]);
+    for _ in 0..480 {
+        world.advance(dt, dt);
+    }
+    let (v, _) = world.velocities()[0];
+    assert!((v + g * (0.5 * dt) - (fast + g * t)).length() < 1e-9, "{v:?}");
 }
 
 #[test]
