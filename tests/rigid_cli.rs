@@ -42,6 +42,7 @@ stiffness_pa = 3e6
 [rigid]
 follow_through_s = 2.0
 checkpoint_every_frames = 4
+bounds_m = [[-1.0, -1.0, -1.0], [1.0, 2.0, 1.0]]
 [render]
 backend = "cpu"
 resolution = [64, 48]

@@ -418,6 +418,29 @@ fn a_piece_flung_out_through_the_side_is_retired_where_it_lands() {
 }
 
 #[test]
+fn dust_flying_out_and_a_piece_far_out_are_retired_in_flight() {
+    // thrown up and out of the 2 m wide region at 30 m/s: a grain of dust is retired once it
+    // flies out through the side, a chip once it is farther beyond it than the region is wide
+    let bounds = Some([[-1.0, -1.0, -1.0], [1.0, 3.0, 1.0]]);
+    let settings = WorldSettings { bounds_m: bounds, ..settings() };
+    let throw = |half: Vector, dust: bool| {
+        let mut piece = box_piece(Vector::ZERO, half, Vector::new(0.0, 0.01, 0.0), Vector::new(30.0, 8.0, 0.0), 2200.0);
+        piece.dust = dust;
+        RigidWorld::new(&settings, Some(0.0), &[], &[piece])
+    };
+    let mut grain = throw(Vector::splat(0.001), true);
+    run_until(&mut grain, 1.0 / 24.0);
+    assert_eq!(grain.retired_pieces(), 1, "{:?}", grain.centres()[0]);
+    let mut chip = throw(Vector::new(0.02, 0.003, 0.02), false);
+    run_until(&mut chip, 1.0 / 24.0);
+    assert_eq!(chip.retired_pieces(), 0, "a chip just past the side flies on: {:?}", chip.centres()[0]);
+    run_until(&mut chip, 3.0 / 24.0);
+    let at = chip.centres()[0];
+    assert_eq!(chip.retired_pieces(), 1, "{at:?}");
+    assert!(at.x > 3.0 && at.x < 3.0 + 30.0 / 24.0 && at.y > 0.1, "retired at {at:?}");
+}
+
+#[test]
 fn a_fast_grain_does_not_sink_into_the_floor() {
     // a 4 mm grain flung at the floor at 6 m/s, as dust and as a piece: it rests on the floor,
     // not in it

@@ -63,8 +63,9 @@ pub struct RigidConfig {
     pub sleep_after_s: f64,
     /// The shot's region as its lowest and highest corner, metres: a piece whose centre of
     /// mass leaves it is retired (held where it is, out of the simulation, at rest; past a
-    /// side only once it has landed), as a single element flung off at tens of m/s would skid
-    /// for minutes. Unset: no region.
+    /// side once it has landed, is farther out than the region is wide, or is dust flying on
+    /// away), as a single element flung off at tens of m/s would skid for minutes. Unset: no
+    /// region.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub bounds_m: Option<[[f64; 3]; 2]>,
     /// Rolling resistance (Bullet's rolling friction, as a rate): the spin of a piece that
