@@ -152,3 +152,45 @@ impl RigidMotion {
         [0, 1, 2].map(|a| (self.velocity[a] + spin[a]) as f32 + extra[a])
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use shatter_core::lead_in::PlasticStart;
+
+    use super::*;
+
+    fn lead_in(plastic: Option<PlasticStart>) -> LeadIn {
+        LeadIn {
+            frames: 0,
+            handoff_time_s: 0.0,
+            // a quarter turn about z, then 1 m up
+            rotation: [0.0, 0.0, std::f64::consts::FRAC_1_SQRT_2, std::f64::consts::FRAC_1_SQRT_2],
+            translation_m: [0.0, 1.0, 0.0],
+            centre_m: [0.0, 1.0, 0.0],
+            velocity_m_s: [0.0, -2.0, 0.0],
+            angular_velocity_rad_s: [0.0, 0.0, 3.0],
+            steps: 0,
+            inputs: 0,
+            others: Vec::new(),
+            body_of: Vec::new(),
+            plastic,
+        }
+    }
+
+    #[test]
+    fn a_particle_starts_where_its_body_puts_its_shape_and_moves_with_it() {
+        let rest = [0.1f32, 0.0, 0.0];
+        // its rest position: R X + t = (0, 1.1, 0), moving at v + w x (x - c) = (-0.3, -2, 0)
+        let rigid = lead_in(None);
+        let motion = HandoffMotion::of(&rigid);
+        let close = |a: [f32; 3], b: [f32; 3]| (0..3).all(|k| (a[k] - b[k]).abs() < 1e-6);
+        assert!(close(motion.displacement(0, rest), [-0.1, 1.1, 0.0]), "{:?}", motion.displacement(0, rest));
+        assert!(close(motion.velocity(0, rest, [0.0; 3]), [-0.3, -2.0, 0.0]));
+        // dented: its shape 2 cm further out along x, so 2 cm higher, and faster about the centre
+        let plastic = PlasticStart { shape_m: vec![[0.12, 0.0, 0.0]], extension_m: Vec::new() };
+        let dented = lead_in(Some(plastic));
+        let motion = HandoffMotion::of(&dented);
+        assert!(close(motion.displacement(0, rest), [-0.1, 1.12, 0.0]), "{:?}", motion.displacement(0, rest));
+        assert!(close(motion.velocity(0, rest, [0.0; 3]), [-0.36, -2.0, 0.0]));
+    }
+}
