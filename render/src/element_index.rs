@@ -17,7 +17,8 @@ use std::sync::Arc;
 
 use glam::{DQuat, DVec3, Quat, Vec3};
 
-use crate::element_kdtree::{Aabb, KdTree, PACKET, each_ray};
+use crate::element_kdtree::{Aabb, KdTree};
+use crate::packet_traversal::{PACKET, RayOrigins, SharedOrigin, each_ray};
 use crate::shutter::SceneMotion;
 
 /// The instance that holds every element (a world tree, or the unmoved rest state).
@@ -203,14 +204,16 @@ impl ElementIndex {
     /// [`ElementIndex::traverse`] for a packet of rays from one `origin` (at most [`PACKET`]
     /// `directions`), each fragment walked with [`KdTree::traverse_packet_within`]:
     /// `hit(element, rays)` gets the bit mask of the rays that may meet the element and returns
-    /// every ray's nearest hit so far. False when a walk gave up (see
-    /// [`KdTree::traverse_packet`]): trace the rays alone.
+    /// every ray's nearest hit so far. With `shutter` (the scene's motion and each ray's time),
+    /// each ray is carried to the frame's centre for each instance before its walk, and the
+    /// packet walks the instance from the rays' own origins. False when a walk gave up (see
+    /// [`KdTree::traverse_packet_within`]): trace the rays alone.
     pub fn traverse_packet(
         &self,
         fragment_of: &[u32],
-        origin: [f32; 3],
-        directions: &[[f32; 3]],
+        (origin, directions): ([f32; 3], &[[f32; 3]]),
         t_start: f32,
+        shutter: Option<(&SceneMotion, &[f32])>,
         mut hit: impl FnMut(u32, u32) -> [f32; PACKET],
     ) -> bool {
         if let Some(tree) = self.world_tree() {
@@ -220,31 +223,49 @@ impl ElementIndex {
         let mut whole = true;
         let mut local = [[0.0f32; 3]; PACKET];
         let span = ([t_start; PACKET], [f32::INFINITY; PACKET]);
+        let world = SharedOrigin(origin);
         let top_whole =
-            self.top.traverse_packet_within(&self.top.bounds, origin, directions, span, |i, rays, (t_min, t_max)| {
+            self.top.traverse_packet_within(&self.top.bounds, &world, directions, span, |i, rays, spans| {
                 if whole {
                     let instance = &self.instances[i as usize];
-                    for (to, &from) in local.iter_mut().zip(directions) {
-                        *to = instance.vector(from);
-                    }
                     // the rays that reach this leaf, over its interval; the others not at all
                     let mut span = ([1.0f32; PACKET], [0.0f32; PACKET]);
                     for r in each_ray(rays) {
-                        (span.0[r], span.1[r]) = (t_min[r], t_max[r]);
+                        (span.0[r], span.1[r]) = (spans.0[r], spans.1[r]);
                     }
-                    let o = instance.point(origin);
-                    whole = self.tree.traverse_packet_within(
-                        &instance.tree_box,
-                        o,
-                        &local[..directions.len()],
-                        span,
-                        |e, rays, _| {
-                            if instance.holds(fragment_of, e) {
-                                best = hit(e, rays);
+                    let mut offer = |e: u32, rays: u32, _: (&[f32; PACKET], &[f32; PACKET])| {
+                        if instance.holds(fragment_of, e) {
+                            best = hit(e, rays);
+                        }
+                        best
+                    };
+                    let walk = &instance.tree_box;
+                    whole = match shutter {
+                        Some((motion, times)) => {
+                            let mut origins = RayOrigins([[0.0; 3]; PACKET]);
+                            for r in each_ray(rays) {
+                                let (o, d) = match motion.group_to_centre(instance.fragment, times[r]) {
+                                    Some(map) => (map.point(origin), map.vector(directions[r])),
+                                    None => (origin, directions[r]),
+                                };
+                                (origins.0[r], local[r]) = (instance.point(o), instance.vector(d));
                             }
-                            best
-                        },
-                    );
+                            self.tree.traverse_packet_within(
+                                walk,
+                                &origins,
+                                &local[..directions.len()],
+                                span,
+                                &mut offer,
+                            )
+                        }
+                        None => {
+                            for (to, &from) in local.iter_mut().zip(directions) {
+                                *to = instance.vector(from);
+                            }
+                            let o = SharedOrigin(instance.point(origin));
+                            self.tree.traverse_packet_within(walk, &o, &local[..directions.len()], span, &mut offer)
+                        }
+                    };
                 }
                 best
             });

@@ -65,7 +65,8 @@ pub struct KdTree {
     pub bounds: Aabb,
 }
 
-const LEAF: u32 = 3;
+/// The first word's low bits of a leaf node.
+pub(crate) const LEAF: u32 = 3;
 
 impl KdTree {
     /// Builds the tree over primitives with the given bounds.
@@ -176,145 +177,6 @@ impl KdTree {
     }
 }
 
-/// Rays in a packet: a tile of camera rays ([`crate::image_loop::TILE_ROWS`] rows).
-pub const PACKET: usize = 16;
-
-/// Interval bounds of a packet's rays.
-pub type Intervals = [f32; PACKET];
-
-/// A subtree a packet still has to visit: its node, the rays that visit it, their intervals.
-struct PacketEntry {
-    node: u32,
-    rays: u32,
-    t_min: Intervals,
-    t_max: Intervals,
-}
-
-impl KdTree {
-    /// Traverses the tree with a packet of rays from one `origin` (at most [`PACKET`]
-    /// `directions`, t from `t_start` on), calling `hit(primitive, rays)` for the primitives of
-    /// each leaf, with the bit mask of the packet's rays that pass the leaf; `hit` returns every
-    /// ray's nearest hit so far. Each ray meets the same leaves in the same order, and stops after
-    /// the same leaf, as [`KdTree::traverse`] would take it alone, so its nearest hit is the
-    /// same to the bit (a nearest hit does not depend on the order of the tests, only on which
-    /// are made); the packet takes each node's choice for all its rays at once, lane by lane,
-    /// which is what camera rays (one origin, close directions) share.
-    /// Returns false, having done nothing useful, when the origin lies exactly on a split plane
-    /// that the rays cross in different directions (their near sides differ): trace them alone.
-    pub fn traverse_packet(
-        &self,
-        origin: [f32; 3],
-        directions: &[[f32; 3]],
-        t_start: f32,
-        mut hit: impl FnMut(u32, u32) -> [f32; PACKET],
-    ) -> bool {
-        let span = ([t_start; PACKET], [f32::INFINITY; PACKET]);
-        self.traverse_packet_within(&self.bounds, origin, directions, span, |item, rays, _| hit(item, rays))
-    }
-
-    /// [`KdTree::traverse_packet`] over the part of each ray r inside `within` and between
-    /// `span.0[r]` and `span.1[r]` only (as [`KdTree::traverse_within`]); `hit` also gets the
-    /// leaf's interval of each ray.
-    pub fn traverse_packet_within(
-        &self,
-        within: &Aabb,
-        origin: [f32; 3],
-        directions: &[[f32; 3]],
-        span: (Intervals, Intervals),
-        mut hit: impl FnMut(u32, u32, (&Intervals, &Intervals)) -> [f32; PACKET],
-    ) -> bool {
-        assert!(directions.len() <= PACKET, "a packet holds at most {PACKET} rays");
-        // per axis, each ray's inverse direction component (lanes past the rays stay 1)
-        let mut inverse = [[1.0f32; PACKET]; 3];
-        let (mut t_min, mut t_max) = ([0.0f32; PACKET], [0.0f32; PACKET]);
-        let mut rays = 0u32;
-        for (r, direction) in directions.iter().enumerate() {
-            let ray_inverse = direction.map(inverse_component);
-            for axis in 0..3 {
-                inverse[axis][r] = ray_inverse[axis];
-            }
-            if let Some((near, far)) = clip(within, origin, ray_inverse, span.0[r], span.1[r]) {
-                (t_min[r], t_max[r]) = (near, far);
-                rays |= 1 << r;
-            }
-        }
-        let mut best = [f32::INFINITY; PACKET];
-        let mut done = 0u32;
-        let mut stack: Vec<PacketEntry> = Vec::new();
-        let mut node = 0u32;
-        loop {
-            rays &= !done;
-            if rays != 0 {
-                let [a, b] = self.nodes[node as usize];
-                if a & 3 != LEAF {
-                    let axis = (a & 3) as usize;
-                    let split = f32::from_bits(b);
-                    let below_first = if origin[axis] == split {
-                        let downwards = each_ray(rays).filter(|&r| directions[r][axis] <= 0.0).count();
-                        if downwards != 0 && downwards != rays.count_ones() as usize {
-                            return false;
-                        }
-                        downwards != 0
-                    } else {
-                        origin[axis] < split
-                    };
-                    let (near, far) = if below_first { (node + 1, a >> 2) } else { (a >> 2, node + 1) };
-                    // Every lane at once (the rays' own choices as in `traverse`): the near child
-                    // only, the far child only, or both, the near one up to the plane.
-                    let offset = split - origin[axis];
-                    let (mut near_rays, mut far_rays) = (0u32, 0u32);
-                    let (mut far_min, far_max) = ([0.0f32; PACKET], t_max);
-                    for r in 0..PACKET {
-                        let t_split = offset * inverse[axis][r];
-                        let near_only = t_split >= t_max[r] || t_split < 0.0;
-                        let far_only = !near_only && t_split <= t_min[r];
-                        let both = !near_only && !far_only;
-                        near_rays |= u32::from(!far_only) << r;
-                        far_rays |= u32::from(!near_only) << r;
-                        far_min[r] = if both { t_split } else { t_min[r] };
-                        t_max[r] = if both { t_split } else { t_max[r] };
-                    }
-                    let (near_rays, far_rays) = (near_rays & rays, far_rays & rays);
-                    if near_rays == 0 {
-                        // every ray goes on in the far child only, with its interval unchanged
-                        (node, rays) = (far, far_rays);
-                        continue;
-                    }
-                    if far_rays != 0 {
-                        stack.push(PacketEntry { node: far, rays: far_rays, t_min: far_min, t_max: far_max });
-                    }
-                    (node, rays) = (near, near_rays);
-                    continue;
-                }
-                let (first, count) = ((a >> 2) as usize, b as usize);
-                for &item in &self.items[first..first + count] {
-                    best = hit(item, rays, (&t_min, &t_max));
-                }
-                for r in each_ray(rays) {
-                    if best[r] <= t_max[r] {
-                        done |= 1 << r;
-                    }
-                }
-            }
-            let Some(entry) = stack.pop() else {
-                return true;
-            };
-            (node, rays, t_min, t_max) = (entry.node, entry.rays, entry.t_min, entry.t_max);
-        }
-    }
-}
-
-/// The rays of a packet's bit mask, lowest first.
-pub fn each_ray(mut rays: u32) -> impl Iterator<Item = usize> {
-    std::iter::from_fn(move || {
-        (rays != 0).then(|| {
-            let r = rays.trailing_zeros() as usize;
-            rays &= rays - 1;
-            r
-        })
-    })
-}
-
 impl KdTree {
     /// Calls `visit(primitive)` for the primitives of the leaf holding `point` (on a split plane,
     /// the upper side's). Primitives whose bounds contain the point are all among them.
@@ -347,7 +209,7 @@ pub fn inverse_component(d: f32) -> f32 {
 }
 
 /// The ray's interval inside `bounds`, intersected with [t_start, t_end].
-fn clip(bounds: &Aabb, origin: [f32; 3], inverse: [f32; 3], t_start: f32, t_end: f32) -> Option<(f32, f32)> {
+pub(crate) fn clip(bounds: &Aabb, origin: [f32; 3], inverse: [f32; 3], t_start: f32, t_end: f32) -> Option<(f32, f32)> {
     let (mut near, mut far) = (t_start, t_end);
     for axis in 0..3 {
         let t0 = (bounds.min[axis] - origin[axis]) * inverse[axis];
@@ -576,11 +438,11 @@ fn planes_at_bounds(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// Random boxes and a brute-force nearest-hit against their slab intersections.
-    fn boxes(seed: u64, count: usize) -> Vec<Aabb> {
+    pub(crate) fn boxes(seed: u64, count: usize) -> Vec<Aabb> {
         let mut rng = shatter_core::random::SplitMix64::new(seed);
         let mut r = move || rng.next_f64() as f32;
         (0..count)
@@ -626,7 +488,7 @@ mod tests {
         }
     }
 
-    fn entry(b: &Aabb, origin: [f32; 3], direction: [f32; 3]) -> f32 {
+    pub(crate) fn entry(b: &Aabb, origin: [f32; 3], direction: [f32; 3]) -> f32 {
         let inverse = direction.map(inverse_component);
         match clip(b, origin, inverse, 0.0, f32::INFINITY) {
             Some((near, _)) => near,
@@ -682,60 +544,6 @@ mod tests {
             0.0
         });
         assert_eq!(calls, 0);
-    }
-
-    /// A packet takes each ray through the leaves it meets alone, in the same order, and stops
-    /// it after the same leaf; on a split plane that its rays cross both ways, it gives up.
-    #[test]
-    fn packets_visit_the_leaves_single_rays_visit() {
-        let bounds = boxes(7, 6000);
-        let tree = KdTree::build(&bounds);
-        let mut rng = shatter_core::random::SplitMix64::new(8);
-        let mut r = move || rng.next_f64() as f32;
-        let mut visits = 0;
-        for trial in 0..400 {
-            let origin = [r() * 14.0 - 2.0, r() * 14.0 - 2.0, r() * 14.0 - 2.0];
-            let base = [r() - 0.5, r() - 0.5, r() - 0.5];
-            // narrow packets (as camera rays are) and wide ones
-            let spread = if trial % 2 == 0 { 0.02 } else { 1.0 };
-            let directions: Vec<[f32; 3]> =
-                (0..1 + trial % PACKET).map(|_| base.map(|b| b + spread * (r() - 0.5))).collect();
-            let alone: Vec<Vec<u32>> = directions
-                .iter()
-                .map(|&direction| {
-                    let (mut seen, mut found) = (Vec::new(), f32::INFINITY);
-                    tree.traverse(origin, direction, 0.0, f32::INFINITY, |item, _, _| {
-                        seen.push(item);
-                        found = found.min(entry(&bounds[item as usize], origin, direction));
-                        found
-                    });
-                    seen
-                })
-                .collect();
-            let mut together = vec![Vec::new(); directions.len()];
-            let mut found = [f32::INFINITY; PACKET];
-            let traversed = tree.traverse_packet(origin, &directions, 0.0, |item, rays| {
-                for ray in each_ray(rays) {
-                    together[ray].push(item);
-                    found[ray] = found[ray].min(entry(&bounds[item as usize], origin, directions[ray]));
-                }
-                found
-            });
-            assert!(traversed, "trial {trial}");
-            assert_eq!(together, alone, "trial {trial}");
-            visits += alone.iter().map(Vec::len).sum::<usize>();
-        }
-        assert!(visits > 10_000, "{visits} tests");
-        let [a, b] = tree.nodes[0];
-        let (axis, split) = ((a & 3) as usize, f32::from_bits(b));
-        let mut origin = [5.0f32; 3];
-        origin[axis] = split;
-        let mut up = [0.3f32, 0.2, 0.1];
-        up[axis] = 1.0;
-        let mut down = up;
-        down[axis] = -1.0;
-        assert!(!tree.traverse_packet(origin, &[up, down], 0.0, |_, _| [f32::INFINITY; PACKET]));
-        assert!(tree.traverse_packet(origin, &[down, down], 0.0, |_, _| [f32::INFINITY; PACKET]));
     }
 
     /// The parallel build splices its subtrees into exactly the sequential depth-first layout.

@@ -10,7 +10,7 @@
 #![allow(clippy::needless_range_loop)]
 use shatter_core::particles::ElementType;
 
-use crate::element_kdtree::{PACKET, each_ray};
+use crate::packet_traversal::{PACKET, each_ray};
 use crate::primitives::{CubeFromOrigin, Trimtope, TrimtopeHit, along, dot, polytope_span, trimtope_hit};
 use crate::scene_geometry::SceneGeometry;
 
@@ -191,20 +191,14 @@ pub fn closest_hits(
     hits: &mut [Hit],
 ) {
     let mut nearest = [Nearest::NONE; PACKET];
-    let moving = scene.motion.is_some() && times.is_some();
-    if moving && scene.index.world_tree().is_none() {
-        // rays at their own times are carried to each group's centre apart: one walk each
-        for (r, (hit, &direction)) in hits.iter_mut().zip(directions).enumerate() {
-            *hit = closest_hit(scene, origin, direction, 0.0, times.map_or(0.0, |times| times[r]));
-        }
-        return;
-    }
+    let shutter = scene.motion.as_ref().zip(times);
+    let moving = shutter.is_some();
     // (a packet may hold fewer rays than PACKET: the rest have no time)
     let time = |r: usize| times.and_then(|times| times.get(r)).copied().unwrap_or(0.0);
     let mut centres: Option<[AtCentre; PACKET]> = moving.then(|| {
         std::array::from_fn(|r| AtCentre::new(scene, origin, directions.get(r).copied().unwrap_or([0.0; 3]), time(r)))
     });
-    let traversed = scene.index.traverse_packet(scene.members(), origin, directions, 0.0, |e, rays| {
+    let traversed = scene.index.traverse_packet(scene.members(), (origin, directions), 0.0, shutter, |e, rays| {
         match (&mut centres, scene.cube(e as usize)) {
             (Some(centres), _) => {
                 for r in each_ray(rays) {

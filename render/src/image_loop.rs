@@ -6,11 +6,11 @@
 use rayon::prelude::*;
 
 use crate::camera::{Camera, concentric_disk};
-use crate::element_kdtree::PACKET;
 use crate::hit_search::{Hit, closest_hit, closest_hits};
 use crate::integrator::{CameraRay, FirstSurface, Pixel, first_layers, trace_ray};
 use crate::materials::Look;
 use crate::mattes::MatteCounts;
+use crate::packet_traversal::PACKET;
 use crate::primitives::along;
 use crate::sampling::{lens_sample, sample_offset, sample_time};
 use crate::scene_geometry::SceneGeometry;

@@ -49,6 +49,7 @@ pub mod lighting;
 pub mod materials;
 pub mod mattes;
 mod motion;
+mod packet_traversal;
 mod placing;
 mod primitives;
 pub mod render_driver;

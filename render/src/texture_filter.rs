@@ -55,9 +55,8 @@ impl MipChain {
         let [start, width, height] = self.levels[level];
         let (x, y) = (u * width as f32 - 0.5, v * height as f32 - 0.5);
         let (fx, fy) = (x - x.floor(), y - y.floor());
-        let wrap = |i: f32, n: usize| (i as i64).rem_euclid(n as i64) as usize;
-        let (x0, y0) = (wrap(x.floor(), width), wrap(y.floor(), height));
-        let (x1, y1) = ((x0 + 1) % width, (y0 + 1) % height);
+        let (x0, y0) = (wrap(x.floor() as i64, width), wrap(y.floor() as i64, height));
+        let (x1, y1) = (wrap(x0 as i64 + 1, width), wrap(y0 as i64 + 1, height));
         let at = |x: usize, y: usize| self.texels[start + y * width + x];
         let (a, b, c, d) = (at(x0, y0), at(x1, y0), at(x0, y1), at(x1, y1));
         std::array::from_fn(|k| (a[k] * (1.0 - fx) + b[k] * fx) * (1.0 - fy) + (c[k] * (1.0 - fx) + d[k] * fx) * fy)
@@ -76,6 +75,20 @@ impl MipChain {
         let above = self.bilinear((level as usize + 1).min(self.levels.len() - 1), u, v);
         std::array::from_fn(|k| below[k] * (1.0 - blend) + above[k] * blend)
     }
+}
+
+/// Texel index `i` wrapped onto a row or column of `n` texels, `i` modulo `n`: a lookup at (u, v)
+/// in [0, 1] reads indices from -1 to `n`, wrapped without a division.
+fn wrap(i: i64, n: usize) -> usize {
+    let n = n as i64;
+    let wrapped = if i < 0 {
+        i + n
+    } else if i >= n {
+        i - n
+    } else {
+        i
+    };
+    if (0..n).contains(&wrapped) { wrapped as usize } else { i.rem_euclid(n) as usize }
 }
 
 /// Where a ray meets the floor, and how wide its cone is there.
@@ -128,6 +141,15 @@ mod tests {
             .map(|i| if (i % size + i / size).is_multiple_of(2) { [1.0; 3] } else { [0.0; 3] })
             .collect();
         FloorLook { height: 0.0, tile: 1.0, size: [size, size], texels: FloorTexels::Linear(texels), mips: None }
+    }
+
+    #[test]
+    fn wrapping_is_the_remainder_of_a_division() {
+        for n in 1..6usize {
+            for i in -13..13i64 {
+                assert_eq!(wrap(i, n), i.rem_euclid(n as i64) as usize, "{i} mod {n}");
+            }
+        }
     }
 
     #[test]
