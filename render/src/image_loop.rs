@@ -3,9 +3,11 @@
 //! nearest hits without shading. The twin of `shaders/image_loop.wgsl` (one pixel per
 //! invocation there).
 
+use rayon::iter::Either;
 use rayon::prelude::*;
 
 use crate::camera::{Camera, concentric_disk};
+use crate::floor_albedos::{FloorAlbedos, Slots, tile_slots};
 use crate::hit_search::{Hit, closest_hit, closest_hits};
 use crate::integrator::{CameraRay, FirstSurface, Pixel, first_layers, trace_ray};
 use crate::materials::Look;
@@ -29,19 +31,24 @@ pub struct Rendered {
 /// The floor's albedo where each camera ray of a packet meets it, for those that meet it before
 /// their nearest hit (`hits`); the others' are left as they are. Looked up in one pass, the
 /// texel loads of a packet overlap, where each ray's trace would otherwise wait on its own. The
-/// rays' cones spread `spread_rad` (the pixel's angle).
+/// rays' cones spread `spread_rad` (the pixel's angle). With `kept` (one slot per ray, see
+/// [`FloorAlbedos`]), a ray's albedo is read from its slot once looked up, and kept there.
 fn first_floor_albedos(
     look: &Look,
     (origin, spread_rad): ([f32; 3], f32),
-    directions: &[[f32; 3]],
-    hits: &[Hit],
+    (directions, hits): (&[[f32; 3]], &[Hit]),
     out: &mut [[f32; 3]],
+    mut kept: Option<Slots>,
 ) {
-    for ((d, hit), albedo) in directions.iter().zip(hits).zip(out) {
+    for (k, ((d, hit), albedo)) in directions.iter().zip(hits).zip(out).enumerate() {
         let t_floor = floor_t(look, origin, *d);
         if t_floor < hit.t {
             let footprint = Footprint { direction: *d, width_m: spread_rad * t_floor };
-            *albedo = floor_albedo(look, along(origin, *d, t_floor), footprint);
+            let look_up = || floor_albedo(look, along(origin, *d, t_floor), footprint);
+            *albedo = match kept.as_deref_mut() {
+                Some(kept) => *kept[k].get_or_insert_with(look_up),
+                None => look_up(),
+            };
         }
     }
 }
@@ -58,18 +65,38 @@ fn first_floor_albedos(
 /// the lens ([`lens_sample`]), one at a time; the mattes count those rays, and the layers are
 /// the pinhole's ray's through the pixel centre.
 pub fn render(scene: &SceneGeometry, look: &Look, camera: &Camera, samples: u32) -> Rendered {
+    render_keeping(scene, look, camera, samples, None)
+}
+
+/// [`render`], reading the floor's albedo of each camera sample from `floor` where an earlier
+/// image of the same camera looked it up, and keeping there those it looks up (the same images,
+/// to the bit).
+pub fn render_keeping(
+    scene: &SceneGeometry,
+    look: &Look,
+    camera: &Camera,
+    samples: u32,
+    floor: Option<&mut FloorAlbedos>,
+) -> Rendered {
     let (width, height) = (camera.width as usize, camera.height as usize);
     let mut pixels = vec![Pixel::EMPTY; width * height];
     let mut mattes = vec![MatteCounts::default(); width * height];
     let band = width * TILE_ROWS;
-    pixels.par_chunks_mut(band).zip(mattes.par_chunks_mut(band)).enumerate().for_each(|(b, (rows, matte_rows))| {
+    let kept = match floor.and_then(|floor| floor.slots(camera, samples)) {
+        Some(slots) => Either::Left(slots.par_chunks_mut(band * samples as usize).map(Some)),
+        None => Either::Right((0..height.div_ceil(TILE_ROWS)).into_par_iter().map(|_| None)),
+    };
+    let bands = pixels.par_chunks_mut(band).zip(mattes.par_chunks_mut(band)).zip(kept);
+    bands.enumerate().for_each(|(b, ((rows, matte_rows), mut kept))| {
         let top = b * TILE_ROWS;
         let mut packet = Packet::default();
         for tile in Tile::across(width, top, rows.len() / width) {
             let count = tile.len();
             packet.sums[..count].fill(Sums::default());
             for sample in 0..samples {
-                packet.trace(scene, look, camera, tile, (sample, samples));
+                let start = tile_slots(tile.left, tile.height, (sample, samples), count);
+                let slots = kept.as_deref_mut().map(|kept| &mut kept[start..start + count]);
+                packet.trace(scene, look, camera, tile, ((sample, samples), slots));
                 for k in 0..count {
                     let (x, y) = tile.pixel(k);
                     let local = (y - top) * width + x;
@@ -151,8 +178,16 @@ impl Default for Packet {
 
 impl Packet {
     /// Traces sample `sample` (of `samples`) of `tile`'s rays: adds each one's colour, coverage
-    /// and denoising guides to the sums and leaves its layers.
-    fn trace(&mut self, scene: &SceneGeometry, look: &Look, camera: &Camera, tile: Tile, sample: (u32, u32)) {
+    /// and denoising guides to the sums and leaves its layers; `kept` holds the rays' kept floor
+    /// albedos, if any.
+    fn trace(
+        &mut self,
+        scene: &SceneGeometry,
+        look: &Look,
+        camera: &Camera,
+        tile: Tile,
+        (sample, kept): ((u32, u32), Option<Slots>),
+    ) {
         if camera.lens.is_some() {
             self.trace_through_lens(scene, look, camera, tile, sample);
             return;
@@ -171,7 +206,8 @@ impl Packet {
         });
         let hits = moving.unwrap_or(&self.hits);
         let cone = (origin, camera.pixel_spread_rad());
-        first_floor_albedos(look, cone, &self.directions[..count], &hits[..count], &mut self.floor_albedos);
+        let rays = (&self.directions[..count], &hits[..count]);
+        first_floor_albedos(look, cone, rays, &mut self.floor_albedos, kept);
         for (k, &hit) in hits[..count].iter().enumerate() {
             let (x, y) = tile.pixel(k);
             let pixel = (y * camera.width as usize + x) as u32;
@@ -209,7 +245,7 @@ impl Packet {
             let hit = if time == 0.0 { centre } else { closest_hit(scene, origin, direction, 0.0, time) };
             let mut floor_albedo = [0.0; 3];
             let cone = (origin, camera.pixel_spread_rad());
-            first_floor_albedos(look, cone, &[direction], &[hit], std::slice::from_mut(&mut floor_albedo));
+            first_floor_albedos(look, cone, (&[direction], &[hit]), std::slice::from_mut(&mut floor_albedo), None);
             let ray = CameraRay { origin, direction, pixel, sample: sample.0, time, spread_rad: cone.1 };
             self.sums[k].add(&trace_ray(scene, look, ray, FirstSurface { hit, floor_albedo }));
         }

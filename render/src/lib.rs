@@ -8,6 +8,7 @@
 //! - [`placing`]: the elements placed by their fragments' rigid motions or their affine maps.
 //! - [`face_seams`]: which faces rest against a neighbour (union walks, fracture faces).
 //! - [`element_kdtree`]: the SAH k-d tree over element bounds, with short-stack traversal.
+//! - [`packet_traversal`]: packets of camera rays walking the k-d tree together.
 //! - [`element_index`]: the CPU tracer's two-level index: one rest-frame tree for a render, and
 //!   per frame a tree over the fragments' boxes.
 //! - [`primitives`]: ray hits of cubes, tetrahedra and trimtopes, and their CSG unions.
@@ -24,6 +25,7 @@
 //! - [`shading`]: reflection, refraction, Fresnel, opaque surfaces and the floor.
 //! - [`integrator`]: radiance along one camera ray, and its first-surface layers.
 //! - [`image_loop`]: every pixel of an image, in bands and packets; the CPU tracer's entry.
+//! - [`floor_albedos`]: the camera samples' filtered floor albedos, kept from frame to frame.
 //! - [`gpu_trace`]: the GPU tracer running the WGSL twins (`shaders/`).
 //!
 //! The passes and files:
@@ -39,6 +41,7 @@ pub mod cryptomatte;
 mod element_index;
 mod element_kdtree;
 mod face_seams;
+pub mod floor_albedos;
 pub mod frame_review;
 pub mod gpu_trace;
 pub mod hit_search;

@@ -3,6 +3,7 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::time::Instant;
 
 use glam::DVec3;
@@ -23,8 +24,9 @@ use crate::camera::{Camera, Lens};
 use crate::cryptomatte::{Matte, fragment_matte, material_matte};
 use crate::element_index::REST_TREE_MIN_ELEMENTS;
 use crate::element_kdtree::Aabb;
+use crate::floor_albedos::FloorAlbedos;
 use crate::gpu_trace::GpuTracer;
-use crate::image_loop::{Rendered, render};
+use crate::image_loop::{Rendered, render_keeping};
 use crate::image_out::{FrameHeader, FrameLayers, HeaderLens, ImageError, write_exr, write_png};
 use crate::integrator::Pixel;
 use crate::lighting::{EnvironmentMap, LightingError, key_light, sh_project};
@@ -97,7 +99,8 @@ pub struct RenderReport {
 
 /// Where the rays are traced.
 enum Tracer {
-    Cpu,
+    /// The CPU, with the floor albedos it keeps from frame to frame.
+    Cpu(Mutex<FloorAlbedos>),
     Gpu(Box<(GpuContext, GpuTracer)>),
 }
 
@@ -109,18 +112,18 @@ impl Tracer {
             Ok(Tracer::Gpu(Box::new((context, tracer))))
         };
         match backend {
-            BackendChoice::Cpu => Ok(Tracer::Cpu),
+            BackendChoice::Cpu => Ok(Tracer::Cpu(Mutex::default())),
             BackendChoice::Gpu => gpu(GpuContext::new(AdapterChoice::from_env())?),
             BackendChoice::Auto => match GpuContext::new(AdapterChoice::from_env()) {
                 Ok(context) => gpu(context),
-                Err(_) => Ok(Tracer::Cpu),
+                Err(_) => Ok(Tracer::Cpu(Mutex::default())),
             },
         }
     }
 
     fn describe(&self) -> String {
         match self {
-            Tracer::Cpu => format!("CPU ({} threads)", rayon::current_num_threads()),
+            Tracer::Cpu(_) => format!("CPU ({} threads)", rayon::current_num_threads()),
             Tracer::Gpu(gpu) => gpu.0.describe(),
         }
     }
@@ -133,7 +136,10 @@ impl Tracer {
         samples: u32,
     ) -> Result<Rendered, RenderError> {
         match self {
-            Tracer::Cpu => Ok(render(scene, look, camera, samples)),
+            Tracer::Cpu(floor) => {
+                let mut floor = floor.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                Ok(render_keeping(scene, look, camera, samples, Some(&mut floor)))
+            }
             Tracer::Gpu(gpu) => Ok(gpu.1.render(&gpu.0, scene, look, camera, samples)?),
         }
     }
@@ -348,7 +354,7 @@ pub fn run_render(
     // (see element_index).
     let particles = &job.particles;
     let basis =
-        SceneBasis::new(particles, matches!(job.tracer, Tracer::Cpu) && particles.len() >= REST_TREE_MIN_ELEMENTS);
+        SceneBasis::new(particles, matches!(job.tracer, Tracer::Cpu(_)) && particles.len() >= REST_TREE_MIN_ELEMENTS);
     // Each frame's files are written while the next frame is traced (one frame in flight); a
     // frame counts as done (`after_frame`, progress) once its files are.
     std::thread::scope(|scope| -> Result<(), RenderError> {

@@ -7,7 +7,8 @@ use crate::support;
 use glam::DVec3;
 use shatter_core::particles::Elements;
 use shatter_render::camera::Camera;
-use shatter_render::image_loop::render;
+use shatter_render::floor_albedos::FloorAlbedos;
+use shatter_render::image_loop::{render, render_keeping};
 use shatter_render::materials::{FloorLook, FloorTexels, Look};
 use shatter_render::scene_geometry::SceneGeometry;
 use shatter_render::texture_filter::MipChain;
@@ -60,3 +61,29 @@ fn a_grazing_checker_floor_at_4_samples_is_close_to_1024_without_moire() {
 
 /// The FLIP bound (measured: filtered 0.0205, point sampled 0.0948).
 const BOUND: f32 = 0.04;
+
+/// The floor albedos kept from frame to frame change nothing: frames whose pieces move in front
+/// of the floor (hiding some of it, showing other parts) are the same to the bit with them as
+/// without, and so is a frame of another camera after them.
+#[test]
+fn floor_albedos_kept_between_frames_leave_the_images_as_they_are() {
+    let elements = || Elements::Cubes { half_size_m: vec![0.1, 0.1], orientation: [0.0, 0.0, 0.0, 1.0] };
+    let frames: Vec<SceneGeometry> = [[0.0, 0.1, -2.0], [0.4, 0.3, -2.5], [-0.5, 0.1, -1.5]]
+        .into_iter()
+        .map(|centre| {
+            let centres = vec![centre, [centre[0] + 0.2, centre[1], centre[2]]];
+            SceneGeometry::build(&support::particle_set(centres, elements(), 0.2, Vec::new()), None)
+        })
+        .collect();
+    let look = look(true);
+    let (width, height) = (48u32, 30u32);
+    let camera = Camera::look_at(DVec3::new(0.0, 0.5, 0.0), DVec3::new(0.1, 0.1, -2.0), DVec3::Y, 40.0, width, height);
+    let mut kept = FloorAlbedos::default();
+    for scene in &frames {
+        let alone = render(scene, &look, &camera, 3);
+        assert!(render_keeping(scene, &look, &camera, 3, Some(&mut kept)) == alone, "a frame differs");
+    }
+    let other = Camera { width: 40, ..camera };
+    let alone = render(&frames[0], &look, &other, 3);
+    assert!(render_keeping(&frames[0], &look, &other, 3, Some(&mut kept)) == alone, "another camera differs");
+}
