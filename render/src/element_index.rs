@@ -67,6 +67,10 @@ impl RestTree {
     }
 }
 
+/// A packet's rays carried to the frame's centre placement of one motion group: each ray's
+/// (origin, direction), world axes.
+pub type CentreRays = [([f32; 3], [f32; 3]); PACKET];
+
 /// One fragment's (or every element's) entry in an [`ElementIndex`].
 #[derive(Debug, Clone, PartialEq)]
 struct Instance {
@@ -203,10 +207,11 @@ impl ElementIndex {
 
     /// [`ElementIndex::traverse`] for a packet of rays from one `origin` (at most [`PACKET`]
     /// `directions`), each fragment walked with [`KdTree::traverse_packet_within`]:
-    /// `hit(element, rays)` gets the bit mask of the rays that may meet the element and returns
-    /// every ray's nearest hit so far. With `shutter` (the scene's motion and each ray's time),
-    /// each ray is carried to the frame's centre for each instance before its walk, and the
-    /// packet walks the instance from the rays' own origins. False when a walk gave up (see
+    /// `hit(element, rays, at_centre)` gets the bit mask of the rays that may meet the element
+    /// and returns every ray's nearest hit so far. With `shutter` (the scene's motion and each
+    /// ray's time), each ray is carried to the frame's centre for each instance (a motion group)
+    /// before its walk, `at_centre` holds the rays so carried, and the packet walks the instance
+    /// from the rays' own origins. False when a walk gave up (see
     /// [`KdTree::traverse_packet_within`]): trace the rays alone.
     pub fn traverse_packet(
         &self,
@@ -214,10 +219,10 @@ impl ElementIndex {
         (origin, directions): ([f32; 3], &[[f32; 3]]),
         t_start: f32,
         shutter: Option<(&SceneMotion, &[f32])>,
-        mut hit: impl FnMut(u32, u32) -> [f32; PACKET],
+        mut hit: impl FnMut(u32, u32, Option<&CentreRays>) -> [f32; PACKET],
     ) -> bool {
         if let Some(tree) = self.world_tree() {
-            return tree.traverse_packet(origin, directions, t_start, hit);
+            return tree.traverse_packet(origin, directions, t_start, |e, rays| hit(e, rays, None));
         }
         let mut best = [f32::INFINITY; PACKET];
         let mut whole = true;
@@ -233,30 +238,33 @@ impl ElementIndex {
                     for r in each_ray(rays) {
                         (span.0[r], span.1[r]) = (spans.0[r], spans.1[r]);
                     }
+                    let at_centre = shutter.map(|(motion, times)| {
+                        let mut carried = [([0.0f32; 3], [0.0f32; 3]); PACKET];
+                        for r in each_ray(rays) {
+                            carried[r] = match motion.group_to_centre(instance.fragment, times[r]) {
+                                Some(map) => (map.point(origin), map.vector(directions[r])),
+                                None => (origin, directions[r]),
+                            };
+                        }
+                        carried
+                    });
                     let mut offer = |e: u32, rays: u32, _: (&[f32; PACKET], &[f32; PACKET])| {
                         if instance.holds(fragment_of, e) {
-                            best = hit(e, rays);
+                            best = hit(e, rays, at_centre.as_ref());
                         }
                         best
                     };
                     let walk = &instance.tree_box;
-                    whole = match shutter {
-                        Some((motion, times)) => {
-                            let mut origins = RayOrigins([[0.0; 3]; PACKET]);
+                    whole = match &at_centre {
+                        Some(carried) => {
+                            let mut origins = RayOrigins([[0.0; PACKET]; 3]);
                             for r in each_ray(rays) {
-                                let (o, d) = match motion.group_to_centre(instance.fragment, times[r]) {
-                                    Some(map) => (map.point(origin), map.vector(directions[r])),
-                                    None => (origin, directions[r]),
-                                };
-                                (origins.0[r], local[r]) = (instance.point(o), instance.vector(d));
+                                let o = instance.point(carried[r].0);
+                                (origins.0[0][r], origins.0[1][r], origins.0[2][r]) = (o[0], o[1], o[2]);
+                                local[r] = instance.vector(carried[r].1);
                             }
-                            self.tree.traverse_packet_within(
-                                walk,
-                                &origins,
-                                &local[..directions.len()],
-                                span,
-                                &mut offer,
-                            )
+                            let directions = &local[..directions.len()];
+                            self.tree.traverse_packet_within(walk, &origins, directions, span, &mut offer)
                         }
                         None => {
                             for (to, &from) in local.iter_mut().zip(directions) {

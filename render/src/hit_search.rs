@@ -198,11 +198,12 @@ pub fn closest_hits(
     let mut centres: Option<[AtCentre; PACKET]> = moving.then(|| {
         std::array::from_fn(|r| AtCentre::new(scene, origin, directions.get(r).copied().unwrap_or([0.0; 3]), time(r)))
     });
-    let traversed = scene.index.traverse_packet(scene.members(), (origin, directions), 0.0, shutter, |e, rays| {
+    let traversed = scene.index.traverse_packet(scene.members(), (origin, directions), 0.0, shutter, |e, rays, at| {
         match (&mut centres, scene.cube(e as usize)) {
             (Some(centres), _) => {
                 for r in each_ray(rays) {
-                    let (o, d) = centres[r].ray(e);
+                    // the index carried the rays to e's group already (an AtCentre does the same)
+                    let (o, d) = at.map_or_else(|| centres[r].ray(e), |at| at[r]);
                     nearest[r].offer(e, element_entry(scene, e as usize, o, d, (0.0, nearest[r].t)));
                 }
             }

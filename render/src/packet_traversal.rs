@@ -30,9 +30,9 @@ pub trait Origins {
 #[derive(Debug, Clone, Copy)]
 pub struct SharedOrigin(pub [f32; 3]);
 
-/// Each ray of a packet its own origin (lanes past the rays unused).
+/// Each ray of a packet its own origin, axis by axis: `0[axis][r]` (lanes past the rays unused).
 #[derive(Debug, Clone, Copy)]
-pub struct RayOrigins(pub [[f32; 3]; PACKET]);
+pub struct RayOrigins(pub [Intervals; 3]);
 
 impl Origins for SharedOrigin {
     #[inline(always)]
@@ -58,22 +58,30 @@ impl Origins for SharedOrigin {
 impl Origins for RayOrigins {
     #[inline(always)]
     fn of(&self, r: usize) -> [f32; 3] {
-        self.0[r]
+        [self.0[0][r], self.0[1][r], self.0[2][r]]
     }
 
     #[inline(always)]
     fn offsets(&self, axis: usize, split: f32) -> Intervals {
-        std::array::from_fn(|r| split - self.0[r][axis])
+        let origins = &self.0[axis];
+        std::array::from_fn(|r| split - origins[r])
     }
 
     #[inline(always)]
     fn below_first(&self, axis: usize, split: f32, directions: &[[f32; 3]], rays: u32) -> Option<bool> {
-        let mut below = 0u32;
-        for r in each_ray(rays) {
-            let o = self.0[r][axis];
-            below |= u32::from(o < split || (o == split && directions[r][axis] <= 0.0)) << r;
+        // every lane at once; a lane on the plane goes by its direction, as alone
+        let (origins, mut below, mut on_plane) = (&self.0[axis], 0u32, 0u32);
+        for (r, &o) in origins.iter().enumerate() {
+            below |= u32::from(o < split) << r;
+            on_plane |= u32::from(o == split) << r;
         }
-        if below == 0 { Some(false) } else { (below == rays).then_some(true) }
+        for r in each_ray(on_plane & rays) {
+            below |= u32::from(directions[r][axis] <= 0.0) << r;
+        }
+        match below & rays {
+            0 => Some(false),
+            all => (all == rays).then_some(true),
+        }
     }
 }
 
@@ -281,15 +289,18 @@ mod tests {
             let base = [r() - 0.5, r() - 0.5, r() - 0.5];
             let count = 1 + trial % PACKET;
             let apart = if trial % 2 == 0 { 1e-3 } else { 0.05 };
-            let mut origins = RayOrigins([[0.0; 3]; PACKET]);
-            for o in &mut origins.0[..count] {
-                *o = centre.map(|c| c + apart * (r() - 0.5));
+            let mut origins = RayOrigins([[0.0; PACKET]; 3]);
+            for k in 0..count {
+                for (axis, c) in centre.iter().enumerate() {
+                    origins.0[axis][k] = c + apart * (r() - 0.5);
+                }
             }
             let directions: Vec<[f32; 3]> = (0..count).map(|_| base.map(|b| b + 0.02 * (r() - 0.5))).collect();
             let alone: Vec<Vec<u32>> = directions
                 .iter()
-                .zip(origins.0)
-                .map(|(&direction, origin)| {
+                .enumerate()
+                .map(|(k, &direction)| {
+                    let origin = origins.of(k);
                     let (mut seen, mut found) = (Vec::new(), f32::INFINITY);
                     tree.traverse(origin, direction, 0.0, f32::INFINITY, |item, _, _| {
                         seen.push(item);
@@ -305,7 +316,7 @@ mod tests {
             let traversed = tree.traverse_packet_within(&tree.bounds, &origins, &directions, span, |item, rays, _| {
                 for ray in each_ray(rays) {
                     together[ray].push(item);
-                    found[ray] = found[ray].min(entry(&bounds[item as usize], origins.0[ray], directions[ray]));
+                    found[ray] = found[ray].min(entry(&bounds[item as usize], origins.of(ray), directions[ray]));
                 }
                 found
             });
@@ -320,14 +331,14 @@ mod tests {
         // sides differ
         let [a, b] = tree.nodes[0];
         let (axis, split) = ((a & 3) as usize, f32::from_bits(b));
-        let mut origins = RayOrigins([[5.0; 3]; PACKET]);
-        (origins.0[0][axis], origins.0[1][axis]) = (split - 0.01, split + 0.01);
+        let mut origins = RayOrigins([[5.0; PACKET]; 3]);
+        (origins.0[axis][0], origins.0[axis][1]) = (split - 0.01, split + 0.01);
         let mut up = [0.3f32, 0.2, 0.1];
         up[axis] = 1.0;
         let span = ([0.0; PACKET], [f32::INFINITY; PACKET]);
         let none = |_: u32, _: u32, _: (&Intervals, &Intervals)| [f32::INFINITY; PACKET];
         assert!(!tree.traverse_packet_within(&tree.bounds, &origins, &[up, up], span, none));
-        origins.0[1][axis] = split - 0.02;
+        origins.0[axis][1] = split - 0.02;
         assert!(tree.traverse_packet_within(&tree.bounds, &origins, &[up, up], span, none));
     }
 }
