@@ -220,6 +220,23 @@ mod tests {
     use super::*;
     use crate::element_kdtree::tests::{boxes, entry};
 
+    /// The items a ray meets alone through `tree` over boxes `bounds`, in order, up to its
+    /// nearest box.
+    fn leaves_alone(
+        tree: &KdTree,
+        bounds: &[crate::element_kdtree::Aabb],
+        origin: [f32; 3],
+        direction: [f32; 3],
+    ) -> Vec<u32> {
+        let (mut seen, mut found) = (Vec::new(), f32::INFINITY);
+        tree.traverse(origin, direction, 0.0, f32::INFINITY, |item, _, _| {
+            seen.push(item);
+            found = found.min(entry(&bounds[item as usize], origin, direction));
+            found
+        });
+        seen
+    }
+
     /// A packet takes each ray through the leaves it meets alone, in the same order, and stops
     /// it after the same leaf; on a split plane that its rays cross both ways, it gives up.
     #[test]
@@ -236,18 +253,8 @@ mod tests {
             let spread = if trial % 2 == 0 { 0.02 } else { 1.0 };
             let directions: Vec<[f32; 3]> =
                 (0..1 + trial % PACKET).map(|_| base.map(|b| b + spread * (r() - 0.5))).collect();
-            let alone: Vec<Vec<u32>> = directions
-                .iter()
-                .map(|&direction| {
-                    let (mut seen, mut found) = (Vec::new(), f32::INFINITY);
-                    tree.traverse(origin, direction, 0.0, f32::INFINITY, |item, _, _| {
-                        seen.push(item);
-                        found = found.min(entry(&bounds[item as usize], origin, direction));
-                        found
-                    });
-                    seen
-                })
-                .collect();
+            let alone: Vec<Vec<u32>> =
+                directions.iter().map(|&direction| leaves_alone(&tree, &bounds, origin, direction)).collect();
             let mut together = vec![Vec::new(); directions.len()];
             let mut found = [f32::INFINITY; PACKET];
             let traversed = tree.traverse_packet(origin, &directions, 0.0, |item, rays| {
@@ -299,16 +306,7 @@ mod tests {
             let alone: Vec<Vec<u32>> = directions
                 .iter()
                 .enumerate()
-                .map(|(k, &direction)| {
-                    let origin = origins.of(k);
-                    let (mut seen, mut found) = (Vec::new(), f32::INFINITY);
-                    tree.traverse(origin, direction, 0.0, f32::INFINITY, |item, _, _| {
-                        seen.push(item);
-                        found = found.min(entry(&bounds[item as usize], origin, direction));
-                        found
-                    });
-                    seen
-                })
+                .map(|(k, &direction)| leaves_alone(&tree, &bounds, origins.of(k), direction))
                 .collect();
             let mut together = vec![Vec::new(); count];
             let mut found = [f32::INFINITY; PACKET];
