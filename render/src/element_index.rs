@@ -167,23 +167,25 @@ impl ElementIndex {
         Some(ElementIndex { tree: Arc::clone(&rest.tree), instances, top: KdTree::build(&boxes) })
     }
 
-    /// Calls `hit(element)` for every element the ray `origin + t direction`, t from `t_start`
-    /// on, may meet before its nearest hit; `hit` returns the distance of the nearest hit so
+    /// Calls `hit(element, carried)` for every element the ray `origin + t direction`, t from
+    /// `t_start` on, may meet before its nearest hit; `hit` returns the distance of the nearest hit so
     /// far (or infinity). The nearest hit is the one a single tree over the elements would find.
     /// Each fragment is walked over the interval of each leaf of the top tree that lists it, so
     /// the walks go front to back and stop at the nearest hit, however the fragments' boxes
     /// overlap. With `shutter` (the scene's motion and the ray's time), the instances are the
-    /// motion's groups, and the ray is carried to the frame's centre for each before its walk.
+    /// motion's groups, and the ray is carried to the frame's centre for each before its walk;
+    /// `carried` is the ray so carried for the element's group (None without `shutter`, or
+    /// through a world tree).
     pub fn traverse(
         &self,
         fragment_of: &[u32],
         (origin, direction): ([f32; 3], [f32; 3]),
         t_start: f32,
         shutter: Option<(&SceneMotion, f32)>,
-        mut hit: impl FnMut(u32) -> f32,
+        mut hit: impl FnMut(u32, Option<([f32; 3], [f32; 3])>) -> f32,
     ) {
         if let Some(tree) = self.world_tree() {
-            tree.traverse(origin, direction, t_start, f32::INFINITY, |e, _, _| hit(e));
+            tree.traverse(origin, direction, t_start, f32::INFINITY, |e, _, _| hit(e, None));
             return;
         }
         let mut best = f32::INFINITY;
@@ -195,9 +197,10 @@ impl ElementIndex {
                     None => (origin, direction),
                 };
             let (o, d) = (instance.point(origin), instance.vector(direction));
+            let carried = shutter.is_some().then_some((origin, direction));
             self.tree.traverse_within(&instance.tree_box, o, d, t_min, t_max, |e, _, _| {
                 if instance.holds(fragment_of, e) {
-                    best = hit(e);
+                    best = hit(e, carried);
                 }
                 best
             });

@@ -170,8 +170,9 @@ pub fn closest_hit(scene: &SceneGeometry, origin: [f32; 3], direction: [f32; 3],
     let mut nearest = Nearest::NONE;
     let mut centre = AtCentre::new(scene, origin, direction, time);
     let shutter = scene.motion.as_ref().map(|motion| (motion, time));
-    scene.index.traverse(scene.members(), (origin, direction), t_min, shutter, |e| {
-        let (o, d) = centre.ray(e);
+    scene.index.traverse(scene.members(), (origin, direction), t_min, shutter, |e, carried| {
+        // the index carried the ray to e's group already (as the AtCentre would)
+        let (o, d) = carried.unwrap_or_else(|| centre.ray(e));
         nearest.offer(e, element_entry(scene, e as usize, o, d, (t_min, nearest.t)));
         nearest.t
     });
