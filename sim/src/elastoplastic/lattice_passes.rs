@@ -59,7 +59,7 @@ fn deformed(values: &SlotValues, own: usize, partner: usize, rest: Lanes) -> ([L
         sub(load(uy, partner), load(uy, own)),
         sub(load(uz, partner), load(uz, own)),
     ];
-    let (y, length, growth) = deformed_bonds(&xi, &eta);
+    let (y, length, growth) = deformed_bonds::<true>(&xi, &eta);
     (y, length, div(growth, add(length, rest)))
 }
 

@@ -170,6 +170,29 @@ pub fn dot(a: &[Lanes; 3], b: &[Lanes; 3]) -> Lanes {
     add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
 }
 
+/// a with the lanes under [`super::springs::SQUARED_FROM_M`] in magnitude set to zero (NaN
+/// kept): the factors of the growth's eta . eta.
+#[inline(always)]
+fn squared_part(a: Lanes) -> Lanes {
+    let mut lanes = [0.0; LANES];
+    for l in 0..LANES {
+        lanes[l] = if a[l].abs() < super::springs::SQUARED_FROM_M { 0.0 } else { a[l] };
+    }
+    lanes
+}
+
+/// [`super::springs::may_have_tiny`] for eight particles at once: whether any of them may.
+#[inline(always)]
+pub fn any_may_have_tiny(disp: &[Lanes; 3]) -> bool {
+    let mut any = false;
+    for axis in 0..3 {
+        for l in 0..LANES {
+            any |= disp[axis][l].abs() < super::springs::NO_TINY_FROM_M;
+        }
+    }
+    any
+}
+
 /// Eight bonds' stretch and force.
 pub struct BondLanes {
     /// The bond vector y = xi + eta, metres.
@@ -182,12 +205,16 @@ pub struct BondLanes {
 
 /// Eight bonds from their rest vectors xi and displacement differences eta: the deformed bonds
 /// y = xi + eta, their lengths |y| and the growth 2 xi . eta + eta . eta, which is
-/// |y|^2 - |xi|^2 without its cancellation (see [`super::stretch`]).
+/// |y|^2 - |xi|^2 without its cancellation (see [`super::stretch`]; eta . eta leaves out
+/// components under [`super::springs::SQUARED_FROM_M`], as there). `TINY` false leaves out that
+/// test, for bonds known to have no such component ([`super::springs::NO_TINY_FROM_M`]): the same
+/// bits.
 #[inline(always)]
-pub fn deformed_bonds(xi: &[Lanes; 3], eta: &[Lanes; 3]) -> ([Lanes; 3], Lanes, Lanes) {
+pub fn deformed_bonds<const TINY: bool>(xi: &[Lanes; 3], eta: &[Lanes; 3]) -> ([Lanes; 3], Lanes, Lanes) {
     let y = [add(xi[0], eta[0]), add(xi[1], eta[1]), add(xi[2], eta[2])];
     let length = sqrt(dot(&y, &y));
-    let growth = add(mul([2.0; LANES], dot(xi, eta)), dot(eta, eta));
+    let squared = if TINY { [squared_part(eta[0]), squared_part(eta[1]), squared_part(eta[2])] } else { *eta };
+    let growth = add(mul([2.0; LANES], dot(xi, eta)), dot(&squared, &squared));
     (y, length, growth)
 }
 
@@ -195,16 +222,22 @@ pub fn deformed_bonds(xi: &[Lanes; 3], eta: &[Lanes; 3]) -> ([Lanes; 3], Lanes, 
 /// displacement differences and rest lengths: lane by lane the bits of [`super::stretch`].
 #[inline(always)]
 pub fn lane_stretch(xi: &[Lanes; 3], eta: &[Lanes; 3], rest_length: Lanes) -> Lanes {
-    let (_, length, growth) = deformed_bonds(xi, eta);
+    let (_, length, growth) = deformed_bonds::<true>(xi, eta);
     div(growth, mul(rest_length, add(length, rest_length)))
 }
 
 /// The PMB force of eight bonds from their rest vectors xi, displacement differences eta, rest
 /// lengths and stiffnesses: s = (2 xi . eta + eta . eta) / (L (|y| + L)) (see
 /// [`super::stretch`]), and the force k s y / |y| as `scale` y, with one division for both.
+/// `TINY` as for [`deformed_bonds`].
 #[inline(always)]
-pub fn bond_lanes(xi: &[Lanes; 3], eta: &[Lanes; 3], rest_length: Lanes, stiffness: Lanes) -> BondLanes {
-    let (y, length, growth) = deformed_bonds(xi, eta);
+pub fn bond_lanes<const TINY: bool>(
+    xi: &[Lanes; 3],
+    eta: &[Lanes; 3],
+    rest_length: Lanes,
+    stiffness: Lanes,
+) -> BondLanes {
+    let (y, length, growth) = deformed_bonds::<TINY>(xi, eta);
     let denominator = mul(mul(rest_length, add(length, rest_length)), length);
     let inverse = where_positive(denominator, div([1.0; LANES], denominator));
     let stretch = where_positive(stiffness, mul(mul(growth, length), inverse));

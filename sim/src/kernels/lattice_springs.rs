@@ -7,7 +7,9 @@
 
 use shatter_core::config::sim::BreakRule;
 
-use super::lanes::{BondLanes, LANES, Lanes, add, any_greater, bond_lanes, load, min, mul, neg, sub};
+use super::lanes::{
+    BondLanes, LANES, Lanes, add, any_greater, any_may_have_tiny, bond_lanes, load, min, mul, neg, sub,
+};
 use super::springs::{ChunkForces, break_bound, effective_threshold};
 use crate::bond_layouts::lattice_layout::{BlockRest, ChunkShape, LatticeBlock, LatticeChunk, SlotInputs};
 use crate::simd_path::SimdPath;
@@ -107,6 +109,18 @@ pub(super) fn lattice_bricks(
 /// The portable brick kernel: brick `b`'s blocks one by one, in block order.
 #[inline(always)]
 fn brick_forces(pass: &mut ChunkPass, b: usize, own: usize, bound: Lanes) -> ([Lanes; 3], Lanes) {
+    let disp = pass.disp;
+    if any_may_have_tiny(&[load(disp[0], own), load(disp[1], own), load(disp[2], own)]) {
+        brick_blocks::<true>(pass, b, own, bound)
+    } else {
+        brick_blocks::<false>(pass, b, own, bound)
+    }
+}
+
+/// [`brick_forces`] with the growth's test for tiny displacement differences (`TINY`) or
+/// without it (see [`super::springs::NO_TINY_FROM_M`]).
+#[inline(always)]
+fn brick_blocks<const TINY: bool>(pass: &mut ChunkPass, b: usize, own: usize, bound: Lanes) -> ([Lanes; 3], Lanes) {
     let ChunkShape { first_slot: first, brick_start, internal_end, partner_slot, .. } = pass.shape;
     let disp = pass.disp;
     let mut force_sum = [[0.0f32; LANES]; 3];
@@ -125,7 +139,7 @@ fn brick_forces(pass: &mut ChunkPass, b: usize, own: usize, bound: Lanes) -> ([L
         ];
         let xi = shared.vector_m.map(|axis| [axis; LANES]);
         let length = [shared.length_m; LANES];
-        let BondLanes { y, mut stretch, mut scale } = bond_lanes(&xi, &eta, length, bonds.stiffness);
+        let BondLanes { y, mut stretch, mut scale } = bond_lanes::<TINY>(&xi, &eta, length, bonds.stiffness);
         if any_greater(stretch, add(bonds.threshold, bound)) {
             let place = BlockPlace { own, partner, internal, ids: &pass.bond_id[block * LANES..(block + 1) * LANES] };
             break_lanes(&pass.context, bonds, &place, pass.breaks, [&mut stretch, &mut scale]);
@@ -253,24 +267,79 @@ mod tests {
             .collect()
     }
 
+    /// Displacement differences under [`super::super::springs::SQUARED_FROM_M`] add no square to
+    /// the growth, on every path: on a grid block whose only live bonds lie along x, with no x
+    /// displacement, every bond's growth is its eta . eta alone, so the forces are all zero when
+    /// the y and z differences are 2^-70 m or 2^-69 m (squares subnormal, dropped) and not when they
+    /// are 2^-50 m or 2^-49 m (kept).
+    #[test]
+    fn tiny_displacement_differences_add_no_square_on_any_path() {
+        let (_, table) = grid_box_table([0.009, 0.007, 0.005]);
+        let SpringTable::Lattice(mut table) = table else { panic!("a grid block is on the lattice") };
+        for chunk in &mut table.chunks {
+            for (bonds, rest) in chunk.blocks.iter_mut().zip(&chunk.rest) {
+                if rest.vector_m[1] != 0.0 || rest.vector_m[2] != 0.0 {
+                    bonds.stiffness = [0.0; LANES];
+                }
+            }
+        }
+        for (exponent, squares_kept) in [(-70, false), (-50, true)] {
+            let mut rng = shatter_core::random::SplitMix64::new(7);
+            let mut component = || [0.0, 1.0, -1.0][(rng.next_u64() % 3) as usize] * f32::exp2(exponent as f32);
+            let SlotViews { inputs: [ux, uy, uz, boost], .. } = table.slots.split_mut();
+            for (slot, &particle) in table.particle_of.iter().enumerate() {
+                if particle != NO_PARTICLE {
+                    (ux[slot], uy[slot], uz[slot], boost[slot]) = (0.0, component(), component(), 0.0);
+                }
+            }
+            let disp = [ux.to_vec(), uy.to_vec(), uz.to_vec()];
+            let boost = boost.to_vec();
+            let portable = run(&table, &disp, &boost, BreakRule::Max, SimdPath::Portable);
+            let mut forces = portable.iter().flat_map(|(force, _, _)| force.iter().flatten());
+            assert_eq!(forces.any(|f| f32::from_bits(*f) != 0.0), squares_kept, "differences of 2^{exponent} m");
+            for simd in SimdPath::available() {
+                let dispatched = run(&table, &disp, &boost, BreakRule::Max, simd);
+                for (c, (ours, theirs)) in portable.iter().zip(&dispatched).enumerate() {
+                    assert_eq!(ours.0, theirs.0, "{simd}, 2^{exponent} m, chunk {c}: forces");
+                    assert_eq!(ours.1, theirs.1, "{simd}, 2^{exponent} m, chunk {c}: smallest stretches");
+                }
+            }
+        }
+    }
+
+    /// A displacement component of seed `seed`'s set: up to 1e-5 m (stretches up to a few
+    /// thresholds); from seed 6 on, most slots' components are zero or tiny (2^-40 to 2^-80 m:
+    /// differences whose squares are subnormal or less, along lattice rest vectors with zero
+    /// components, where the squares alone make the growth).
+    fn displacement(seed: u64, rng: &mut shatter_core::random::SplitMix64) -> [f32; 3] {
+        let mut random = |scale: f64| (rng.next_f64() - 0.5) as f32 * scale as f32;
+        if seed < 6 || random(1.0) < -0.3 {
+            return [random(2e-5), random(2e-5), random(2e-5)];
+        }
+        [0; 3].map(|_| {
+            let draw = random(1.0);
+            if draw.abs() < 0.15 { 0.0 } else { (-40.0 - 40.0 * (draw.abs() - 0.15) / 0.35).exp2().copysign(draw) }
+        })
+    }
+
     /// On every SIMD path this CPU runs (the AVX-512 one computes blocks in pairs): on random
-    /// displacements and boosts of a grid block, with bonds breaking, the forces, smallest
-    /// stretches, blocks and breaks are the portable kernel's, bit for bit.
+    /// displacements and boosts of a grid block, with bonds breaking, and on zero and tiny
+    /// displacements, the forces, smallest stretches, blocks and breaks are the portable
+    /// kernel's, bit for bit.
     #[test]
     fn every_simd_path_gives_the_portable_lattice_kernels_bits() {
         let (_, table) = grid_box_table([0.013, 0.009, 0.007]);
         let SpringTable::Lattice(mut table) = table else { panic!("a grid block is on the lattice") };
         assert!(table.chunks.len() > 1, "bonds between chunks too");
         let mut breaks = 0;
-        for seed in 0..6 {
+        for seed in 0..8 {
             let mut rng = shatter_core::random::SplitMix64::new(seed);
-            let mut random = |scale: f64| (rng.next_f64() - 0.5) as f32 * scale as f32;
             let SlotViews { inputs: [ux, uy, uz, boost], .. } = table.slots.split_mut();
             for (slot, &particle) in table.particle_of.iter().enumerate() {
                 if particle != NO_PARTICLE {
-                    // stretches up to a few thresholds; some boosts, some zero
-                    (ux[slot], uy[slot], uz[slot]) = (random(2e-5), random(2e-5), random(2e-5));
-                    boost[slot] = if seed % 2 == 0 { random(4e-3).max(0.0) } else { 0.0 };
+                    // some boosts, some zero
+                    [ux[slot], uy[slot], uz[slot]] = displacement(seed, &mut rng);
+                    boost[slot] = if seed % 2 == 0 { ((rng.next_f64() - 0.5) * 4e-3).max(0.0) as f32 } else { 0.0 };
                 }
             }
             let disp = [ux.to_vec(), uy.to_vec(), uz.to_vec()];

@@ -8,20 +8,20 @@
 //! CPU has been checked for AVX-512F (see `docs/DECISIONS.md#where-unsafe-is-allowed`).
 
 use std::arch::x86_64::{
-    __m128, __m256, __m512, __m512i, _CMP_GT_OQ, _mm256_add_ps, _mm256_castpd_ps, _mm256_castps_pd, _mm256_min_ps,
-    _mm256_set_m128, _mm256_set1_ps, _mm256_sub_ps, _mm512_add_ps, _mm512_castpd_ps, _mm512_castpd256_pd512,
-    _mm512_castps_pd, _mm512_castps256_ps512, _mm512_castps512_ps256, _mm512_cmp_ps_mask, _mm512_div_ps,
-    _mm512_extractf64x4_pd, _mm512_insertf64x4, _mm512_maskz_mov_ps, _mm512_mul_ps, _mm512_permutexvar_ps,
-    _mm512_set1_ps, _mm512_setr_epi32, _mm512_sqrt_ps, _mm512_sub_ps,
+    __m128, __m256, __m512, __m512i, _CMP_GT_OQ, _CMP_LT_OQ, _mm256_add_ps, _mm256_castpd_ps, _mm256_castps_pd,
+    _mm256_min_ps, _mm256_set_m128, _mm256_set1_ps, _mm256_sub_ps, _mm512_abs_ps, _mm512_add_ps, _mm512_castpd_ps,
+    _mm512_castpd256_pd512, _mm512_castps_pd, _mm512_castps256_ps512, _mm512_castps512_ps256, _mm512_cmp_ps_mask,
+    _mm512_div_ps, _mm512_extractf64x4_pd, _mm512_insertf64x4, _mm512_mask_mov_ps, _mm512_maskz_mov_ps, _mm512_mul_ps,
+    _mm512_permutexvar_ps, _mm512_set1_ps, _mm512_setr_epi32, _mm512_sqrt_ps, _mm512_sub_ps,
 };
 
 use std::ops::Range;
 
 use shatter_core::config::sim::BreakRule;
 
-use super::lanes::{LANES, Lanes, load};
+use super::lanes::{LANES, Lanes, any_may_have_tiny, load};
 use super::lattice_springs::{BlockPlace, ChunkPass, break_lanes, lattice_bricks};
-use super::springs::ChunkForces;
+use super::springs::{ChunkForces, SQUARED_FROM_M};
 use crate::bond_layouts::lattice_layout::{ChunkShape, LatticeChunk, SlotInputs};
 
 /// [`super::lattice_spring_forces`] with the AVX-512 brick kernel, if this CPU has AVX-512F
@@ -99,6 +99,15 @@ fn sum_of_products(a: &[__m512; 3], b: &[__m512; 3]) -> __m512 {
     _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(a[0], b[0]), _mm512_mul_ps(a[1], b[1])), _mm512_mul_ps(a[2], b[2]))
 }
 
+/// `eta` with the lanes under [`SQUARED_FROM_M`] in magnitude set to zero (NaN kept), as the
+/// portable kernel's eta . eta takes them.
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn squared_part(eta: __m512) -> __m512 {
+    let tiny = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(_mm512_abs_ps(eta), _mm512_set1_ps(SQUARED_FROM_M));
+    _mm512_mask_mov_ps(eta, tiny, _mm512_set1_ps(0.0))
+}
+
 /// `value` where `condition` is positive, else 0, lane by lane.
 #[target_feature(enable = "avx512f")]
 #[inline]
@@ -131,25 +140,36 @@ fn brick_forces(pass: &mut ChunkPass, b: usize, own: usize, bound: Lanes) -> ([L
     let zero = _mm256_set1_ps(0.0);
     let mut sums = BrickSums { force: [zero; 3], smallest: zero };
     let (start, middle, end) = (brick_start[b] as usize, internal_end[b] as usize, brick_start[b + 1] as usize);
-    range_forces::<true>(pass, &brick, start..middle, &mut sums);
-    range_forces::<false>(pass, &brick, middle..end, &mut sums);
+    if any_may_have_tiny(&[load(disp[0], own), load(disp[1], own), load(disp[2], own)]) {
+        range_forces::<true, true>(pass, &brick, start..middle, &mut sums);
+        range_forces::<false, true>(pass, &brick, middle..end, &mut sums);
+    } else {
+        range_forces::<true, false>(pass, &brick, start..middle, &mut sums);
+        range_forces::<false, false>(pass, &brick, middle..end, &mut sums);
+    }
     let force: [Lanes; 3] =
         [bytemuck::cast(sums.force[0]), bytemuck::cast(sums.force[1]), bytemuck::cast(sums.force[2])];
     (force, bytemuck::cast(sums.smallest))
 }
 
 /// The brick's blocks `blocks`, all internal or all external (`INTERNAL`), in pairs, an odd one
-/// last.
+/// last; with the growth's test for tiny displacement differences or without it (`TINY`, as in
+/// the portable kernel).
 #[target_feature(enable = "avx512f")]
 #[inline]
-fn range_forces<const INTERNAL: bool>(pass: &mut ChunkPass, brick: &Brick, blocks: Range<usize>, sums: &mut BrickSums) {
+fn range_forces<const INTERNAL: bool, const TINY: bool>(
+    pass: &mut ChunkPass,
+    brick: &Brick,
+    blocks: Range<usize>,
+    sums: &mut BrickSums,
+) {
     let mut block = blocks.start;
     while block + 1 < blocks.end {
-        pair_forces::<INTERNAL, 2>(pass, brick, block, sums);
+        pair_forces::<INTERNAL, 2, TINY>(pass, brick, block, sums);
         block += 2;
     }
     if block < blocks.end {
-        pair_forces::<INTERNAL, 1>(pass, brick, block, sums);
+        pair_forces::<INTERNAL, 1, TINY>(pass, brick, block, sums);
     }
 }
 
@@ -169,11 +189,12 @@ struct BrickSums {
 }
 
 /// Blocks `block` and `block + 1` of the brick (`COUNT` 2), or `block` beside a copy of itself
-/// (`COUNT` 1), internal or external (`INTERNAL`): computed in one 16-lane pass, then applied
-/// block by block to the sums and, for internal blocks, to the partners' totals.
+/// (`COUNT` 1), internal or external (`INTERNAL`), with the growth's test for tiny displacement
+/// differences or without it (`TINY`): computed in one 16-lane pass, then applied block by block
+/// to the sums and, for internal blocks, to the partners' totals.
 #[target_feature(enable = "avx512f")]
 #[inline]
-fn pair_forces<const INTERNAL: bool, const COUNT: usize>(
+fn pair_forces<const INTERNAL: bool, const COUNT: usize, const TINY: bool>(
     pass: &mut ChunkPass,
     brick: &Brick,
     block: usize,
@@ -199,8 +220,11 @@ fn pair_forces<const INTERNAL: bool, const COUNT: usize>(
 
     let y = [_mm512_add_ps(xi[0], eta[0]), _mm512_add_ps(xi[1], eta[1]), _mm512_add_ps(xi[2], eta[2])];
     let length = _mm512_sqrt_ps(sum_of_products(&y, &y));
-    let growth =
-        _mm512_add_ps(_mm512_mul_ps(_mm512_set1_ps(2.0), sum_of_products(&xi, &eta)), sum_of_products(&eta, &eta));
+    let squared = if TINY { [squared_part(eta[0]), squared_part(eta[1]), squared_part(eta[2])] } else { eta };
+    let growth = _mm512_add_ps(
+        _mm512_mul_ps(_mm512_set1_ps(2.0), sum_of_products(&xi, &eta)),
+        sum_of_products(&squared, &squared),
+    );
     let denominator = _mm512_mul_ps(_mm512_mul_ps(rest_length, _mm512_add_ps(length, rest_length)), length);
     let inverse = where_positive(denominator, _mm512_div_ps(_mm512_set1_ps(1.0), denominator));
     let mut stretch = where_positive(stiffness, _mm512_mul_ps(_mm512_mul_ps(growth, length), inverse));

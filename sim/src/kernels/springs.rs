@@ -22,15 +22,43 @@ pub struct ChunkForces<'a> {
     pub min_stretch: &'a mut [f32],
 }
 
+/// The smallest displacement difference (metres, per axis) whose square the growth's eta . eta
+/// term keeps: 2^-63, whose square is f32's smallest normal number. Smaller components count as
+/// zero there, so that the term never computes a subnormal square, which costs an Intel core a
+/// microcode assist per lane (ahead of an impact's first stress wave most lanes underflow). The
+/// squares dropped are below 2^-126, under half a rounding step of the 2 xi . eta they are added
+/// to wherever that is itself above 2^-102 (docs/DECISIONS.md#tiny-displacement-differences).
+pub const SQUARED_FROM_M: f32 = f32::from_bits(0x2000_0000);
+
+/// A particle whose displacement components are all at least 2^-39 m in magnitude (or NaN) has
+/// no bond with a displacement difference component in (0, [`SQUARED_FROM_M`]): its own
+/// components are multiples of 2^-62 m, so a partner's differs by zero, by a multiple of
+/// 2^-63 m, or by more than 2^-40 m. The kernels leave out the test for such particles' bonds.
+pub const NO_TINY_FROM_M: f32 = f32::from_bits(0x2c00_0000);
+
+/// Whether bonds of a particle displaced by `disp` may have displacement difference components
+/// under [`SQUARED_FROM_M`] (see [`NO_TINY_FROM_M`]).
+#[inline(always)]
+pub fn may_have_tiny(disp: [f32; 3]) -> bool {
+    disp.iter().any(|u| u.abs() < NO_TINY_FROM_M)
+}
+
+/// eta with the components under [`SQUARED_FROM_M`] set to zero: the factors of eta . eta.
+#[inline(always)]
+pub fn squared_part(eta: [f32; 3]) -> [f32; 3] {
+    eta.map(|e| if e.abs() < SQUARED_FROM_M { 0.0 } else { e })
+}
+
 /// Bond stretch s = |xi + eta| / |xi| - 1 computed from the displacement difference eta, as
 /// (2 xi . eta + eta . eta) / (L (|xi + eta| + L)): no cancellation, so strains of 1e-7 stay
-/// exact in f32 wherever the body is. Returns (s, y = xi + eta, |y|).
+/// exact in f32 wherever the body is; eta . eta leaves out components under
+/// [`SQUARED_FROM_M`]. Returns (s, y = xi + eta, |y|).
 #[inline(always)]
 pub fn stretch(xi: [f32; 3], eta: [f32; 3], rest_length: f32) -> (f32, [f32; 3], f32) {
     let y = [xi[0] + eta[0], xi[1] + eta[1], xi[2] + eta[2]];
     let length = (y[0] * y[0] + y[1] * y[1] + y[2] * y[2]).sqrt();
-    let growth = 2.0 * (xi[0] * eta[0] + xi[1] * eta[1] + xi[2] * eta[2])
-        + (eta[0] * eta[0] + eta[1] * eta[1] + eta[2] * eta[2]);
+    let e = squared_part(eta);
+    let growth = 2.0 * (xi[0] * eta[0] + xi[1] * eta[1] + xi[2] * eta[2]) + (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
     (growth / (rest_length * (length + rest_length)), y, length)
 }
 
@@ -158,11 +186,17 @@ pub(super) fn spring_rows(
     chunk.totals = totals;
 }
 
-/// The portable row kernel: [`bond_block`] over the row's blocks.
+/// The portable row kernel: [`bond_block`] over the row's blocks, with the growth's test for tiny
+/// displacement differences where the particle's displacement asks for it ([`may_have_tiny`]).
 fn bond_row(chunk: &mut BondChunk, context: &mut BlockContext, local: usize) -> LaneSums {
     let mut sums = LaneSums { force: [[0.0; LANES]; 3], min_stretch: [context.rules.no_stretch(); LANES] };
+    let tiny = may_have_tiny(context.records[chunk.first + local].disp);
     for (block, internal) in chunk.row(local) {
-        bond_block(chunk, context, local, block, internal, &mut sums);
+        if tiny {
+            bond_block::<true>(chunk, context, local, block, internal, &mut sums);
+        } else {
+            bond_block::<false>(chunk, context, local, block, internal, &mut sums);
+        }
     }
     sums
 }
@@ -214,7 +248,7 @@ pub(super) fn break_bound(rule: BreakRule, boost: f32) -> f32 {
 /// instructions where it can; gathers and the rare breaks stay scalar. Padding lanes are inert
 /// (see [`crate::bond_layouts::row_layout::BondBlock`]).
 #[inline(always)]
-fn bond_block(
+fn bond_block<const TINY: bool>(
     chunk: &mut BondChunk,
     context: &mut BlockContext,
     local: usize,
@@ -237,7 +271,7 @@ fn bond_block(
             eta[axis][lane] = other.disp[axis] - me.disp[axis];
         }
     }
-    let BondLanes { y, mut stretch, mut scale } = bond_lanes(&xi, &eta, rest_length, stiffness);
+    let BondLanes { y, mut stretch, mut scale } = bond_lanes::<TINY>(&xi, &eta, rest_length, stiffness);
     let mut suspects = false;
     if context.rules.signed_boost {
         // boosts may be negative: no cheap bound; a bond of no stiffness has no stretch
@@ -291,6 +325,83 @@ mod tests {
         assert!((s - 1e-6).abs() < 1e-12, "{s}");
         let (s, _, _) = stretch(xi, [0.0; 3], 1e-3);
         assert_eq!(s, 0.0);
+    }
+
+    #[test]
+    fn stretch_drops_squares_of_tiny_displacement_differences_only() {
+        // Across the bond, xi . eta is zero: the growth is eta . eta alone.
+        let xi = [0.0, 1e-3, 0.0];
+        assert_eq!(stretch(xi, [2f32.powi(-64), 0.0, 0.0], 1e-3).0, 0.0, "a subnormal square dropped");
+        let (s, _, _) = stretch(xi, [SQUARED_FROM_M, 0.0, 0.0], 1e-3);
+        assert_eq!(s, f32::MIN_POSITIVE / (1e-3 * 2e-3), "the smallest normal square kept");
+        assert_eq!(SQUARED_FROM_M * SQUARED_FROM_M, f32::MIN_POSITIVE);
+    }
+
+    /// The claim of [`NO_TINY_FROM_M`]: beside a particle displaced by at least 2^-39 m along an
+    /// axis, no partner's displacement differs from it along that axis by less than 2^-63 m but
+    /// more than zero, whatever the partner's; at half that bound a neighbouring float does.
+    #[test]
+    fn no_tiny_differences_beside_a_particle_displaced_from_no_tiny_from_m() {
+        let mut random = SplitMix64::new(3);
+        let mut uniform = |low: f64, high: f64| low + (high - low) * random.next_f64();
+        for _ in 0..200_000 {
+            let sign = if uniform(-1.0, 1.0) < 0.0 { -1.0f32 } else { 1.0 };
+            // From the bound up, half of them powers of two (whose lower neighbours are closest).
+            let mantissa = if uniform(0.0, 1.0) < 0.5 { 1.0 } else { uniform(1.0, 2.0) as f32 };
+            let own = sign * mantissa * NO_TINY_FROM_M * f32::exp2(uniform(0.0, 40.0).floor() as f32);
+            assert!(!may_have_tiny([own, own, own]), "{own:e}");
+            let partner = match (uniform(0.0, 3.0) as u32, uniform(-4.0, 5.0).floor() as i32) {
+                (0, ulps) => f32::from_bits(own.to_bits().wrapping_add_signed(ulps)),
+                (1, _) => -own,
+                (_, _) => (uniform(-1.0, 1.0) as f32) * f32::exp2(uniform(-150.0, 0.0) as f32),
+            };
+            let difference = partner - own;
+            assert!(difference == 0.0 || difference.abs() >= SQUARED_FROM_M, "{own:e} and {partner:e}");
+        }
+        assert!(!may_have_tiny([NO_TINY_FROM_M, -NO_TINY_FROM_M, f32::NAN]));
+        let half = NO_TINY_FROM_M / 2.0;
+        assert!(may_have_tiny([1.0, half, 1.0]) && may_have_tiny([0.0, 1.0, 1.0]));
+        let below = f32::from_bits(half.to_bits() - 1);
+        assert!(below - half != 0.0 && (below - half).abs() < SQUARED_FROM_M);
+    }
+
+    /// Displacement differences under [`SQUARED_FROM_M`] add no square to the growth, on every
+    /// row path: with bonds along x and no x displacement, every bond's growth is its
+    /// eta . eta alone, so the forces are all zero when the y and z differences are 2^-70 m or
+    /// 2^-69 m (squares subnormal, dropped) and not when they are 2^-50 m or 2^-49 m (kept).
+    #[test]
+    fn tiny_displacement_differences_add_no_square_on_any_row_path() {
+        let (n, len) = (48usize, 16usize);
+        let mut chunk = BondChunk::new(0, len);
+        for i in 0..len {
+            let entry = |k: usize, j: usize| BondEntry {
+                neighbor: j as u32,
+                rest_vector: [1e-3 * (j as f32 - i as f32), 0.0, 0.0],
+                rest_length_m: 1e-3 * (j as f32 - i as f32).abs(),
+                stiffness: 1e4,
+                threshold: f32::INFINITY,
+                bond_id: (i * 64 + k) as u64,
+            };
+            let internal: Vec<BondEntry> = (i + 1..len).take(3).enumerate().map(|(k, j)| entry(k, j)).collect();
+            let external: Vec<BondEntry> = (len + i..n).step_by(7).enumerate().map(|(k, j)| entry(32 + k, j)).collect();
+            chunk.push_row(&internal, &external);
+        }
+        for (exponent, squares_kept) in [(-70, false), (-50, true)] {
+            let mut random = SplitMix64::new(5);
+            let mut component = || [0.0, 1.0, -1.0][(random.next_u64() % 3) as usize] * f32::exp2(exponent as f32);
+            let records: Vec<ParticleRecord> =
+                (0..n).map(|_| ParticleRecord { disp: [0.0, component(), component()], boost: 0.0 }).collect();
+            let portable = run(chunk.clone(), &records, BreakRule::Max, SimdPath::Portable);
+            let any_force = portable.0.iter().flatten().any(|f| *f != 0.0);
+            assert_eq!(any_force, squares_kept, "differences of 2^{exponent} m");
+            for simd in SimdPath::available() {
+                let dispatched = run(chunk.clone(), &records, BreakRule::Max, simd);
+                let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+                for axis in 0..3 {
+                    assert_eq!(bits(&portable.0[axis]), bits(&dispatched.0[axis]), "{simd}, 2^{exponent} m");
+                }
+            }
+        }
     }
 
     /// A chunk of 40 particles (from index 100 of 300) with random rows of 0 to 20 bonds, inside

@@ -8,16 +8,17 @@
 //! the CPU has been checked for AVX2 (see `docs/DECISIONS.md#where-unsafe-is-allowed`).
 
 use std::arch::x86_64::{
-    __m128, __m256, _CMP_GT_OQ, _mm_blend_ps, _mm_min_ps, _mm_sub_ps, _mm256_add_ps, _mm256_and_ps, _mm256_castpd_ps,
-    _mm256_castps_pd, _mm256_castps256_ps128, _mm256_cmp_ps, _mm256_div_ps, _mm256_extractf128_ps, _mm256_min_ps,
-    _mm256_movemask_ps, _mm256_mul_ps, _mm256_set_m128, _mm256_set1_ps, _mm256_sqrt_ps, _mm256_sub_ps,
-    _mm256_unpackhi_pd, _mm256_unpackhi_ps, _mm256_unpacklo_pd, _mm256_unpacklo_ps,
+    __m128, __m256, _CMP_GT_OQ, _CMP_LT_OQ, _mm_blend_ps, _mm_min_ps, _mm_sub_ps, _mm256_add_ps, _mm256_and_ps,
+    _mm256_andnot_ps, _mm256_castpd_ps, _mm256_castps_pd, _mm256_castps256_ps128, _mm256_cmp_ps, _mm256_div_ps,
+    _mm256_extractf128_ps, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_set_m128, _mm256_set1_ps,
+    _mm256_sqrt_ps, _mm256_sub_ps, _mm256_unpackhi_pd, _mm256_unpackhi_ps, _mm256_unpacklo_pd, _mm256_unpacklo_ps,
 };
 
 use shatter_core::config::sim::BreakRule;
 
 use super::springs::{
-    BlockContext, ChunkForces, LANES, LaneSums, ParticleRecord, PassRules, break_bound, break_lanes, spring_rows,
+    BlockContext, ChunkForces, LANES, LaneSums, ParticleRecord, PassRules, SQUARED_FROM_M, break_bound, break_lanes,
+    may_have_tiny, spring_rows,
 };
 use crate::bond_layouts::row_layout::BondChunk;
 
@@ -50,7 +51,13 @@ fn spring_forces_avx2(chunk: &mut BondChunk, records: &[ParticleRecord], rule: B
         PassRules::default(),
         out,
         #[inline(always)]
-        |chunk, context, local| bond_row(chunk, context, local),
+        |chunk, context, local| {
+            if may_have_tiny(context.records[chunk.first + local].disp) {
+                bond_row::<true>(chunk, context, local)
+            } else {
+                bond_row::<false>(chunk, context, local)
+            }
+        },
     );
 }
 
@@ -100,9 +107,10 @@ fn lanes_to_rows(x: __m256, y: __m256, z: __m256, w: __m256) -> [__m128; LANES] 
 }
 
 /// The portable row kernel of `springs` in AVX2 instructions: same operations, same order, with
-/// the lane sums kept in registers over the row.
+/// the lane sums kept in registers over the row; with the growth's test for tiny displacement
+/// differences (`TINY`) or without it, as there.
 #[target_feature(enable = "avx2")]
-fn bond_row(chunk: &mut BondChunk, context: &mut BlockContext, local: usize) -> LaneSums {
+fn bond_row<const TINY: bool>(chunk: &mut BondChunk, context: &mut BlockContext, local: usize) -> LaneSums {
     let first = chunk.first;
     let i = first + local;
     let records = context.records;
@@ -126,8 +134,11 @@ fn bond_row(chunk: &mut BondChunk, context: &mut BlockContext, local: usize) -> 
 
         let y = [_mm256_add_ps(xi[0], eta[0]), _mm256_add_ps(xi[1], eta[1]), _mm256_add_ps(xi[2], eta[2])];
         let length = _mm256_sqrt_ps(sum_of_products(&y, &y));
-        let growth =
-            _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(2.0), sum_of_products(&xi, &eta)), sum_of_products(&eta, &eta));
+        let squared = if TINY { [squared_part(eta[0]), squared_part(eta[1]), squared_part(eta[2])] } else { eta };
+        let growth = _mm256_add_ps(
+            _mm256_mul_ps(_mm256_set1_ps(2.0), sum_of_products(&xi, &eta)),
+            sum_of_products(&squared, &squared),
+        );
         let denominator = _mm256_mul_ps(_mm256_mul_ps(rest_length, _mm256_add_ps(length, rest_length)), length);
         let inverse = _mm256_and_ps(
             _mm256_cmp_ps::<_CMP_GT_OQ>(denominator, zero),
@@ -175,4 +186,13 @@ fn bond_row(chunk: &mut BondChunk, context: &mut BlockContext, local: usize) -> 
 #[inline]
 fn sum_of_products(a: &[__m256; 3], b: &[__m256; 3]) -> __m256 {
     _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(a[0], b[0]), _mm256_mul_ps(a[1], b[1])), _mm256_mul_ps(a[2], b[2]))
+}
+
+/// `eta` with the lanes under [`SQUARED_FROM_M`] in magnitude set to zero (NaN kept), as the
+/// portable kernel's eta . eta takes them.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn squared_part(eta: __m256) -> __m256 {
+    let magnitude = _mm256_andnot_ps(_mm256_set1_ps(-0.0), eta);
+    _mm256_andnot_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(magnitude, _mm256_set1_ps(SQUARED_FROM_M)), eta)
 }
