@@ -5,11 +5,12 @@ use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
 use exr::prelude::{
-    AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image, Layer, LayerAttributes, LineOrder, SmallVec,
-    Text, WritableImage, f16, read_all_flat_layers_from_file,
+    AttributeValue, Encoding, FlatSamples, Image, Layer, LayerAttributes, LineOrder, Text, WritableImage,
+    read_all_flat_layers_from_file,
 };
 
 use crate::cryptomatte::{Matte, matte_key};
+use crate::exr_blocks::{Channel, FrameSamples, Source, exr_bytes, header_channels};
 use crate::integrator::Pixel;
 
 /// Why an image could not be written or read.
@@ -137,33 +138,64 @@ pub fn write_exr(
     layers: &FrameLayers,
     header: &FrameHeader,
 ) -> Result<(), ImageError> {
-    let pixels = layers.pixels;
-    let column = |f: &dyn Fn(&Pixel) -> f32| FlatSamples::F32(pixels.iter().map(f).collect());
-    let half = |f: &dyn Fn(&Pixel) -> f32| FlatSamples::F16(pixels.iter().map(|p| f16::from_f32(f(p))).collect());
-    let motion = |k: usize| FlatSamples::F32(layers.motion.iter().map(|v| v[k]).collect());
-    let mut list = vec![
-        AnyChannel::new("R", half(&|p| p.color[0])),
-        AnyChannel::new("G", half(&|p| p.color[1])),
-        AnyChannel::new("B", half(&|p| p.color[2])),
-        AnyChannel::new("A", half(&|p| p.alpha)),
-        AnyChannel::new("ViewLayer.Depth.Z", column(&|p| p.depth)),
-        AnyChannel::new("ViewLayer.Normal.X", column(&|p| p.normal[0])),
-        AnyChannel::new("ViewLayer.Normal.Y", column(&|p| p.normal[1])),
-        AnyChannel::new("ViewLayer.Normal.Z", column(&|p| p.normal[2])),
-        AnyChannel::new("ViewLayer.Vector.X", motion(0)),
-        AnyChannel::new("ViewLayer.Vector.Y", motion(1)),
-        AnyChannel::new("ViewLayer.Vector.Z", motion(2)),
-        AnyChannel::new("ViewLayer.Vector.W", motion(3)),
-        AnyChannel::new("ViewLayer.FragmentIndex.X", FlatSamples::U32(pixels.iter().map(|p| p.fragment).collect())),
-    ];
-    if layers.denoising {
-        for k in 0..3 {
-            let albedo = format!("ViewLayer.Denoising Albedo.{}", ["R", "G", "B"][k]);
-            list.push(AnyChannel::new(albedo.as_str(), half(&|p| p.denoising_albedo[k])));
-            let normal = format!("ViewLayer.Denoising Normal.{}", ["X", "Y", "Z"][k]);
-            list.push(AnyChannel::new(normal.as_str(), half(&|p| p.denoising_normal[k])));
-        }
+    let format_error = |what: String| ImageError::Format { path: path.to_path_buf(), what };
+    if layers.pixels.len() != width * height || layers.motion.len() != width * height {
+        return Err(format_error(format!("{} pixels for a {width} x {height} frame", layers.pixels.len())));
     }
+    let matte_columns: Vec<(String, Vec<f32>)> = layers.mattes.iter().flat_map(Matte::channels).collect();
+    let channels = frame_channels(layers.denoising, &matte_columns);
+    // Increasing line order: the blocks are written in order, so the same pixels always make the
+    // same bytes (FAST_LOSSLESS alone leaves the order unspecified).
+    let encoding = Encoding { line_order: LineOrder::Increasing, ..Encoding::FAST_LOSSLESS };
+    let layer =
+        Layer::new((width, height), frame_attributes(header, layers.mattes), encoding, header_channels(&channels));
+    let headers = Image::from_layer(layer).write().infer_meta_data();
+    let samples = FrameSamples { pixels: layers.pixels, motion: layers.motion, width };
+    let mut bytes = exr_bytes(headers, &channels, &samples).map_err(|error| format_error(error.to_string()))?;
+    sort_header_attributes(&mut bytes).map_err(|what| format_error(what.into()))?;
+    shatter_core::atomic_file::write_atomically(path, &[&bytes])
+        .map_err(|source| ImageError::Io { path: path.to_path_buf(), source })
+}
+
+/// A frame's channels (see [`write_exr`]), the Cryptomattes' from `matte_columns`.
+fn frame_channels(denoising: bool, matte_columns: &[(String, Vec<f32>)]) -> Vec<Channel<'_>> {
+    let pixel_channels: [(&str, Source); 8] = [
+        ("R", Source::Half(|p| p.color[0])),
+        ("G", Source::Half(|p| p.color[1])),
+        ("B", Source::Half(|p| p.color[2])),
+        ("A", Source::Half(|p| p.alpha)),
+        ("ViewLayer.Depth.Z", Source::Float(|p| p.depth)),
+        ("ViewLayer.Normal.X", Source::Float(|p| p.normal[0])),
+        ("ViewLayer.Normal.Y", Source::Float(|p| p.normal[1])),
+        ("ViewLayer.Normal.Z", Source::Float(|p| p.normal[2])),
+    ];
+    let motion = ["X", "Y", "Z", "W"]
+        .into_iter()
+        .enumerate()
+        .map(|(k, axis)| (format!("ViewLayer.Vector.{axis}"), Source::Motion(k)));
+    let denoising_channels: [(&str, Source); 6] = [
+        ("ViewLayer.Denoising Albedo.R", Source::Half(|p| p.denoising_albedo[0])),
+        ("ViewLayer.Denoising Albedo.G", Source::Half(|p| p.denoising_albedo[1])),
+        ("ViewLayer.Denoising Albedo.B", Source::Half(|p| p.denoising_albedo[2])),
+        ("ViewLayer.Denoising Normal.X", Source::Half(|p| p.denoising_normal[0])),
+        ("ViewLayer.Denoising Normal.Y", Source::Half(|p| p.denoising_normal[1])),
+        ("ViewLayer.Denoising Normal.Z", Source::Half(|p| p.denoising_normal[2])),
+    ];
+    let denoising = denoising_channels.into_iter().filter(|_| denoising);
+    let mattes = matte_columns.iter().map(|(name, values)| (name.clone(), Source::Column(values)));
+    pixel_channels
+        .into_iter()
+        .chain(denoising)
+        .map(|(name, source)| (name.to_string(), source))
+        .chain(motion)
+        .chain([("ViewLayer.FragmentIndex.X".to_string(), Source::Fragment)])
+        .chain(mattes)
+        .map(|(name, source)| Channel { name, source })
+        .collect()
+}
+
+/// A frame's header attributes: `header`'s, and each of `mattes`' Cryptomatte entries.
+fn frame_attributes(header: &FrameHeader, mattes: &[Matte]) -> LayerAttributes {
     let mut attributes = LayerAttributes {
         comments: Some(Text::from(header.comment.as_str())),
         software_name: Some(Text::from("shatter")),
@@ -182,10 +214,7 @@ pub fn write_exr(
         attributes.other.insert(Text::from("shatterFocalLength"), AttributeValue::F64(lens.focal_length_mm));
         attributes.other.insert(Text::from("shatterSensorHeight"), AttributeValue::F64(lens.sensor_height_mm));
     }
-    for matte in layers.mattes {
-        for (name, values) in matte.channels() {
-            list.push(AnyChannel::new(name.as_str(), FlatSamples::F32(values)));
-        }
+    for matte in mattes {
         let key = format!("cryptomatte/{}/", matte_key(&matte.name));
         for (entry, value) in [
             ("name", matte.name.clone()),
@@ -198,21 +227,7 @@ pub fn write_exr(
                 .insert(Text::from(format!("{key}{entry}").as_str()), AttributeValue::Text(Text::from(value.as_str())));
         }
     }
-    let channels = AnyChannels::sort(SmallVec::from_vec(list));
-    // Increasing line order: blocks compressed in parallel are still written in order, so the
-    // same pixels always make the same bytes (FAST_LOSSLESS alone leaves the order unspecified).
-    let encoding = Encoding { line_order: LineOrder::Increasing, ..Encoding::FAST_LOSSLESS };
-    let layer = Layer::new((width, height), attributes, encoding, channels);
-    let mut bytes = Cursor::new(Vec::new());
-    Image::from_layer(layer)
-        .write()
-        .to_buffered(&mut bytes)
-        .map_err(|error| ImageError::Format { path: path.to_path_buf(), what: error.to_string() })?;
-    let mut bytes = bytes.into_inner();
-    sort_header_attributes(&mut bytes)
-        .map_err(|what| ImageError::Format { path: path.to_path_buf(), what: what.into() })?;
-    shatter_core::atomic_file::write_atomically(path, &[&bytes])
-        .map_err(|source| ImageError::Io { path: path.to_path_buf(), source })
+    attributes
 }
 
 /// Puts the attributes of a single-part EXR's header in name order, in place. The exr crate
@@ -324,6 +339,7 @@ pub fn write_png(
 mod tests {
     use super::*;
     use crate::camera::Camera;
+    use exr::prelude::f16;
     use glam::DVec3;
 
     fn test_header() -> FrameHeader {

@@ -40,6 +40,7 @@ pub mod camera;
 pub mod cryptomatte;
 mod element_index;
 mod element_kdtree;
+mod exr_blocks;
 mod face_seams;
 pub mod floor_albedos;
 pub mod frame_review;
