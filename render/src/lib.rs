@@ -32,7 +32,7 @@
 //! - [`mattes`]: per-pixel counts of the fragments and surface kinds seen first.
 //! - [`cryptomatte`]: those counts as Cryptomatte ranks with their manifests.
 //! - [`motion`]: the motion pass from the fragments' rigid motions.
-//! - [`image_out`]: EXR and PNG writing.
+//! - [`image_out`]: EXR and PNG writing (`exr_blocks`: the EXR's blocks filled from the pixels).
 //! - [`frame_review`]: a written frame read back for review: its passes drawn, a Cryptomatte pick.
 //! - [`render_driver`]: the stage's driver (frame ranges, progress).
 
