@@ -85,6 +85,16 @@ pub fn exr_bytes(
     samples: &FrameSamples,
 ) -> exr::error::Result<Vec<u8>> {
     let header = headers.first().ok_or_else(|| exr::error::Error::Invalid("no header".into()))?;
+    let (count, size) = (samples.pixels.len(), header.layer_size);
+    if count != size.area() || samples.width != size.width() {
+        return Err(exr::error::Error::Invalid(
+            format!("{count} pixels for a {} x {} frame", size.width(), size.height()).into(),
+        ));
+    }
+    let short = |source: &Source| matches!(source, Source::Column(values) if values.len() != count);
+    if samples.motion.len() != count || channels.iter().any(|channel| short(&channel.source)) {
+        return Err(exr::error::Error::Invalid("a pass of another length than the pixels".into()));
+    }
     // The sources in the header's channel order.
     let sources: Vec<Source> = header
         .channels
@@ -196,5 +206,25 @@ mod tests {
                 .expect("the crate's image writer");
             assert_eq!(ours, theirs.into_inner(), "{width} x {height}");
         }
+    }
+
+    /// Passes shorter than the frame, or a frame of another size than the header's, are errors,
+    /// not a panic.
+    #[test]
+    fn passes_of_another_length_are_refused() {
+        let (pixels, motion, column) = random_frame(8, 4, 1);
+        let headers = |width: usize, height: usize, channels: &[Channel]| {
+            let encoding = Encoding { line_order: LineOrder::Increasing, ..Encoding::FAST_LOSSLESS };
+            let layer = Layer::new((width, height), LayerAttributes::default(), encoding, header_channels(channels));
+            Image::from_layer(layer).write().infer_meta_data()
+        };
+        let short = [Channel { name: "crypto".into(), source: Source::Column(&column[..31]) }];
+        let samples = FrameSamples { pixels: &pixels, motion: &motion, width: 8 };
+        assert!(exr_bytes(headers(8, 4, &short), &short, &samples).is_err());
+        let depth = [Channel { name: "Z".into(), source: Source::Float(|p| p.depth) }];
+        assert!(exr_bytes(headers(8, 5, &depth), &depth, &samples).is_err());
+        let few = FrameSamples { pixels: &pixels, motion: &motion[..30], width: 8 };
+        assert!(exr_bytes(headers(8, 4, &depth), &depth, &few).is_err());
+        assert!(exr_bytes(headers(8, 4, &depth), &depth, &samples).is_ok());
     }
 }

@@ -139,9 +139,6 @@ pub fn write_exr(
     header: &FrameHeader,
 ) -> Result<(), ImageError> {
     let format_error = |what: String| ImageError::Format { path: path.to_path_buf(), what };
-    if layers.pixels.len() != width * height || layers.motion.len() != width * height {
-        return Err(format_error(format!("{} pixels for a {width} x {height} frame", layers.pixels.len())));
-    }
     let matte_columns: Vec<(String, Vec<f32>)> = layers.mattes.iter().flat_map(Matte::channels).collect();
     let channels = frame_channels(layers.denoising, &matte_columns);
     // Increasing line order: the blocks are written in order, so the same pixels always make the
