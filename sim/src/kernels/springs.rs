@@ -26,8 +26,8 @@ pub struct ChunkForces<'a> {
 /// term keeps: 2^-63, whose square is f32's smallest normal number. Smaller components count as
 /// zero there, so that the term never computes a subnormal square, which costs an Intel core a
 /// microcode assist per lane (ahead of an impact's first stress wave most lanes underflow). The
-/// squares dropped are below 2^-126, under half a rounding step of the 2 xi . eta they are added
-/// to wherever that is itself above 2^-102 (docs/DECISIONS.md#tiny-displacement-differences).
+/// squares dropped add up to less than 3 x 2^-126, under half a rounding step of any growth above
+/// about 2^-100 (docs/DECISIONS.md#tiny-displacement-differences).
 pub const SQUARED_FROM_M: f32 = f32::from_bits(0x2000_0000);
 
 /// A particle whose displacement components are all at least 2^-39 m in magnitude (or NaN) has
