@@ -39,13 +39,13 @@ pub const NO_TINY_FROM_M: f32 = f32::from_bits(0x2c00_0000);
 /// Whether bonds of a particle displaced by `disp` may have displacement difference components
 /// under [`SQUARED_FROM_M`] (see [`NO_TINY_FROM_M`]).
 #[inline(always)]
-pub fn may_have_tiny(disp: [f32; 3]) -> bool {
+pub(super) fn may_have_tiny(disp: [f32; 3]) -> bool {
     disp.iter().any(|u| u.abs() < NO_TINY_FROM_M)
 }
 
 /// eta with the components under [`SQUARED_FROM_M`] set to zero: the factors of eta . eta.
 #[inline(always)]
-pub fn squared_part(eta: [f32; 3]) -> [f32; 3] {
+fn squared_part(eta: [f32; 3]) -> [f32; 3] {
     eta.map(|e| if e.abs() < SQUARED_FROM_M { 0.0 } else { e })
 }
 
