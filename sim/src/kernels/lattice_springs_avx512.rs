@@ -123,7 +123,8 @@ fn where_positive(condition: __m512, value: __m512) -> __m512 {
 fn brick_forces(pass: &mut ChunkPass, b: usize, own: usize, bound: Lanes) -> ([Lanes; 3], Lanes) {
     let ChunkShape { brick_start, internal_end, .. } = pass.shape;
     let disp = pass.disp;
-    let mine = [lanes(load(disp[0], own)), lanes(load(disp[1], own)), lanes(load(disp[2], own))];
+    let own_disp = [load(disp[0], own), load(disp[1], own), load(disp[2], own)];
+    let mine = [lanes(own_disp[0]), lanes(own_disp[1]), lanes(own_disp[2])];
     let bound = lanes(bound);
     let brick = Brick {
         own,
@@ -140,7 +141,7 @@ fn brick_forces(pass: &mut ChunkPass, b: usize, own: usize, bound: Lanes) -> ([L
     let zero = _mm256_set1_ps(0.0);
     let mut sums = BrickSums { force: [zero; 3], smallest: zero };
     let (start, middle, end) = (brick_start[b] as usize, internal_end[b] as usize, brick_start[b + 1] as usize);
-    if any_may_have_tiny(&[load(disp[0], own), load(disp[1], own), load(disp[2], own)]) {
+    if any_may_have_tiny(&own_disp) {
         range_forces::<true, true>(pass, &brick, start..middle, &mut sums);
         range_forces::<false, true>(pass, &brick, middle..end, &mut sums);
     } else {
