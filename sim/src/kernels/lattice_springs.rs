@@ -10,6 +10,7 @@ use shatter_core::config::sim::BreakRule;
 use super::lanes::{
     BondLanes, LANES, Lanes, add, any_greater, any_may_have_tiny, bond_lanes, load, min, mul, neg, sub,
 };
+use super::prefetch::prefetch;
 use super::springs::{ChunkForces, break_bound, effective_threshold};
 use crate::bond_layouts::lattice_layout::{BlockRest, ChunkShape, LatticeBlock, LatticeChunk, SlotInputs};
 use crate::simd_path::SimdPath;
@@ -40,6 +41,10 @@ pub fn lattice_spring_forces(
     let _portable_only = simd; // off x86-64 every path is the portable one
     lattice_bricks(chunk, inputs, particle_of, rule, out, brick_forces);
 }
+
+/// How many blocks ahead of the one it computes a brick kernel asks for its block (2 KiB ahead:
+/// on the lattice bench's 49^3 block 16 blocks gave 20% less, 64 the same; docs/PERFORMANCE.md#simd-paths).
+pub(super) const BLOCKS_AHEAD: usize = 32;
 
 /// One chunk's pass as a brick kernel sees it: the chunk's blocks and the slots they read and
 /// write.
@@ -126,10 +131,12 @@ fn brick_blocks<const TINY: bool>(pass: &mut ChunkPass, b: usize, own: usize, bo
     let mut force_sum = [[0.0f32; LANES]; 3];
     let mut smallest = [0.0f32; LANES];
     let (start, middle, end) = (brick_start[b] as usize, internal_end[b] as usize, brick_start[b + 1] as usize);
+    let all_blocks = pass.blocks.as_ptr();
     let brick_blocks = pass.blocks[start..end].iter_mut().zip(&partner_slot[start..end]).zip(&pass.rest[start..end]);
     for (k, ((bonds, &partner), shared)) in brick_blocks.enumerate() {
         let (block, partner) = (start + k, partner as usize);
         let internal = block < middle;
+        prefetch(all_blocks, block + BLOCKS_AHEAD);
         // u_i is loaded again for every block rather than kept: the registers it would hold
         // keep the lane sums out of the stack.
         let eta = [

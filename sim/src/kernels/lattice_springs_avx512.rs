@@ -20,7 +20,8 @@ use std::ops::Range;
 use shatter_core::config::sim::BreakRule;
 
 use super::lanes::{LANES, Lanes, any_may_have_tiny, load};
-use super::lattice_springs::{BlockPlace, ChunkPass, break_lanes, lattice_bricks};
+use super::lattice_springs::{BLOCKS_AHEAD, BlockPlace, ChunkPass, break_lanes, lattice_bricks};
+use super::prefetch::prefetch;
 use super::springs::{ChunkForces, SQUARED_FROM_M};
 use crate::bond_layouts::lattice_layout::{ChunkShape, LatticeChunk, SlotInputs};
 
@@ -203,6 +204,9 @@ fn pair_forces<const INTERNAL: bool, const COUNT: usize, const TINY: bool>(
 ) {
     let (disp, picks) = (pass.disp, &brick.picks);
     let pair = [block, block + COUNT - 1];
+    let all_blocks = pass.blocks.as_ptr();
+    prefetch(all_blocks, block + BLOCKS_AHEAD);
+    prefetch(all_blocks, block + 1 + BLOCKS_AHEAD);
     let partner = [pass.shape.partner_slot[pair[0]] as usize, pass.shape.partner_slot[pair[1]] as usize];
     let theirs = |axis: usize| join(lanes(load(disp[axis], partner[0])), lanes(load(disp[axis], partner[1])));
     let me = &brick.me;

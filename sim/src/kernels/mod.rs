@@ -10,6 +10,7 @@
 //! - `body_forces`: gravity, projectiles and indenters.
 //! - `verlet_kicks`: the halves of velocity Verlet.
 //! - `lanes`: arithmetic on eight f32 lanes, shared by the kernels.
+//! - `prefetch`: the cache hint that the spring kernels give ahead of their block streams.
 
 // Indexed loops, as in the WGSL kernels of the same passes.
 #![allow(clippy::needless_range_loop)]
@@ -20,6 +21,7 @@ pub(crate) mod lanes;
 mod lattice_springs;
 #[cfg(target_arch = "x86_64")]
 mod lattice_springs_avx512;
+mod prefetch;
 mod springs;
 #[cfg(target_arch = "x86_64")]
 mod springs_avx2;

@@ -9,9 +9,15 @@
 use shatter_core::config::sim::BreakRule;
 
 use super::lanes::{BondLanes, bond_lanes};
+use super::prefetch::prefetch_item;
 use crate::bond_layouts::row_layout::BondChunk;
 pub(super) use crate::bond_layouts::row_layout::LANES;
 use crate::simd_path::SimdPath;
+
+/// How many blocks ahead of the one it computes a row kernel asks for its block (about 1.8 KiB
+/// ahead; on the `irregular_bond_updates` bench 4 and 16 gave about the same,
+/// docs/PERFORMANCE.md#row-layout).
+pub(super) const ROWS_AHEAD: usize = 8;
 
 /// One chunk's outputs of the force pass (per particle of the row layout's chunk, per slot of
 /// the lattice layout's).
@@ -192,6 +198,7 @@ fn bond_row(chunk: &mut BondChunk, context: &mut BlockContext, local: usize) -> 
     let mut sums = LaneSums { force: [[0.0; LANES]; 3], min_stretch: [context.rules.no_stretch(); LANES] };
     let tiny = may_have_tiny(context.records[chunk.first + local].disp);
     for (block, internal) in chunk.row(local) {
+        prefetch_item(chunk.blocks.as_ptr(), block + ROWS_AHEAD);
         if tiny {
             bond_block::<true>(chunk, context, local, block, internal, &mut sums);
         } else {

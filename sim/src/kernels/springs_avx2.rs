@@ -16,9 +16,10 @@ use std::arch::x86_64::{
 
 use shatter_core::config::sim::BreakRule;
 
+use super::prefetch::prefetch_item;
 use super::springs::{
-    BlockContext, ChunkForces, LANES, LaneSums, ParticleRecord, PassRules, SQUARED_FROM_M, break_bound, break_lanes,
-    may_have_tiny, spring_rows,
+    BlockContext, ChunkForces, LANES, LaneSums, ParticleRecord, PassRules, ROWS_AHEAD, SQUARED_FROM_M, break_bound,
+    break_lanes, may_have_tiny, spring_rows,
 };
 use crate::bond_layouts::row_layout::BondChunk;
 
@@ -121,6 +122,7 @@ fn bond_row<const TINY: bool>(chunk: &mut BondChunk, context: &mut BlockContext,
     let mut force_sum = [zero; 3];
     let mut smallest = zero;
     for (block, internal) in chunk.row(local) {
+        prefetch_item(chunk.blocks.as_ptr(), block + ROWS_AHEAD);
         let bonds = &chunk.blocks[block];
         let xi = bonds.rest_vector.map(bytemuck::cast::<[f32; LANES], __m256>);
         let stiffness: __m256 = bytemuck::cast(bonds.stiffness);
