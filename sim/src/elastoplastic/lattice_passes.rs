@@ -22,6 +22,11 @@ use crate::kernels::lanes::{
     LANES, Lanes, abs, add, any_greater, copysign, deformed_bonds, div, load, mul, neg, pick_equal, pick_greater,
     pick_less, sub,
 };
+use crate::kernels::prefetch::prefetch_item;
+
+/// How many blocks ahead of the one it computes a pass asks for its block (as the spring
+/// kernels do: `crate::kernels::prefetch`).
+const FAMILIES_AHEAD: usize = 8;
 
 /// The per-slot arrays both passes read, each the whole layout long.
 pub struct SlotValues<'a> {
@@ -77,6 +82,7 @@ pub fn lattice_dilatation(chunk: &FamilyChunk, values: &SlotValues, weighted_vol
         let volume_i = load(values.volume, own);
         let mut sum = [0.0f32; LANES];
         for (block, internal) in chunk.shape.brick_blocks(brick) {
+            prefetch_item(chunk.blocks.as_ptr(), block + FAMILIES_AHEAD);
             let partner = chunk.shape.partner_slot[block] as usize;
             let bonds = &chunk.blocks[block];
             let (_, _, extension) = deformed(values, own, partner, bonds.rest_length_m);
@@ -199,6 +205,10 @@ pub fn lattice_bond_forces<const PLASTIC: bool>(
         let mine = End::load::<PLASTIC>(inputs, own);
         let mut sum = [[0.0f32; LANES]; 3];
         for (block, internal) in shape.brick_blocks(brick) {
+            prefetch_item(blocks.as_ptr(), block + FAMILIES_AHEAD);
+            if PLASTIC {
+                prefetch_item(plastic.as_ptr(), block + FAMILIES_AHEAD);
+            }
             let partner = shape.partner_slot[block] as usize;
             let bonds = &mut blocks[block];
             if bonds.influence == [0.0; LANES] {

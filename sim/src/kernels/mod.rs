@@ -21,7 +21,7 @@ pub(crate) mod lanes;
 mod lattice_springs;
 #[cfg(target_arch = "x86_64")]
 mod lattice_springs_avx512;
-mod prefetch;
+pub(crate) mod prefetch;
 mod springs;
 #[cfg(target_arch = "x86_64")]
 mod springs_avx2;

@@ -11,7 +11,7 @@
 /// the array starting at `first`; `index` may lie past the array's end (the hint is then for
 /// memory the program never reads, which is harmless: a prefetch never faults).
 #[inline(always)]
-pub(super) fn prefetch<T>(first: *const T, index: usize) {
+pub(crate) fn prefetch<T>(first: *const T, index: usize) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
@@ -30,7 +30,7 @@ pub(super) fn prefetch<T>(first: *const T, index: usize) {
 
 /// [`prefetch`] for every cache line of `items[index]`, an item that spans several.
 #[inline(always)]
-pub(super) fn prefetch_item<T>(first: *const T, index: usize) {
+pub(crate) fn prefetch_item<T>(first: *const T, index: usize) {
     let start = first.wrapping_add(index).cast::<u8>();
     let size = std::mem::size_of::<T>();
     let mut offset = 0;
