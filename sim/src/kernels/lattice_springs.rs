@@ -43,7 +43,8 @@ pub fn lattice_spring_forces(
 }
 
 /// How many blocks ahead of the one it computes a brick kernel asks for its block (2 KiB ahead:
-/// on the lattice bench's 49^3 block 16 blocks gave 20% less, 64 the same; docs/PERFORMANCE.md#simd-paths).
+/// on the lattice bench's 49^3 block 16 blocks ran up to 10% slower, 64 as fast;
+/// docs/DECISIONS.md#block-streams-prefetched).
 pub(super) const BLOCKS_AHEAD: usize = 32;
 
 /// One chunk's pass as a brick kernel sees it: the chunk's blocks and the slots they read and

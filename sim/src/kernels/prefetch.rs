@@ -1,8 +1,9 @@
-//! Cache hints for the spring kernels' block streams. A kernel reads its blocks in order, one
-//! cache line or more a block, between loads scattered over the slots' displacements and totals;
-//! on a body whose blocks do not fit the caches, the cores' own prefetchers fall behind that
-//! stream, and the kernels waited on it (docs/PERFORMANCE.md#simd-paths). So a kernel asks for the
-//! block some way ahead of the one it computes. A hint changes no value the kernel computes.
+//! Cache hints for the block streams of the spring kernels and the elastoplastic lattice passes.
+//! A kernel reads its blocks in order, one cache line or more a block, between loads scattered over
+//! the slots' displacements and totals; on a body whose blocks do not fit the caches, the cores'
+//! own prefetchers can fall behind that stream, and the kernel then waits on it. So a kernel asks
+//! for the block some way ahead of the one it computes
+//! (docs/DECISIONS.md#block-streams-prefetched). A hint changes no value the kernel computes.
 //!
 //! Its `unsafe` is the call of the SSE prefetch instruction, which every x86-64 CPU has (see
 //! `docs/DECISIONS.md#where-unsafe-is-allowed`). Elsewhere the hint is nothing.

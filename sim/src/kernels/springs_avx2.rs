@@ -62,14 +62,19 @@ fn spring_forces_avx2(chunk: &mut BondChunk, records: &[ParticleRecord], rule: B
     );
 }
 
-/// Transposes eight (x, y, z, w) rows into x, y and z lanes (w is dropped).
+/// The displacements of the eight partners `partner` as x, y and z lanes: each partner's record
+/// loaded whole as an (x, y, z, boost) row, and the rows transposed (boost dropped). Each row goes
+/// from the records straight into its register half: rows gathered into an array first were
+/// stored to the stack and read back 32 bytes at a time, across two 16-byte stores, which the
+/// cores cannot forward (a stall on every block).
 #[target_feature(enable = "avx2")]
 #[inline]
-fn rows_to_lanes(rows: &[__m128; LANES]) -> [__m256; 3] {
-    let a0 = _mm256_set_m128(rows[4], rows[0]);
-    let a1 = _mm256_set_m128(rows[5], rows[1]);
-    let a2 = _mm256_set_m128(rows[6], rows[2]);
-    let a3 = _mm256_set_m128(rows[7], rows[3]);
+fn gather_lanes(records: &[ParticleRecord], partner: &[u32; LANES]) -> [__m256; 3] {
+    let row = |lane: usize| bytemuck::cast::<ParticleRecord, __m128>(records[partner[lane] as usize]);
+    let a0 = _mm256_set_m128(row(4), row(0));
+    let a1 = _mm256_set_m128(row(5), row(1));
+    let a2 = _mm256_set_m128(row(6), row(2));
+    let a3 = _mm256_set_m128(row(7), row(3));
     // Per 128-bit half: [x0 x1 y0 y1], [x2 x3 y2 y3], [z0 z1 w0 w1], [z2 z3 w2 w3].
     let xy01 = _mm256_castps_pd(_mm256_unpacklo_ps(a0, a1));
     let xy23 = _mm256_castps_pd(_mm256_unpacklo_ps(a2, a3));
@@ -128,10 +133,9 @@ fn bond_row<const TINY: bool>(chunk: &mut BondChunk, context: &mut BlockContext,
         let stiffness: __m256 = bytemuck::cast(bonds.stiffness);
         let threshold: __m256 = bytemuck::cast(bonds.threshold);
         let rest_length: __m256 = bytemuck::cast(bonds.rest_length_m);
-        let partner = bonds.neighbor.map(|j| j as usize);
+        let partner = bonds.neighbor;
         // Padding lanes gather the particle itself: eta = u_i - u_i = 0.
-        let rows = partner.map(|j| bytemuck::cast::<ParticleRecord, __m128>(records[j]));
-        let disp = rows_to_lanes(&rows);
+        let disp = gather_lanes(records, &partner);
         let eta = [_mm256_sub_ps(disp[0], me[0]), _mm256_sub_ps(disp[1], me[1]), _mm256_sub_ps(disp[2], me[2])];
 
         let y = [_mm256_add_ps(xi[0], eta[0]), _mm256_add_ps(xi[1], eta[1]), _mm256_add_ps(xi[2], eta[2])];
@@ -172,7 +176,7 @@ fn bond_row<const TINY: bool>(chunk: &mut BondChunk, context: &mut BlockContext,
             let reactions = lanes_to_rows(force[0], force[1], force[2], stretch);
             let totals = &mut *context.totals;
             for lane in 0..LANES {
-                let slot = &mut totals[partner[lane] - first];
+                let slot = &mut totals[partner[lane] as usize - first];
                 let total: __m128 = bytemuck::cast(*slot);
                 let updated =
                     _mm_blend_ps::<0b1000>(_mm_sub_ps(total, reactions[lane]), _mm_min_ps(total, reactions[lane]));
