@@ -8,7 +8,7 @@
 use shatter_core::config::sim::BreakRule;
 
 use super::lanes::{
-    BondLanes, LANES, Lanes, add, any_greater, any_may_have_tiny, bond_lanes, load, min, mul, neg, sub,
+    BondLanes, LANES, Lanes, add, any_greater, any_may_have_tiny, bond_lanes, keep_min, load, min, mul, neg, sub,
 };
 use super::prefetch::prefetch;
 use super::springs::{ChunkForces, break_bound, effective_threshold};
@@ -192,9 +192,7 @@ impl<'a> ChunkTotals<'a> {
             let updated = add(load(total, 0), force[axis]);
             total.copy_from_slice(&updated);
         }
-        let total = &mut self.min_stretch[at..at + LANES];
-        let updated = min(load(total, 0), stretch);
-        total.copy_from_slice(&updated);
+        keep_min(&mut self.min_stretch[at..at + LANES], stretch);
     }
 }
 
