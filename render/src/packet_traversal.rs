@@ -139,10 +139,12 @@ impl KdTree {
             for axis in 0..3 {
                 inverse[axis][r] = ray_inverse[axis];
             }
-            if let Some((near, far)) = clip(within, origins.of(r), ray_inverse, span.0[r], span.1[r]) {
-                (t_min[r], t_max[r]) = (near, far);
-                rays |= 1 << r;
-            }
+            let clipped = clip(within, origins.of(r), ray_inverse, span.0[r], span.1[r]);
+            // Written whatever the outcome (a ray that misses keeps 0, 0): a store under a
+            // condition becomes a masked vector store, slow on AMD cores
+            // (docs/DECISIONS.md#no-masked-stores).
+            (t_min[r], t_max[r]) = clipped.unwrap_or((0.0, 0.0));
+            rays |= u32::from(clipped.is_some()) << r;
         }
         let mut best = [f32::INFINITY; PACKET];
         let mut done = 0u32;
