@@ -41,3 +41,22 @@ pub(crate) fn prefetch_item<T>(first: *const T, index: usize) {
     }
     prefetch(start.wrapping_add(size - 1), 0);
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The kernels ask for blocks past their arrays' ends near the end of a chunk: such hints,
+    /// and one for an address nothing maps, neither fault nor change what they point near.
+    #[test]
+    fn hints_past_an_array_or_at_no_memory_are_harmless() {
+        let blocks = vec![[7.0f32; 56]; 3];
+        for index in [0, 2, 3, 40, 1 << 20] {
+            prefetch(blocks.as_ptr(), index);
+            prefetch_item(blocks.as_ptr(), index);
+        }
+        prefetch(std::ptr::null::<u8>(), 0);
+        prefetch_item(std::ptr::null::<[f32; 56]>(), usize::MAX / 512);
+        assert!(blocks.iter().flatten().all(|&value| value == 7.0));
+    }
+}
