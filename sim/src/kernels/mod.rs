@@ -10,7 +10,8 @@
 //! - `body_forces`: gravity, projectiles and indenters.
 //! - `verlet_kicks`: the halves of velocity Verlet.
 //! - `lanes`: arithmetic on eight f32 lanes, shared by the kernels.
-//! - `prefetch`: the cache hint that the spring kernels give ahead of their block streams.
+//! - `prefetch`: the cache hint that the spring kernels and the elastoplastic lattice passes give
+//!   ahead of their block streams.
 
 // Indexed loops, as in the WGSL kernels of the same passes.
 #![allow(clippy::needless_range_loop)]
