@@ -115,10 +115,11 @@ impl SpringTable {
                 for local in 0..chunk.len {
                     for (block, lane, internal) in chunk.row_bonds(local) {
                         let bond = &chunk.blocks[block];
+                        let (i, j) = (chunk.first + local, bond.neighbor[lane] as usize);
                         entry(&StoredBond {
-                            i: chunk.first + local,
-                            j: bond.neighbor[lane] as usize,
-                            rest_vector: bond.rest_vector.map(|axis| axis[lane]),
+                            i,
+                            j,
+                            rest_vector: table.rest_position[i].to(table.rest_position[j]),
                             rest_length_m: bond.rest_length_m[lane],
                             stiffness: bond.stiffness[lane],
                             internal,

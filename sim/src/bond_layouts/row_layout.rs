@@ -27,18 +27,19 @@ pub const LANES: usize = 8;
 pub const PADDING: u64 = u64::MAX;
 
 /// Eight consecutive entries of one particle's row, all internal or all external, stored together
-/// so that the spring kernel reads a block as one contiguous 224 bytes. A row's last internal and
-/// last external block are padded with inert lanes: a unit bond of no stiffness and infinite
-/// threshold to the particle itself, with bond id [`PADDING`]; its force and stretch are zero.
+/// so that the spring kernel reads a block as one contiguous 128 bytes (16 a bond entry). A row's
+/// last internal and last external block are padded with inert lanes: a bond of no stiffness and
+/// infinite threshold to the particle itself, with bond id [`PADDING`]; its force and stretch are
+/// zero. The rest vector xi = X_j - X_i is not stored: the kernels compute it in f32 from the
+/// partners' [`RestPosition`]s, which they gather beside the displacements, as the layout would
+/// have (the same bits; docs/DECISIONS.md#row-layout).
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C, align(32))]
 pub struct BondBlock {
     /// Partner particle (global index).
     pub neighbor: [u32; LANES],
-    /// Rest vector xi = X_j - X_i, metres (x, y, z lanes), computed in f32 from the file's
-    /// positions: its length is bit for bit the file's rest length.
-    pub rest_vector: [[f32; LANES]; 3],
-    /// Rest length |xi|, metres (stored: a square root per bond and step saved).
+    /// Rest length, metres: the file's (stored: a square root per bond and step saved, and a
+    /// file's lengths need not be |xi| in f32).
     pub rest_length_m: [f32; LANES],
     /// Critical stretch; infinite once broken.
     pub threshold: [f32; LANES],
@@ -51,22 +52,42 @@ impl BondBlock {
     pub fn padding(i: usize) -> BondBlock {
         BondBlock {
             neighbor: [i as u32; LANES],
-            rest_vector: [[1.0; LANES], [0.0; LANES], [0.0; LANES]],
             rest_length_m: [1.0; LANES],
             threshold: [f32::INFINITY; LANES],
             stiffness: [0.0; LANES],
         }
     }
 
-    /// Puts `entry` into lane `lane`.
+    /// Puts `entry` into lane `lane` (all but its rest vector, see [`BondBlock`]).
     pub fn set_lane(&mut self, lane: usize, entry: &BondEntry) {
         self.neighbor[lane] = entry.neighbor;
-        for axis in 0..3 {
-            self.rest_vector[axis][lane] = entry.rest_vector[axis];
-        }
         self.rest_length_m[lane] = entry.rest_length_m;
         self.threshold[lane] = entry.threshold;
         self.stiffness[lane] = entry.stiffness;
+    }
+}
+
+/// A particle's rest position padded to 16 bytes, so that a row kernel loads a partner's whole.
+#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C, align(16))]
+pub struct RestPosition {
+    /// Rest position X, metres (x, y, z).
+    pub position_m: [f32; 3],
+    /// Unused (zero).
+    pub padding: f32,
+}
+
+impl RestPosition {
+    /// The rest positions of `positions` (metres).
+    pub fn all(positions: &[[f32; 3]]) -> Vec<RestPosition> {
+        positions.iter().map(|&position_m| RestPosition { position_m, padding: 0.0 }).collect()
+    }
+
+    /// The rest vector xi = X_j - X_i from this particle (i) to `partner` (j), metres, in f32:
+    /// what every row kernel computes lane by lane.
+    #[inline(always)]
+    pub fn to(self, partner: RestPosition) -> [f32; 3] {
+        [0, 1, 2].map(|axis| partner.position_m[axis] - self.position_m[axis])
     }
 }
 
@@ -98,7 +119,8 @@ pub struct BondChunk {
 pub struct BondEntry {
     /// Partner particle (global index).
     pub neighbor: u32,
-    /// Rest vector xi = X_j - X_i, metres.
+    /// Rest vector xi = X_j - X_i, metres (the lattice layout keeps it per block; the row layout
+    /// computes it from the rest positions, [`BondBlock`]).
     pub rest_vector: [f32; 3],
     /// Rest length |xi|, metres.
     pub rest_length_m: f32,
@@ -193,6 +215,8 @@ pub struct BondTable {
     pub chunk_size: usize,
     /// The chunks, in particle order.
     pub chunks: Vec<BondChunk>,
+    /// Every particle's rest position, which the kernels gather for the bonds' rest vectors.
+    pub rest_position: Vec<RestPosition>,
 }
 
 impl BondTable {
@@ -225,7 +249,7 @@ impl BondTable {
                 chunk
             })
             .collect();
-        BondTable { chunk_size: size, chunks }
+        BondTable { chunk_size: size, chunks, rest_position: RestPosition::all(&particles.rest_position_m) }
     }
 
     /// Marks the bonds with the given ids (sorted) broken; returns how many entries changed.

@@ -10,7 +10,8 @@ use shatter_core::frames::BreakEvent;
 use super::CpuSimulation;
 use crate::bond_layouts::lattice_layout::{LatticeTable, PmbSlot, SlotInputs, SlotViews};
 use crate::bond_layouts::layout_choice::SpringTable;
-use crate::kernels::{self, BodyForces, ChunkForces, ContactChunk, ParticleRecord, SphereNow};
+use crate::bond_layouts::row_layout::BondTable;
+use crate::kernels::{self, BodyForces, ChunkForces, ContactChunk, Gathers, ParticleRecord, SphereNow};
 use crate::material_bonds::MaterialBonds;
 use crate::model::{MovingSphere, hold_grips};
 use crate::simd_path::SimdPath;
@@ -52,16 +53,16 @@ impl CpuSimulation {
                 table.evaluate([&disp[0][..], &disp[1][..], &disp[2][..]], [&mut fx[..], &mut fy[..], &mut fz[..]]);
                 next_boost.fill(0.0);
             }
-            MaterialBonds::Pmb(SpringTable::Rows(table)) => {
+            MaterialBonds::Pmb(SpringTable::Rows(BondTable { chunks, rest_position, .. })) => {
                 // The row kernel's gather records.
                 records.par_chunks_mut(size).enumerate().for_each(|(c, records)| {
                     for (i, record) in (c * size..).zip(records) {
                         *record = ParticleRecord { disp: [disp[0][i], disp[1][i], disp[2][i]], boost: boost[i] };
                     }
                 });
-                let records = &*records;
+                let gathers = Gathers { records, rest_positions: rest_position };
                 (
-                    table.chunks.par_iter_mut(),
+                    chunks.par_iter_mut(),
                     fx.par_chunks_mut(size),
                     fy.par_chunks_mut(size),
                     fz.par_chunks_mut(size),
@@ -70,7 +71,7 @@ impl CpuSimulation {
                     .into_par_iter()
                     .for_each(|(chunk, fx, fy, fz, min_stretch)| {
                         let mut out = ChunkForces { force: [fx, fy, fz], min_stretch };
-                        kernels::spring_forces(chunk, records, rule, pass_rules, simd, &mut out);
+                        kernels::spring_forces(chunk, gathers, rule, pass_rules, simd, &mut out);
                     });
             }
             MaterialBonds::Pmb(SpringTable::Lattice(lattice)) => {

@@ -31,5 +31,5 @@ mod verlet_kicks;
 pub use body_forces::{BodyForces, SphereNow, body_forces, indenter_force, projectile_force};
 pub use contact_forces::{ContactChunk, collisions, short_range};
 pub use lattice_springs::lattice_spring_forces;
-pub use springs::{ChunkForces, ParticleRecord, PassRules, spring_forces, stretch};
+pub use springs::{ChunkForces, Gathers, ParticleRecord, PassRules, spring_forces, stretch};
 pub use verlet_kicks::{kick_drift, kick_floor, kick_floor_drift};

@@ -10,8 +10,8 @@ use shatter_core::config::sim::BreakRule;
 
 use super::lanes::{BondLanes, bond_lanes};
 use super::prefetch::prefetch_item;
-use crate::bond_layouts::row_layout::BondChunk;
 pub(super) use crate::bond_layouts::row_layout::LANES;
+use crate::bond_layouts::row_layout::{BondChunk, RestPosition};
 use crate::simd_path::SimdPath;
 
 /// How many blocks ahead of the one it computes a row kernel asks for its block (about 1.8 KiB
@@ -89,6 +89,15 @@ pub struct ParticleRecord {
     pub boost: f32,
 }
 
+/// What the row kernels gather of each bond's partner, per particle.
+#[derive(Debug, Clone, Copy)]
+pub struct Gathers<'a> {
+    /// This step's displacements and boosts.
+    pub records: &'a [ParticleRecord],
+    /// The rest positions, from which the kernels compute the rest vectors xi = X_j - X_i.
+    pub rest_positions: &'a [RestPosition],
+}
+
 /// The spring pass's rules besides the break rule: all false are Levine et al.'s, all true
 /// LAMMPS's (`shatter_core::config::sim::Rules`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -121,6 +130,8 @@ pub(super) struct LaneSums {
 pub(super) struct BlockContext<'a> {
     /// The gather records of all particles.
     pub records: &'a [ParticleRecord],
+    /// The rest positions of all particles.
+    pub rest_positions: &'a [RestPosition],
     /// The break rule.
     pub rule: BreakRule,
     /// The other rules.
@@ -140,7 +151,7 @@ pub(super) struct BlockContext<'a> {
 /// Rules other than Levine's run on the portable kernel.
 pub fn spring_forces(
     chunk: &mut BondChunk,
-    records: &[ParticleRecord],
+    gathers: Gathers,
     rule: BreakRule,
     rules: PassRules,
     simd: SimdPath,
@@ -149,13 +160,13 @@ pub fn spring_forces(
     #[cfg(target_arch = "x86_64")]
     if simd >= SimdPath::Avx2
         && rules == PassRules::default()
-        && super::springs_avx2::spring_forces(chunk, records, rule, out)
+        && super::springs_avx2::spring_forces(chunk, gathers, rule, out)
     {
         return;
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _portable_only = simd; // off x86-64 every path is the portable one
-    spring_rows(chunk, records, rule, rules, out, bond_row);
+    spring_rows(chunk, gathers, rule, rules, out, bond_row);
 }
 
 /// The particle loop of [`spring_forces`] around a row kernel, which computes the bonds of one
@@ -164,7 +175,7 @@ pub fn spring_forces(
 #[inline(always)]
 pub(super) fn spring_rows(
     chunk: &mut BondChunk,
-    records: &[ParticleRecord],
+    gathers: Gathers,
     rule: BreakRule,
     rules: PassRules,
     out: &mut ChunkForces,
@@ -174,7 +185,8 @@ pub(super) fn spring_rows(
     let mut totals = std::mem::take(&mut chunk.totals);
     totals.clear();
     totals.resize(chunk.len, [0.0, 0.0, 0.0, rules.no_stretch()]);
-    let mut context = BlockContext { records, rule, rules, totals: &mut totals };
+    let Gathers { records, rest_positions } = gathers;
+    let mut context = BlockContext { records, rest_positions, rule, rules, totals: &mut totals };
     for local in 0..chunk.len {
         let sums = row(chunk, &mut context, local);
         let total = &mut context.totals[local];
@@ -250,8 +262,8 @@ pub(super) fn break_bound(rule: BreakRule, boost: f32) -> f32 {
     }
 }
 
-/// The portable block kernel: one block of particle `local`'s row (internal or external). The
-/// arithmetic runs lane by lane over fixed-size arrays, which the compiler turns into SIMD
+/// The portable block kernel: one block of particle `local`'s row (internal or external), the rest
+/// vectors computed from the gathered rest positions. The arithmetic runs lane by lane over fixed-size arrays, which the compiler turns into SIMD
 /// instructions where it can; gathers and the rare breaks stay scalar. Padding lanes are inert
 /// (see [`crate::bond_layouts::row_layout::BondBlock`]).
 #[inline(always)]
@@ -265,16 +277,16 @@ fn bond_block<const TINY: bool>(
 ) {
     let first = chunk.first;
     let i = first + local;
-    let records = context.records;
-    let me = records[i];
+    let (records, rest_positions) = (context.records, context.rest_positions);
+    let (me, here) = (records[i], rest_positions[i]);
     let bonds = &chunk.blocks[block];
-    let (xi, stiffness, threshold, rest_length) =
-        (bonds.rest_vector, bonds.stiffness, bonds.threshold, bonds.rest_length_m);
+    let (stiffness, threshold, rest_length) = (bonds.stiffness, bonds.threshold, bonds.rest_length_m);
     let partner = bonds.neighbor.map(|j| j as usize);
-    let mut eta = [[0.0f32; LANES]; 3];
+    let (mut xi, mut eta) = ([[0.0f32; LANES]; 3], [[0.0f32; LANES]; 3]);
     for lane in 0..LANES {
-        let other = records[partner[lane]];
+        let (other, rest_vector) = (records[partner[lane]], here.to(rest_positions[partner[lane]]));
         for axis in 0..3 {
+            xi[axis][lane] = rest_vector[axis];
             eta[axis][lane] = other.disp[axis] - me.disp[axis];
         }
     }
@@ -321,6 +333,11 @@ mod tests {
 
     use super::*;
     use crate::bond_layouts::row_layout::BondEntry;
+
+    /// Rest positions of particles along x, 1 mm apart.
+    fn along_x(n: usize) -> Vec<RestPosition> {
+        RestPosition::all(&(0..n).map(|i| [1e-3 * i as f32, 0.0, 0.0]).collect::<Vec<_>>())
+    }
 
     #[test]
     fn stretch_from_displacement_is_exact_where_subtraction_is_not() {
@@ -379,12 +396,13 @@ mod tests {
     #[test]
     fn tiny_displacement_differences_add_no_square_on_any_row_path() {
         let (n, len) = (48usize, 16usize);
+        let rest = along_x(n);
         let mut chunk = BondChunk::new(0, len);
         for i in 0..len {
             let entry = |k: usize, j: usize| BondEntry {
                 neighbor: j as u32,
-                rest_vector: [1e-3 * (j as f32 - i as f32), 0.0, 0.0],
-                rest_length_m: 1e-3 * (j as f32 - i as f32).abs(),
+                rest_vector: rest[i].to(rest[j]),
+                rest_length_m: rest[i].to(rest[j])[0].abs(),
                 stiffness: 1e4,
                 threshold: f32::INFINITY,
                 bond_id: (i * 64 + k) as u64,
@@ -398,11 +416,12 @@ mod tests {
             let mut component = || [0.0, 1.0, -1.0][(random.next_u64() % 3) as usize] * f32::exp2(exponent as f32);
             let records: Vec<ParticleRecord> =
                 (0..n).map(|_| ParticleRecord { disp: [0.0, component(), component()], boost: 0.0 }).collect();
-            let portable = run(chunk.clone(), &records, BreakRule::Max, SimdPath::Portable);
+            let gathers = Gathers { records: &records, rest_positions: &rest };
+            let portable = run(chunk.clone(), gathers, BreakRule::Max, SimdPath::Portable);
             let any_force = portable.0.iter().flatten().any(|f| *f != 0.0);
             assert_eq!(any_force, squares_kept, "differences of 2^{exponent} m");
             for simd in SimdPath::available() {
-                let dispatched = run(chunk.clone(), &records, BreakRule::Max, simd);
+                let dispatched = run(chunk.clone(), gathers, BreakRule::Max, simd);
                 let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
                 for axis in 0..3 {
                     assert_eq!(bits(&portable.0[axis]), bits(&dispatched.0[axis]), "{simd}, 2^{exponent} m");
@@ -412,9 +431,9 @@ mod tests {
     }
 
     /// A chunk of 40 particles (from index 100 of 300) with random rows of 0 to 20 bonds, inside
-    /// and outside the chunk, random rest vectors, stiffnesses (some broken) and thresholds set
-    /// so that about a tenth of the bonds break; and random gather records.
-    fn random_chunk(seed: u64) -> (BondChunk, Vec<ParticleRecord>) {
+    /// and outside the chunk, random rest positions in a 1 mm cube, stiffnesses (some broken) and
+    /// thresholds set so that about a tenth of the bonds break; and random gather records.
+    fn random_chunk(seed: u64) -> (BondChunk, Vec<ParticleRecord>, Vec<RestPosition>) {
         let mut random = SplitMix64::new(seed);
         let mut uniform = |low: f64, high: f64| (low + (high - low) * random.next_f64()) as f32;
         let (n, first, len) = (300usize, 100usize, 40usize);
@@ -424,6 +443,8 @@ mod tests {
                 boost: uniform(0.0, 1e-3),
             })
             .collect();
+        let positions: Vec<[f32; 3]> = (0..n).map(|_| [0; 3].map(|_| uniform(0.0, 1e-3))).collect();
+        let rest = RestPosition::all(&positions);
         let mut chunk = BondChunk::new(first, len);
         for local in 0..len {
             let i = first + local;
@@ -431,7 +452,7 @@ mod tests {
             let external: Vec<usize> =
                 (0..first).chain(first + len..n).filter(|_| uniform(0.0, 1.0) < 0.03).take(9).collect();
             let mut entry = |k: usize, j: usize| {
-                let xi = [0; 3].map(|_| uniform(-1e-3, 1e-3));
+                let xi = rest[i].to(rest[j]);
                 BondEntry {
                     neighbor: j as u32,
                     rest_vector: xi,
@@ -445,19 +466,19 @@ mod tests {
             let external: Vec<BondEntry> = external.iter().enumerate().map(|(k, &j)| entry(32 + k, j)).collect();
             chunk.push_row(&internal, &external);
         }
-        (chunk, records)
+        (chunk, records, rest)
     }
 
     /// Everything a pass writes: forces, smallest stretches, and the bond table after the pass
     /// (with the broken bonds' ids).
     type PassResult = ([Vec<f32>; 3], Vec<f32>, BondChunk);
 
-    fn run(mut chunk: BondChunk, records: &[ParticleRecord], rule: BreakRule, simd: SimdPath) -> PassResult {
+    fn run(mut chunk: BondChunk, gathers: Gathers, rule: BreakRule, simd: SimdPath) -> PassResult {
         let len = chunk.len;
         let (mut fx, mut fy, mut fz) = (vec![0.0; len], vec![0.0; len], vec![0.0; len]);
         let mut min_stretch = vec![0.0; len];
         let mut out = ChunkForces { force: [&mut fx, &mut fy, &mut fz], min_stretch: &mut min_stretch };
-        spring_forces(&mut chunk, records, rule, PassRules::default(), simd, &mut out);
+        spring_forces(&mut chunk, gathers, rule, PassRules::default(), simd, &mut out);
         ([fx, fy, fz], min_stretch, chunk)
     }
 
@@ -481,7 +502,8 @@ mod tests {
         chunk.push_row(&[], &[bond]);
         let (mut fx, mut fy, mut fz, mut least) = (vec![0.0], vec![0.0], vec![0.0], vec![0.0]);
         let mut out = ChunkForces { force: [&mut fx, &mut fy, &mut fz], min_stretch: &mut least };
-        spring_forces(&mut chunk, &records, BreakRule::Min, rules, SimdPath::best(), &mut out);
+        let gathers = Gathers { records: &records, rest_positions: &along_x(2) };
+        spring_forces(&mut chunk, gathers, BreakRule::Min, rules, SimdPath::best(), &mut out);
         (fx[0], least[0], chunk.breaks.len())
     }
 
@@ -512,10 +534,11 @@ mod tests {
         let mut breaks = 0;
         for seed in 0..20 {
             for rule in [BreakRule::Max, BreakRule::Min] {
-                let (chunk, records) = random_chunk(seed);
-                let portable = run(chunk.clone(), &records, rule, SimdPath::Portable);
+                let (chunk, records, rest) = random_chunk(seed);
+                let gathers = Gathers { records: &records, rest_positions: &rest };
+                let portable = run(chunk.clone(), gathers, rule, SimdPath::Portable);
                 for simd in SimdPath::available() {
-                    let dispatched = run(chunk.clone(), &records, rule, simd);
+                    let dispatched = run(chunk.clone(), gathers, rule, simd);
                     for axis in 0..3 {
                         let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
                         assert_eq!(

@@ -1,7 +1,7 @@
 //! The spring kernel's row kernel in explicit AVX2 instructions: the same operations in the same
 //! order as the portable row kernel in `springs`, so the two give the same bits. What the
-//! compiler cannot do on its own is the data movement: each partner's 16-byte record is loaded
-//! whole and eight of them are transposed into lanes with shuffles, and the reactions of internal
+//! compiler cannot do on its own is the data movement: each partner's 16-byte record and rest
+//! position are loaded whole and eight of each are transposed into lanes with shuffles, and the reactions of internal
 //! bonds are transposed back and scattered as one 16-byte update per partner.
 //!
 //! Its `unsafe` is the call into this module's `#[target_feature]` function, made right after
@@ -18,19 +18,14 @@ use shatter_core::config::sim::BreakRule;
 
 use super::prefetch::prefetch_item;
 use super::springs::{
-    BlockContext, ChunkForces, LANES, LaneSums, ParticleRecord, PassRules, ROWS_AHEAD, SQUARED_FROM_M, break_bound,
+    BlockContext, ChunkForces, Gathers, LANES, LaneSums, PassRules, ROWS_AHEAD, SQUARED_FROM_M, break_bound,
     break_lanes, may_have_tiny, spring_rows,
 };
 use crate::bond_layouts::row_layout::BondChunk;
 
 /// [`super::spring_forces`] with the AVX2 row kernel, if this CPU has AVX2 (detected once, then
 /// cached by the standard library). Returns whether it ran.
-pub(super) fn spring_forces(
-    chunk: &mut BondChunk,
-    records: &[ParticleRecord],
-    rule: BreakRule,
-    out: &mut ChunkForces,
-) -> bool {
+pub(super) fn spring_forces(chunk: &mut BondChunk, gathers: Gathers, rule: BreakRule, out: &mut ChunkForces) -> bool {
     if !std::arch::is_x86_feature_detected!("avx2") {
         return false;
     }
@@ -38,16 +33,16 @@ pub(super) fn spring_forces(
     // features it enables; AVX2 was detected on this CPU just above.
     #[allow(unsafe_code)]
     unsafe {
-        spring_forces_avx2(chunk, records, rule, out);
+        spring_forces_avx2(chunk, gathers, rule, out);
     }
     true
 }
 
 #[target_feature(enable = "avx2")]
-fn spring_forces_avx2(chunk: &mut BondChunk, records: &[ParticleRecord], rule: BreakRule, out: &mut ChunkForces) {
+fn spring_forces_avx2(chunk: &mut BondChunk, gathers: Gathers, rule: BreakRule, out: &mut ChunkForces) {
     spring_rows(
         chunk,
-        records,
+        gathers,
         rule,
         PassRules::default(),
         out,
@@ -62,15 +57,15 @@ fn spring_forces_avx2(chunk: &mut BondChunk, records: &[ParticleRecord], rule: B
     );
 }
 
-/// The displacements of the eight partners `partner` as x, y and z lanes: each partner's record
-/// loaded whole as an (x, y, z, boost) row, and the rows transposed (boost dropped). Each row goes
-/// from the records straight into its register half: rows gathered into an array first were
-/// stored to the stack and read back 32 bytes at a time, across two 16-byte stores, which the
-/// cores cannot forward (a stall on every block).
+/// The first three components (x, y, z) of the eight partners' 16-byte items `items` (gather
+/// records or rest positions) as lanes: each item loaded whole as an (x, y, z, w) row, and the
+/// rows transposed (w dropped). Each row goes from the items straight into its register half:
+/// rows gathered into an array first were stored to the stack and read back 32 bytes at a time,
+/// across two 16-byte stores, which the cores cannot forward (a stall on every block).
 #[target_feature(enable = "avx2")]
 #[inline]
-fn gather_lanes(records: &[ParticleRecord], partner: &[u32; LANES]) -> [__m256; 3] {
-    let row = |lane: usize| bytemuck::cast::<ParticleRecord, __m128>(records[partner[lane] as usize]);
+fn gather_lanes<T: bytemuck::Pod>(items: &[T], partner: &[u32; LANES]) -> [__m256; 3] {
+    let row = |lane: usize| bytemuck::cast::<T, __m128>(items[partner[lane] as usize]);
     let a0 = _mm256_set_m128(row(4), row(0));
     let a1 = _mm256_set_m128(row(5), row(1));
     let a2 = _mm256_set_m128(row(6), row(2));
@@ -122,6 +117,7 @@ fn bond_row<const TINY: bool>(chunk: &mut BondChunk, context: &mut BlockContext,
     let records = context.records;
     let me_record = records[i];
     let me = me_record.disp.map(|u| _mm256_set1_ps(u));
+    let here = context.rest_positions[i].position_m.map(|x| _mm256_set1_ps(x));
     let bound = _mm256_set1_ps(break_bound(context.rule, me_record.boost));
     let zero = _mm256_set1_ps(0.0);
     let mut force_sum = [zero; 3];
@@ -129,13 +125,14 @@ fn bond_row<const TINY: bool>(chunk: &mut BondChunk, context: &mut BlockContext,
     for (block, internal) in chunk.row(local) {
         prefetch_item(chunk.blocks.as_ptr(), block + ROWS_AHEAD);
         let bonds = &chunk.blocks[block];
-        let xi = bonds.rest_vector.map(bytemuck::cast::<[f32; LANES], __m256>);
         let stiffness: __m256 = bytemuck::cast(bonds.stiffness);
         let threshold: __m256 = bytemuck::cast(bonds.threshold);
         let rest_length: __m256 = bytemuck::cast(bonds.rest_length_m);
         let partner = bonds.neighbor;
         // Padding lanes gather the particle itself: eta = u_i - u_i = 0.
         let disp = gather_lanes(records, &partner);
+        let rest = gather_lanes(context.rest_positions, &partner);
+        let xi = [_mm256_sub_ps(rest[0], here[0]), _mm256_sub_ps(rest[1], here[1]), _mm256_sub_ps(rest[2], here[2])];
         let eta = [_mm256_sub_ps(disp[0], me[0]), _mm256_sub_ps(disp[1], me[1]), _mm256_sub_ps(disp[2], me[2])];
 
         let y = [_mm256_add_ps(xi[0], eta[0]), _mm256_add_ps(xi[1], eta[1]), _mm256_add_ps(xi[2], eta[2])];
