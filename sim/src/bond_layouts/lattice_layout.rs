@@ -10,7 +10,7 @@
 //! offset) are inert padding: no stiffness, infinite threshold.
 //!
 //! A block stores only what varies from bond to bond: threshold and stiffness ([`LatticeBlock`]:
-//! 64 bytes for eight bonds, where a row layout block carries 224), with one rest vector and rest
+//! 64 bytes for eight bonds, where a row layout block carries 128), with one rest vector and rest
 //! length for all its lanes ([`BlockRest`], 16 bytes). That needs the eight bonds' f32 rest
 //! vectors to be the same bits, which holds where the rest positions sit on a lattice that f32
 //! holds exactly (the grid sampler puts them there); the layout is refused otherwise. The values

@@ -162,9 +162,8 @@ pub fn dilatation(view: &FamilyView, inputs: &DilatationInputs, first: usize, ou
                 let eta = [u_j[0][l] - u_i[0][l], u_j[1][l] - u_i[1][l], u_j[2][l] - u_i[2][l]];
                 let (s, _, _) = stretch([xi[0][l], xi[1][l], xi[2][l]], eta, rest[l]);
                 extension[l] = s * rest[l];
-                if omega[l] != 0.0 {
-                    sum[l] += omega[l] * rest[l] * extension[l] * volume_j[l];
-                }
+                // every lane adds, an empty one +0.0 (see `bond_forces`)
+                sum[l] += if omega[l] != 0.0 { omega[l] * rest[l] * extension[l] * volume_j[l] } else { 0.0 };
             }
             let local = at - first * stride;
             out.extension[local..local + LANES].copy_from_slice(&extension);
@@ -302,10 +301,13 @@ pub fn bond_forces<const PLASTIC: bool>(
             let break_scale = load(inputs.break_scale, at);
             let mut plastic_next = if PLASTIC { load(out.plastic, slot) } else { [0.0; LANES] };
             let mut broken = [false; LANES];
+            // Every lane is computed and written: an empty lane (omega = 0) keeps its plastic
+            // extension and does not break, and an empty or broken lane adds 0 y, a zero (its y
+            // is finite: an empty entry's rest vector is 0, its partner particle 0), which leaves
+            // the bits of a sum begun at +0.0 as they are. Lanes written only where they hold a
+            // bond became masked stores (docs/DECISIONS.md#no-masked-stores).
             for l in 0..LANES {
-                if omega[l] == 0.0 {
-                    continue;
-                }
+                let bonded = omega[l] != 0.0;
                 // the deformed bond y = xi + u_j - u_i, whose length is |xi| + e
                 let y = [0, 1, 2].map(|a| xi[a][l] + (theirs.u[a][l] - mine.u[a][l]));
                 let length = rest[l] + extension[l];
@@ -321,17 +323,16 @@ pub fn bond_forces<const PLASTIC: bool>(
                     plastic_ji[l],
                     cap,
                 );
-                plastic_next[l] = new_ij;
+                plastic_next[l] = if bonded { new_ij } else { plastic_next[l] };
                 let plastic_mean = 0.5 * (new_ij + new_ji);
                 let damage_mean = 0.5 * (mine.damage[l] + theirs.damage[l]);
                 let threshold = threshold[l] * (1.0 + strengthening * damage_mean);
-                broken[l] = (extension[l] - plastic_mean) * break_scale[l] > threshold;
-                if !broken[l] {
-                    // the same bits at both ends, opposite signs: the pair's momentum is exact
-                    let magnitude = (t_ij + t_ji) * (mine.volume[l] * theirs.volume[l]) / length;
-                    for axis in 0..3 {
-                        sum[axis][l] += magnitude * y[axis];
-                    }
+                broken[l] = bonded & ((extension[l] - plastic_mean) * break_scale[l] > threshold);
+                // the same bits at both ends, opposite signs: the pair's momentum is exact
+                let magnitude = (t_ij + t_ji) * (mine.volume[l] * theirs.volume[l]) / length;
+                let scale = if bonded & !broken[l] { magnitude } else { 0.0 };
+                for axis in 0..3 {
+                    sum[axis][l] += scale * y[axis];
                 }
             }
             if PLASTIC {
