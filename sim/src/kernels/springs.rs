@@ -263,9 +263,11 @@ pub(super) fn break_bound(rule: BreakRule, boost: f32) -> f32 {
 }
 
 /// The portable block kernel: one block of particle `local`'s row (internal or external), the rest
-/// vectors computed from the gathered rest positions. The arithmetic runs lane by lane over fixed-size arrays, which the compiler turns into SIMD
-/// instructions where it can; gathers and the rare breaks stay scalar. Padding lanes are inert
-/// (see [`crate::bond_layouts::row_layout::BondBlock`]).
+/// vectors computed from the gathered rest positions. The arithmetic runs lane by lane over
+/// fixed-size arrays, which the compiler turns into SIMD instructions where it can; gathers and the
+/// rare breaks stay scalar. Padding lanes are inert (see
+/// [`crate::bond_layouts::row_layout::BondBlock`]: their rest vector is zero, so their deformed
+/// length, force and stretch are zero).
 #[inline(always)]
 fn bond_block<const TINY: bool>(
     chunk: &mut BondChunk,

@@ -1,8 +1,9 @@
 //! The spring kernel's row kernel in explicit AVX2 instructions: the same operations in the same
 //! order as the portable row kernel in `springs`, so the two give the same bits. What the
 //! compiler cannot do on its own is the data movement: each partner's 16-byte record and rest
-//! position are loaded whole and eight of each are transposed into lanes with shuffles, and the reactions of internal
-//! bonds are transposed back and scattered as one 16-byte update per partner.
+//! position are loaded whole and eight of each are transposed into lanes with shuffles, and the
+//! reactions of internal bonds are transposed back and scattered as one 16-byte update per
+//! partner.
 //!
 //! Its `unsafe` is the call into this module's `#[target_feature]` function, made right after
 //! the CPU has been checked for AVX2 (see `docs/DECISIONS.md#where-unsafe-is-allowed`).
@@ -129,7 +130,7 @@ fn bond_row<const TINY: bool>(chunk: &mut BondChunk, context: &mut BlockContext,
         let threshold: __m256 = bytemuck::cast(bonds.threshold);
         let rest_length: __m256 = bytemuck::cast(bonds.rest_length_m);
         let partner = bonds.neighbor;
-        // Padding lanes gather the particle itself: eta = u_i - u_i = 0.
+        // Padding lanes gather the particle itself: xi = X_i - X_i = 0, eta = u_i - u_i = 0.
         let disp = gather_lanes(records, &partner);
         let rest = gather_lanes(context.rest_positions, &partner);
         let xi = [_mm256_sub_ps(rest[0], here[0]), _mm256_sub_ps(rest[1], here[1]), _mm256_sub_ps(rest[2], here[2])];
