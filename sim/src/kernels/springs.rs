@@ -14,8 +14,8 @@ pub(super) use crate::bond_layouts::row_layout::LANES;
 use crate::bond_layouts::row_layout::{BondChunk, RestPosition};
 use crate::simd_path::SimdPath;
 
-/// How many blocks ahead of the one it computes a row kernel asks for its block (about 1.8 KiB
-/// ahead; on the `irregular_bond_updates` bench 4 and 16 ran about as fast,
+/// How many blocks ahead of the one it computes a row kernel asks for its block (1 KiB ahead; on
+/// the `irregular_bond_updates` bench 4, 14 and 16 ran about as fast,
 /// docs/DECISIONS.md#block-streams-prefetched).
 pub(super) const ROWS_AHEAD: usize = 8;
 
