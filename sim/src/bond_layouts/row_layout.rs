@@ -83,12 +83,19 @@ impl RestPosition {
         positions.iter().map(|&position_m| RestPosition { position_m, padding: 0.0 }).collect()
     }
 
-    /// The rest vector xi = X_j - X_i from this particle (i) to `partner` (j), metres, in f32:
-    /// what every row kernel computes lane by lane.
+    /// The [`rest_vector`] from this particle (i) to `partner` (j): what every row kernel
+    /// computes lane by lane.
     #[inline(always)]
     pub fn to(self, partner: RestPosition) -> [f32; 3] {
-        [0, 1, 2].map(|axis| partner.position_m[axis] - self.position_m[axis])
+        rest_vector(self.position_m, partner.position_m)
     }
+}
+
+/// The rest vector xi = X_j - X_i from rest position `from` (X_i) to `to` (X_j), metres, in f32:
+/// the one formula every layout and kernel uses, so that their rest vectors are the same bits.
+#[inline(always)]
+pub fn rest_vector(from: [f32; 3], to: [f32; 3]) -> [f32; 3] {
+    [0, 1, 2].map(|axis| to[axis] - from[axis])
 }
 
 /// One chunk's bonds.
@@ -150,10 +157,9 @@ impl BondEntry {
     pub(crate) fn new(particles: &ParticleSet, values: &EntryValues, i: usize, k: usize) -> BondEntry {
         let bonds = &particles.bonds;
         let j = bonds.neighbor[k] as usize;
-        let (xi, xj) = (particles.rest_position_m[i], particles.rest_position_m[j]);
         BondEntry {
             neighbor: j as u32,
-            rest_vector: [0, 1, 2].map(|axis| xj[axis] - xi[axis]),
+            rest_vector: rest_vector(particles.rest_position_m[i], particles.rest_position_m[j]),
             rest_length_m: bonds.rest_length_m[k],
             threshold: values.threshold(k),
             stiffness: values.stiffness(i, j, bonds.rest_length_m[k]),

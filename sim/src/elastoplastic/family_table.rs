@@ -17,6 +17,7 @@ use super::passes::{
     energy_j, stiffness_n_m,
 };
 use crate::SimError;
+use crate::bond_layouts::row_layout::rest_vector;
 
 /// The bonds, their state, and the per-particle values the passes share.
 #[derive(Debug, Clone)]
@@ -133,11 +134,11 @@ impl FamilyTable {
                 let e = entry(i, local);
                 let j = bonds.neighbor[k] as usize;
                 table.neighbor[e] = j as u32;
-                for (axis, rest_vector) in table.rest_vector.iter_mut().enumerate() {
-                    rest_vector[e] = position[j][axis] - position[i][axis];
+                let xi = rest_vector(position[i], position[j]);
+                for (axis, lanes) in table.rest_vector.iter_mut().enumerate() {
+                    lanes[e] = xi[axis];
                 }
                 table.rest_length_m[e] = bonds.rest_length_m[k];
-                let xi = [0, 1, 2].map(|a| table.rest_vector[a][e]);
                 table.influence[e] = constants.influence(delta, position[i], xi);
                 table.threshold[e] = threshold(k);
                 let back = bonds.find(j, i as u32).ok_or_else(|| {
