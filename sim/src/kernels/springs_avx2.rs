@@ -116,9 +116,11 @@ fn bond_row<const TINY: bool>(chunk: &mut BondChunk, context: &mut BlockContext,
     let first = chunk.first;
     let i = first + local;
     let records = context.records;
+    // Of one length, so that one bounds check covers a partner's record and rest position.
+    let rest_positions = &context.rest_positions[..records.len()];
     let me_record = records[i];
     let me = me_record.disp.map(|u| _mm256_set1_ps(u));
-    let here = context.rest_positions[i].position_m.map(|x| _mm256_set1_ps(x));
+    let here = rest_positions[i].position_m.map(|x| _mm256_set1_ps(x));
     let bound = _mm256_set1_ps(break_bound(context.rule, me_record.boost));
     let zero = _mm256_set1_ps(0.0);
     let mut force_sum = [zero; 3];
@@ -132,7 +134,7 @@ fn bond_row<const TINY: bool>(chunk: &mut BondChunk, context: &mut BlockContext,
         let partner = bonds.neighbor;
         // Padding lanes gather the particle itself: xi = X_i - X_i = 0, eta = u_i - u_i = 0.
         let disp = gather_lanes(records, &partner);
-        let rest = gather_lanes(context.rest_positions, &partner);
+        let rest = gather_lanes(rest_positions, &partner);
         let xi = [_mm256_sub_ps(rest[0], here[0]), _mm256_sub_ps(rest[1], here[1]), _mm256_sub_ps(rest[2], here[2])];
         let eta = [_mm256_sub_ps(disp[0], me[0]), _mm256_sub_ps(disp[1], me[1]), _mm256_sub_ps(disp[2], me[2])];
 
