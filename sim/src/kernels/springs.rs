@@ -279,7 +279,9 @@ fn bond_block<const TINY: bool>(
 ) {
     let first = chunk.first;
     let i = first + local;
-    let (records, rest_positions) = (context.records, context.rest_positions);
+    let records = context.records;
+    // Of one length, so that one bounds check covers a partner's record and rest position.
+    let rest_positions = &context.rest_positions[..records.len()];
     let (me, here) = (records[i], rest_positions[i]);
     let bonds = &chunk.blocks[block];
     let (stiffness, threshold, rest_length) = (bonds.stiffness, bonds.threshold, bonds.rest_length_m);
