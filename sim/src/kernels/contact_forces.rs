@@ -27,6 +27,9 @@ fn sum_over_candidates(
     push: impl Fn(usize, &Candidate, [f32; 3], f32, f32) -> Option<[f32; 3]>,
 ) {
     let ContactChunk { first, position, rest, contacts } = *chunk;
+    // All six arrays one length, so that one bounds check covers a candidate's six loads.
+    let n = position[0].len();
+    let (position, rest) = (position.map(|axis| &axis[..n]), rest.map(|axis| &axis[..n]));
     let len = force[0].len();
     for local in 0..len {
         let i = first + local;
