@@ -392,8 +392,10 @@ impl Ends {
             (ends.theta[l], ends.damage[l], ends.deviatoric[l], ends.dilatational[l]) =
                 (theta, damage, deviatoric, dilatational);
         }
+        // (of the records' length: one bounds check covers both arrays' loads)
+        let particle = &view.particle[..inputs.record.len()];
         ends.yield_force =
-            if PLASTIC { std::array::from_fn(|l| view.particle[index[l] as usize][3]) } else { [f32::INFINITY; LANES] };
+            if PLASTIC { std::array::from_fn(|l| particle[index[l] as usize][3]) } else { [f32::INFINITY; LANES] };
         ends
     }
 
