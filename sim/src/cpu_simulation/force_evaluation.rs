@@ -1,5 +1,5 @@
 //! The CPU simulation's force evaluation, once a step: the bonds' forces by material model and
-//! layout; then, chunk by chunk, the lattice kernel's totals in particle order, the next
+//! layout, beside the contact lists' update; then, chunk by chunk, the lattice kernel's totals in particle order, the next
 //! compression boosts, the contact forces and the body forces; then the grips and the breaks.
 
 use glam::DVec3;
@@ -26,58 +26,26 @@ impl CpuSimulation {
         let projectiles: Vec<SphereNow> = self.model.projectiles.iter().map(|sphere| sphere_now(sphere, t)).collect();
         let indenters: Vec<SphereNow> = self.model.indenters.iter().map(|sphere| sphere_now(sphere, t)).collect();
         let body = BodyForces { gravity: self.model.gravity_m_s2, projectiles: &projectiles, indenters: &indenters };
-        // Current positions, for collisions and body forces (set by the last drift).
-        if let Some(contacts) = self.contacts.as_mut() {
-            let [px, py, pz] = &self.position_scratch;
-            contacts.update([&px[..], &py[..], &pz[..]], &self.index);
-        }
-        self.bond_forces();
+        // The contact lists read the current positions (set by the last drift), the spring pass
+        // the displacements: they run side by side, so that the lists' serial parts take a core
+        // that the spring pass's chunks, too few to share out evenly, leave idle.
+        let CpuSimulation { model, bonds, chunk_size, dynamics, next_boost, records, simd, .. } = self;
+        let springs = SpringPass { model, bonds, chunk_size: *chunk_size, dynamics, next_boost, records, simd: *simd };
+        let (contacts, [px, py, pz], index) = (&mut self.contacts, &self.position_scratch, &self.index);
+        rayon::join(
+            || {
+                if let Some(contacts) = contacts.as_mut() {
+                    contacts.update([&px[..], &py[..], &pz[..]], index);
+                }
+            },
+            || springs.run(),
+        );
         self.chunk_forces(&body);
         std::mem::swap(&mut self.dynamics.boost, &mut self.next_boost);
         let grip_power = self.grip_forces(t);
         hold_grips(&self.model.grips, t, &mut self.dynamics.vel);
         self.record_breaks();
         self.chunk_power.iter().sum::<f64>() + grip_power
-    }
-
-    /// The bonds' forces into the force arrays, by material model and layout (the row kernel's
-    /// smallest stretches into `next_boost`; the lattice kernel's totals stay in its slots).
-    fn bond_forces(&mut self) {
-        let CpuSimulation { model, bonds, chunk_size, dynamics, next_boost, records, simd, .. } = self;
-        let size = *chunk_size;
-        let Dynamics { disp, force, boost, .. } = dynamics;
-        let (rule, pass_rules, simd) = (model.break_rule, model.pass_rules(), *simd);
-        let [fx, fy, fz] = force;
-        match bonds {
-            MaterialBonds::Elastoplastic(table) => {
-                table.evaluate([&disp[0][..], &disp[1][..], &disp[2][..]], [&mut fx[..], &mut fy[..], &mut fz[..]]);
-                next_boost.fill(0.0);
-            }
-            MaterialBonds::Pmb(SpringTable::Rows(BondTable { chunks, rest_position, .. })) => {
-                // The row kernel's gather records.
-                records.par_chunks_mut(size).enumerate().for_each(|(c, records)| {
-                    for (i, record) in (c * size..).zip(records) {
-                        *record = ParticleRecord { disp: [disp[0][i], disp[1][i], disp[2][i]], boost: boost[i] };
-                    }
-                });
-                let gathers = Gathers { records, rest_positions: rest_position };
-                (
-                    chunks.par_iter_mut(),
-                    fx.par_chunks_mut(size),
-                    fy.par_chunks_mut(size),
-                    fz.par_chunks_mut(size),
-                    next_boost.par_chunks_mut(size),
-                )
-                    .into_par_iter()
-                    .for_each(|(chunk, fx, fy, fz, min_stretch)| {
-                        let mut out = ChunkForces { force: [fx, fy, fz], min_stretch };
-                        kernels::spring_forces(chunk, gathers, rule, pass_rules, simd, &mut out);
-                    });
-            }
-            MaterialBonds::Pmb(SpringTable::Lattice(lattice)) => {
-                lattice_forces(lattice, [&disp[0][..], &disp[1][..], &disp[2][..]], boost, rule, simd);
-            }
-        }
     }
 
     /// Chunk by chunk: the lattice kernel's totals into particle order, the next compression
@@ -183,6 +151,58 @@ impl CpuSimulation {
             index.record_break(bond, broken);
             events.push(BreakEvent { step: dynamics.step, bond });
         });
+    }
+}
+
+/// What the spring pass reads and writes of a [`CpuSimulation`].
+struct SpringPass<'a> {
+    model: &'a crate::model::Model,
+    bonds: &'a mut MaterialBonds,
+    chunk_size: usize,
+    dynamics: &'a mut Dynamics,
+    next_boost: &'a mut [f32],
+    records: &'a mut [ParticleRecord],
+    simd: SimdPath,
+}
+
+impl SpringPass<'_> {
+    /// The bonds' forces into the force arrays, by material model and layout (the row kernel's
+    /// smallest stretches into `next_boost`; the lattice kernel's totals stay in its slots).
+    fn run(self) {
+        let SpringPass { model, bonds, chunk_size: size, dynamics, next_boost, records, simd } = self;
+        let Dynamics { disp, force, boost, .. } = dynamics;
+        let (rule, pass_rules) = (model.break_rule, model.pass_rules());
+        let [fx, fy, fz] = force;
+        match bonds {
+            MaterialBonds::Elastoplastic(table) => {
+                table.evaluate([&disp[0][..], &disp[1][..], &disp[2][..]], [&mut fx[..], &mut fy[..], &mut fz[..]]);
+                next_boost.fill(0.0);
+            }
+            MaterialBonds::Pmb(SpringTable::Rows(BondTable { chunks, rest_position, .. })) => {
+                // The row kernel's gather records.
+                records.par_chunks_mut(size).enumerate().for_each(|(c, records)| {
+                    for (i, record) in (c * size..).zip(records) {
+                        *record = ParticleRecord { disp: [disp[0][i], disp[1][i], disp[2][i]], boost: boost[i] };
+                    }
+                });
+                let gathers = Gathers { records, rest_positions: rest_position };
+                (
+                    chunks.par_iter_mut(),
+                    fx.par_chunks_mut(size),
+                    fy.par_chunks_mut(size),
+                    fz.par_chunks_mut(size),
+                    next_boost.par_chunks_mut(size),
+                )
+                    .into_par_iter()
+                    .for_each(|(chunk, fx, fy, fz, min_stretch)| {
+                        let mut out = ChunkForces { force: [fx, fy, fz], min_stretch };
+                        kernels::spring_forces(chunk, gathers, rule, pass_rules, simd, &mut out);
+                    });
+            }
+            MaterialBonds::Pmb(SpringTable::Lattice(lattice)) => {
+                lattice_forces(lattice, [&disp[0][..], &disp[1][..], &disp[2][..]], boost, rule, simd);
+            }
+        }
     }
 }
 
