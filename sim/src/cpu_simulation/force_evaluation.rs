@@ -1,6 +1,7 @@
 //! The CPU simulation's force evaluation, once a step: the bonds' forces by material model and
-//! layout, beside the contact lists' update; then, chunk by chunk, the lattice kernel's totals in particle order, the next
-//! compression boosts, the contact forces and the body forces; then the grips and the breaks.
+//! layout, beside the contact lists' update; then, chunk by chunk, the lattice kernel's totals in
+//! particle order, the next compression boosts, the contact forces and the body forces; then the
+//! grips and the breaks.
 
 use glam::DVec3;
 use rayon::prelude::*;

@@ -115,9 +115,7 @@ fn lanes_to_rows(x: __m256, y: __m256, z: __m256, w: __m256) -> [__m128; LANES] 
 fn bond_row<const TINY: bool>(chunk: &mut BondChunk, context: &mut BlockContext, local: usize) -> LaneSums {
     let first = chunk.first;
     let i = first + local;
-    let records = context.records;
-    // Of one length, so that one bounds check covers a partner's record and rest position.
-    let rest_positions = &context.rest_positions[..records.len()];
+    let (records, rest_positions) = context.gathered();
     let me_record = records[i];
     let me = me_record.disp.map(|u| _mm256_set1_ps(u));
     let here = rest_positions[i].position_m.map(|x| _mm256_set1_ps(x));
